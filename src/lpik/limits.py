@@ -1,0 +1,250 @@
+"""Technical limits as data: each turns one step's context into bounds or labelled rows.
+
+A limit is a small immutable value with an ``apply(context)`` method that
+returns a :class:`Piece`: absolute bounds on ``q`` (end-stops), bounds on
+``dq = q - q0`` for this step (velocity, acceleration), bounds on the
+multipliers, or extra rows ``G q <= h``. :func:`build_problem` stacks the
+pieces into one :class:`~lpik.problem.Problem`, keeping for every joint and
+side the name of the limit that is tightest, so that a result can say which
+limit binds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from lpik.problem import Problem
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class StepContext:
+    """What a limit may look at when it is applied to one step.
+
+    Attributes:
+        q0: Joint coordinates now, shape (n,).
+        dt: Control period [s].
+        q_prev: Joint coordinates one period ago (``None`` on the first step: at rest).
+    """
+
+    q0: FloatArray
+    dt: float
+    q_prev: FloatArray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Piece:
+    """One limit's contribution; unused parts are ``None``."""
+
+    q_min: FloatArray | None = None
+    q_max: FloatArray | None = None
+    dq_min: FloatArray | None = None
+    dq_max: FloatArray | None = None
+    kind: str = ""
+    lam_min: FloatArray | None = None
+    lam_max: FloatArray | None = None
+    G: FloatArray | None = None
+    h: FloatArray | None = None
+    row_labels: tuple[str, ...] = ()
+
+
+class Limit(Protocol):
+    """Anything that turns a step context into a :class:`Piece`."""
+
+    def apply(self, context: StepContext) -> Piece:
+        """This limit's bounds or rows for the step in ``context``."""
+        ...
+
+
+def _vec(name: str, value: Any) -> FloatArray:
+    arr = np.atleast_1d(np.asarray(value, dtype=np.float64))
+    if np.isnan(arr).any():
+        raise ValueError(f"{name}: contains NaN")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class EndStops:
+    """Mechanical end-stops ``q_min <= q <= q_max`` (eq. 13) [rad or m]."""
+
+    q_min: Any
+    q_max: Any
+
+    def apply(self, context: StepContext) -> Piece:
+        """Absolute bounds on ``q``."""
+        return Piece(q_min=_vec("q_min", self.q_min), q_max=_vec("q_max", self.q_max))
+
+
+@dataclass(frozen=True, eq=False)
+class VelocityLimits:
+    """Joint velocity limits (eq. 14): ``qd_min dt <= q - q0 <= qd_max dt``.
+
+    Args:
+        qd_max: Upper velocity limits [rad/s or m/s].
+        qd_min: Lower velocity limits; default ``-qd_max``.
+    """
+
+    qd_max: Any
+    qd_min: Any = None
+
+    def apply(self, context: StepContext) -> Piece:
+        """Bounds on ``dq`` for a step of ``context.dt`` seconds."""
+        hi = _vec("qd_max", self.qd_max)
+        lo = -hi if self.qd_min is None else _vec("qd_min", self.qd_min)
+        return Piece(dq_min=lo * context.dt, dq_max=hi * context.dt, kind="velocity limit")
+
+
+@dataclass(frozen=True, eq=False)
+class AccelerationLimits:
+    """Joint acceleration limits: ``qdd_min <= (qd_new - qd_prev) / dt <= qdd_max``.
+
+    With ``qd_prev = (q0 - q_prev) / dt`` and ``qd_new = dq / dt`` this bounds
+    ``dq`` to ``(q0 - q_prev) + [qdd_min, qdd_max] dt^2``. On the first step
+    (no ``q_prev``) the arm is taken to be at rest.
+
+    Args:
+        qdd_max: Upper acceleration limits [rad/s^2 or m/s^2].
+        qdd_min: Lower acceleration limits; default ``-qdd_max``.
+    """
+
+    qdd_max: Any
+    qdd_min: Any = None
+
+    def apply(self, context: StepContext) -> Piece:
+        """Bounds on ``dq`` given the previous step."""
+        hi = _vec("qdd_max", self.qdd_max)
+        lo = -hi if self.qdd_min is None else _vec("qdd_min", self.qdd_min)
+        last = 0.0 if context.q_prev is None else context.q0 - context.q_prev
+        dt2 = context.dt**2
+        return Piece(dq_min=last + lo * dt2, dq_max=last + hi * dt2, kind="acceleration limit")
+
+
+@dataclass(frozen=True, eq=False)
+class MultiplierBounds:
+    """Bounds on the Lagrange multipliers (sec. 3.2): ``lam_min <= lam <= lam_max``.
+
+    Use :meth:`symmetric` for ``-B <= lam <= B``.
+    """
+
+    lam_min: Any
+    lam_max: Any
+
+    @classmethod
+    def symmetric(cls, bound: float) -> MultiplierBounds:
+        """``-bound <= lam_i <= bound`` for every multiplier."""
+        if not bound > 0:
+            raise ValueError(f"lambda bound: must be > 0, got {bound}")
+        return cls(-float(bound), float(bound))
+
+    def apply(self, context: StepContext) -> Piece:
+        """Bounds on ``lam`` (broadcast to every multiplier when scalar)."""
+        return Piece(lam_min=_vec("lam_min", self.lam_min), lam_max=_vec("lam_max", self.lam_max))
+
+
+@dataclass(frozen=True, eq=False)
+class LinearRows:
+    """Extra rows ``G q <= h`` with one label each (e.g. obstacle half-spaces)."""
+
+    G: Any
+    h: Any
+    labels: tuple[str, ...] = field(default=())
+
+    def apply(self, context: StepContext) -> Piece:
+        """The rows as they are."""
+        G = np.atleast_2d(np.asarray(self.G, dtype=np.float64))
+        h = _vec("h", self.h)
+        labels = self.labels or tuple(f"row {i + 1}" for i in range(h.size))
+        return Piece(G=G, h=h, row_labels=tuple(labels))
+
+
+def standard_limits(model: Any, *, velocity: bool = True) -> list[Limit]:
+    """End-stops and (optionally) velocity limits of a robot model."""
+    limits: list[Limit] = [EndStops(model.q_min, model.q_max)]
+    if velocity and np.isfinite(model.qd_max).any():
+        limits.append(VelocityLimits(model.qd_max))
+    return limits
+
+
+def build_problem(
+    J: Any,
+    dw: Any,
+    q0: Any,
+    limits: Sequence[Limit],
+    *,
+    dt: float,
+    q_prev: Any = None,
+    **weights: Any,
+) -> Problem:
+    """Stack the limits' pieces into one validated :class:`~lpik.problem.Problem`.
+
+    Args:
+        J: Task Jacobian at ``q0``, shape (m, n).
+        dw: Commanded task displacement, shape (m,).
+        q0: Current joint coordinates, shape (n,).
+        limits: The limits in force.
+        dt: Control period [s] (> 0).
+        q_prev: Joint coordinates one period ago, for acceleration limits.
+        **weights: ``M``, ``f``, ``Lambda``, ``q_ref``, ``k``, ``joint_names`` of the problem.
+
+    Raises:
+        ValueError: Naming the bad argument or field.
+    """
+    if not (isinstance(dt, int | float) and np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt: must be a finite number > 0, got {dt!r}")
+    q0 = np.asarray(q0, dtype=np.float64)
+    n = q0.size
+    m = np.atleast_2d(np.asarray(J)).shape[0]
+    context = StepContext(
+        q0=q0, dt=float(dt), q_prev=None if q_prev is None else np.asarray(q_prev, dtype=np.float64)
+    )
+    q_min, q_max = np.full(n, -np.inf), np.full(n, np.inf)
+    dq_min, dq_max = np.full(n, -np.inf), np.full(n, np.inf)
+    lo_kind, hi_kind = ["velocity limit"] * n, ["velocity limit"] * n
+    lam_min, lam_max = np.full(m, -np.inf), np.full(m, np.inf)
+    rows, rhs, labels = [], [], []
+    for limit in limits:
+        piece = limit.apply(context)
+        if piece.q_min is not None:
+            q_min = np.maximum(q_min, np.broadcast_to(piece.q_min, (n,)))
+        if piece.q_max is not None:
+            q_max = np.minimum(q_max, np.broadcast_to(piece.q_max, (n,)))
+        if piece.dq_min is not None:
+            new = np.broadcast_to(piece.dq_min, (n,))
+            lo_kind = [piece.kind if b > a else k for a, b, k in zip(dq_min, new, lo_kind)]
+            dq_min = np.maximum(dq_min, new)
+        if piece.dq_max is not None:
+            new = np.broadcast_to(piece.dq_max, (n,))
+            hi_kind = [piece.kind if b < a else k for a, b, k in zip(dq_max, new, hi_kind)]
+            dq_max = np.minimum(dq_max, new)
+        if piece.lam_min is not None:
+            lam_min = np.maximum(lam_min, np.broadcast_to(piece.lam_min, (m,)))
+        if piece.lam_max is not None:
+            lam_max = np.minimum(lam_max, np.broadcast_to(piece.lam_max, (m,)))
+        if piece.G is not None and piece.h is not None:
+            rows.append(piece.G)
+            rhs.append(piece.h)
+            labels.extend(piece.row_labels)
+    extra: dict[str, Any] = {}
+    if rows:
+        extra = {"G": np.vstack(rows), "h": np.concatenate(rhs), "row_labels": labels}
+    return Problem(
+        J=J,
+        dw=dw,
+        q0=q0,
+        q_min=q_min,
+        q_max=q_max,
+        dq_min=dq_min,
+        dq_max=dq_max,
+        dq_min_kind=lo_kind,
+        dq_max_kind=hi_kind,
+        lam_min=lam_min,
+        lam_max=lam_max,
+        **extra,
+        **weights,
+    )

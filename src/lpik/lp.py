@@ -1,0 +1,177 @@
+"""The one place in lpik that talks to the LP solver (HiGHS, through highspy).
+
+A :class:`LinearProgram` is ``min c^T x`` subject to ``row_lower <= A x <=
+row_upper`` and ``col_lower <= x <= col_upper``. :class:`HighsSolver` keeps one
+HiGHS instance and, when the next program has the same shape and sparsity,
+changes only its coefficients and bounds so that HiGHS can start from the
+previous basis (warm start across control steps). :data:`HIGHS_STATUS` is the
+one table from HiGHS's model statuses to lpik's.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import highspy
+import numpy as np
+from numpy.typing import NDArray
+
+from lpik import result as st
+
+FloatArray = NDArray[np.float64]
+
+_MS = highspy.HighsModelStatus
+
+#: HiGHS model status -> lpik status. Anything not listed is a solver error.
+HIGHS_STATUS: dict[object, str] = {
+    _MS.kOptimal: st.OPTIMAL,
+    _MS.kInfeasible: st.INFEASIBLE,
+    _MS.kUnboundedOrInfeasible: st.INFEASIBLE,
+    _MS.kUnbounded: st.SOLVER_ERROR,  # every lpik LP is bounded (0 <= p <= 1, |dq| >= 0)
+    _MS.kIterationLimit: st.LIMIT_REACHED,
+    _MS.kTimeLimit: st.LIMIT_REACHED,
+    _MS.kModelEmpty: st.SOLVER_ERROR,
+    _MS.kModelError: st.SOLVER_ERROR,
+    _MS.kLoadError: st.SOLVER_ERROR,
+    _MS.kPresolveError: st.SOLVER_ERROR,
+    _MS.kSolveError: st.SOLVER_ERROR,
+    _MS.kPostsolveError: st.SOLVER_ERROR,
+    _MS.kMemoryLimit: st.SOLVER_ERROR,
+    _MS.kUnknown: st.SOLVER_ERROR,
+    _MS.kNotset: st.SOLVER_ERROR,
+}
+
+#: HiGHS options used for every solve: tight tolerances (steps are small numbers).
+HIGHS_OPTIONS: dict[str, object] = {
+    "primal_feasibility_tolerance": 1e-10,
+    "dual_feasibility_tolerance": 1e-10,
+    "time_limit": 5.0,
+    "threads": 1,
+}
+
+
+@dataclass(frozen=True, eq=False)
+class LinearProgram:
+    """``min c^T x`` s.t. ``row_lower <= A x <= row_upper``, ``col_lower <= x <= col_upper``.
+
+    Infinite bounds are written as ``+-inf``.
+    """
+
+    c: FloatArray
+    A: FloatArray
+    row_lower: FloatArray
+    row_upper: FloatArray
+    col_lower: FloatArray
+    col_upper: FloatArray
+
+
+@dataclass(frozen=True, eq=False)
+class LpSolution:
+    """What HiGHS answered, already mapped to lpik's status words."""
+
+    status: str
+    x: FloatArray
+    col_dual: FloatArray
+    row_dual: FloatArray
+    highs_status: str
+    solve_time: float
+
+
+class HighsSolver:
+    """One reusable HiGHS instance.
+
+    Calls with a program of the same shape and the same nonzero pattern of
+    ``A`` as the previous call only change coefficients and bounds, keeping
+    HiGHS's basis as a warm start; anything else loads a new model.
+    """
+
+    def __init__(self) -> None:
+        self._highs = highspy.Highs()
+        self._highs.silent()
+        for name, value in HIGHS_OPTIONS.items():
+            self._highs.setOptionValue(name, value)
+        self._pattern: tuple[tuple[int, int], bytes] | None = None
+        self._A: FloatArray | None = None
+
+    def solve(self, lp: LinearProgram) -> LpSolution:
+        """Solve ``lp``; never raises for solver trouble (the status says it)."""
+        start = time.perf_counter()
+        h = self._highs
+        nz = lp.A != 0
+        pattern = (lp.A.shape, np.packbits(nz).tobytes())
+        try:
+            if pattern == self._pattern and self._A is not None:
+                self._update(lp, nz, self._A)
+            else:
+                self._load(lp, nz)
+                self._pattern = pattern
+            self._A = lp.A.copy()
+            h.run()
+            model_status = h.getModelStatus()
+        except Exception as exc:  # noqa: BLE001 - a solver crash must become a status
+            self._pattern = None
+            return LpSolution(
+                st.SOLVER_ERROR,
+                np.zeros(lp.c.size),
+                np.zeros(lp.c.size),
+                np.zeros(lp.A.shape[0]),
+                f"exception: {exc}",
+                time.perf_counter() - start,
+            )
+        status = HIGHS_STATUS.get(model_status, st.SOLVER_ERROR)
+        sol = h.getSolution()
+        x = np.array(sol.col_value, dtype=np.float64)
+        col_dual = np.array(sol.col_dual, dtype=np.float64)
+        row_dual = np.array(sol.row_dual, dtype=np.float64)
+        if x.size != lp.c.size:
+            x = np.zeros(lp.c.size)
+            status = st.SOLVER_ERROR if status == st.OPTIMAL else status
+        if col_dual.size != lp.c.size:
+            col_dual = np.zeros(lp.c.size)
+        if row_dual.size != lp.A.shape[0]:
+            row_dual = np.zeros(lp.A.shape[0])
+        return LpSolution(
+            status,
+            x,
+            col_dual,
+            row_dual,
+            h.modelStatusToString(model_status),
+            time.perf_counter() - start,
+        )
+
+    def _load(self, lp: LinearProgram, nz: NDArray[np.bool_]) -> None:
+        model = highspy.HighsLp()
+        n_row, n_col = lp.A.shape
+        model.num_col_ = n_col
+        model.num_row_ = n_row
+        model.col_cost_ = lp.c
+        model.col_lower_ = _inf(lp.col_lower)
+        model.col_upper_ = _inf(lp.col_upper)
+        model.row_lower_ = _inf(lp.row_lower)
+        model.row_upper_ = _inf(lp.row_upper)
+        cols, rows = np.nonzero(nz.T)  # column-major order
+        model.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+        model.a_matrix_.start_ = np.concatenate(([0], np.cumsum(nz.sum(axis=0)))).astype(np.int32)
+        model.a_matrix_.index_ = rows.astype(np.int32)
+        model.a_matrix_.value_ = lp.A[rows, cols]
+        self._highs.clearModel()
+        self._highs.passModel(model)
+
+    def _update(self, lp: LinearProgram, nz: NDArray[np.bool_], previous: FloatArray) -> None:
+        h = self._highs
+        n_row, n_col = lp.A.shape
+        rows, cols = np.nonzero(nz & (lp.A != previous))
+        for r, c in zip(rows.tolist(), cols.tolist()):
+            h.changeCoeff(r, c, float(lp.A[r, c]))
+        idx_c = np.arange(n_col, dtype=np.int32)
+        h.changeColsCost(n_col, idx_c, lp.c)
+        h.changeColsBounds(n_col, idx_c, _inf(lp.col_lower), _inf(lp.col_upper))
+        if n_row:
+            idx_r = np.arange(n_row, dtype=np.int32)
+            h.changeRowsBounds(n_row, idx_r, _inf(lp.row_lower), _inf(lp.row_upper))
+
+
+def _inf(values: FloatArray) -> FloatArray:
+    """HiGHS's infinity for infinite entries."""
+    return np.clip(np.asarray(values, dtype=np.float64), -highspy.kHighsInf, highspy.kHighsInf)

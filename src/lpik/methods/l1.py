@@ -1,0 +1,80 @@
+"""Ho's LP: the least-L1 joint step (paper sec. 2.3, ref. [11])."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from lpik import result as st
+from lpik.lp import HighsSolver
+from lpik.methods._common import crossed_label, finish, lp_over, solver_for
+from lpik.methods.lp1 import lp1
+from lpik.problem import Problem
+from lpik.result import Result
+
+
+def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
+    """Minimise ``||q - q0||_1`` subject to the linearised kinematics (eq. 2) and the limits.
+
+    Ho's formulation asks for the full displacement, ``J dq = dw``, with the
+    end-stops (eq. 13), step bounds (eq. 14) and extra rows. Written as an LP
+    with ``t >= |dq|``: ``min sum(t)`` s.t. ``J dq = p dw``, ``dq - t <= 0``,
+    ``-dq - t <= 0``.
+
+    When the full displacement is infeasible, Ho's LP has no answer. lpik then
+    returns, lexicographically, the least-L1 step among those achieving the
+    largest feasible fraction ``p*`` (found by LP1, eqs. 11-14), with status
+    ``"scaled"`` and ``binding`` naming the limit that stops ``p`` (LP1's).
+    The multipliers are not defined: ``lam`` is ``None``.
+
+    Args:
+        problem: The step to solve.
+        solver: A :class:`~lpik.lp.HighsSolver` to reuse across steps (warm start).
+    """
+    start = time.perf_counter()
+    n = problem.n
+    crossed = crossed_label(problem)
+    if crossed is not None:
+        return st.safe_step(problem, "l1", st.INFEASIBLE, crossed, path="highs")
+    solver = solver_for(solver)
+    sol, x = _least_l1(problem, solver, 1.0, 1.0)
+    if sol == st.OPTIMAL:
+        return finish(problem, "l1", x[:n], 1.0, None, None, start, "highs")
+    if sol != st.INFEASIBLE:
+        return st.safe_step(
+            problem, "l1", sol, solve_time=time.perf_counter() - start, path="highs"
+        )
+    best = lp1(problem, solver=solver)
+    if not best.moved:
+        return st.safe_step(
+            problem,
+            "l1",
+            best.status,
+            best.binding,
+            solve_time=time.perf_counter() - start,
+            path="highs",
+        )
+    sol, x = _least_l1(problem, solver, max(0.0, best.p - 1e-9), best.p)
+    if sol != st.OPTIMAL:  # the LP1 step itself is feasible at p*: keep it rather than fail
+        x = np.concatenate([best.dq, np.abs(best.dq), [best.p]])
+    return finish(
+        problem, "l1", x[:n], float(x[-1]), None, best.binding, start, "highs", status=st.SCALED
+    )
+
+
+def _least_l1(
+    problem: Problem, solver: HighsSolver, p_lo: float, p_hi: float
+) -> tuple[str, np.ndarray]:
+    """Solve ``min sum t`` with ``p`` in ``[p_lo, p_hi]``; variables ``(dq, t, p)``."""
+    n, m = problem.n, problem.m
+    lower, upper = problem.step_bounds()[:2]
+    eye = np.eye(n)
+    A_eq = np.hstack([problem.J, np.zeros((m, n)), -problem.dw[:, None]])
+    A_ub = np.block([[eye, -eye, np.zeros((n, 1))], [-eye, -eye, np.zeros((n, 1))]])
+    c = np.concatenate([np.zeros(n), np.ones(n), [0.0]])
+    col_lower = np.concatenate([lower, np.zeros(n), [p_lo]])
+    col_upper = np.concatenate([upper, np.full(n, np.inf), [p_hi]])
+    lp = lp_over(problem, c, A_eq, np.zeros(m), col_lower, col_upper, A_ub, np.zeros(2 * n))
+    sol = solver.solve(lp)
+    return sol.status, sol.x

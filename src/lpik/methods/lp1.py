@@ -1,0 +1,51 @@
+"""Schlemmer's LP with respect to affine manipulability (LP1, eqs. 11-14)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from lpik import result as st
+from lpik.lp import HighsSolver
+from lpik.methods._common import binding_from_duals, crossed_label, finish, lp_over, solver_for
+from lpik.problem import Problem
+from lpik.result import Result
+
+
+def lp1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
+    """Maximise the affine dexterity p subject to the linearised kinematics (LP1).
+
+    Implements eqs. 11-14: ``max p`` subject to ``J (q - q0) - p dw = 0`` (eq. 12),
+    ``0 <= p <= 1`` and the end-stops (eq. 13), the per-step velocity or
+    acceleration bounds (eq. 14) and the problem's extra rows ``G q <= h``.
+    Redundancy is not resolved: any optimal vertex may be returned, which is
+    why LP1's joint motion jitters (paper, sec. 2.3). ``M``, ``f``, ``Lambda``
+    and the multiplier bounds are ignored; ``lam`` is ``None``.
+
+    Args:
+        problem: The step to solve.
+        solver: A :class:`~lpik.lp.HighsSolver` to reuse across steps (warm start).
+
+    Returns:
+        The step, with ``binding`` naming the limit with the largest dual when ``p < 1``.
+    """
+    start = time.perf_counter()
+    n, lower, upper = problem.n, *problem.step_bounds()[:2]
+    A_eq = np.hstack([problem.J, -problem.dw[:, None]])
+    c = np.zeros(n + 1)
+    c[-1] = -1.0
+    crossed = crossed_label(problem)
+    if crossed is not None:
+        return st.safe_step(problem, "lp1", st.INFEASIBLE, crossed, path="highs")
+    lp = lp_over(
+        problem, c, A_eq, np.zeros(problem.m), np.append(lower, 0.0), np.append(upper, 1.0)
+    )
+    sol = solver_for(solver).solve(lp)
+    if sol.status != st.OPTIMAL:
+        return st.safe_step(
+            problem, "lp1", sol.status, solve_time=time.perf_counter() - start, path="highs"
+        )
+    p = float(sol.x[-1])
+    binding = binding_from_duals(problem, sol, lp, p, problem.m)
+    return finish(problem, "lp1", sol.x[:n], p, None, binding, start, "highs")

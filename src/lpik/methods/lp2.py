@@ -1,0 +1,246 @@
+"""LP2: affine dexterity with a quadratic criterion (eqs. 15-18, secs. 3.1 and 3.2).
+
+LP2 maximises ``p`` over ``(q, lam, p)`` subject to the optimality conditions
+of the quadratic criterion (eq. 18, with sec. 3.1's smoothing term)::
+
+    [[M + Lambda, J^T,  0 ],     [q  ]     [M q0 + Lambda q_ref + f]
+     [J,          0,   -dw]]  @  [lam]  =  [J q0                   ]
+                                 [p  ]
+
+and the bounds on ``q`` (end-stops, eq. 13; step bounds, eq. 14), on ``lam``
+(sec. 3.2), on ``p`` (0 <= p <= 1) and the extra rows ``G q <= h``.
+
+When the KKT matrix ``K = [[M + Lambda, J^T], [J, 0]]`` is nonsingular, the
+equality rows fix ``q`` and ``lam`` as affine functions of ``p``:
+``q(p) = q0 + a_q + p b_q`` and ``lam(p) = a_l + p b_l``. Every bound then
+limits ``p`` to an interval, and the LP's optimum is the largest ``p`` in the
+intersection of these intervals with [0, 1]: a ratio test. That is an exact
+solution of the LP, not an approximation. When ``K`` is singular or
+ill-conditioned (the Schur complement ``S = J (M + Lambda)^-1 J^T`` has a
+condition number above :data:`MAX_SCHUR_CONDITION`, e.g. at a singularity of
+``J``), the general LP is solved by HiGHS instead.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+from numpy.typing import NDArray
+
+from lpik import result as st
+from lpik.lp import HighsSolver
+from lpik.methods._common import (
+    FULL_P,
+    binding_from_duals,
+    criterion,
+    crossed_label,
+    finish,
+    lp_over,
+    solver_for,
+)
+from lpik.problem import Problem
+from lpik.result import Result
+
+FloatArray = NDArray[np.float64]
+
+#: Above this condition number of the Schur complement the ratio test hands over to HiGHS.
+MAX_SCHUR_CONDITION = 1e10
+#: Slack below zero by at most this (relative to the bound) counts as zero.
+SLACK_TOL = 1e-12
+#: A rate ``|b|`` at or below this (relative to the largest rate) counts as zero.
+RATE_TOL = 1e-14
+
+PATHS = ("auto", "ratio-test", "highs")
+
+
+@dataclass(frozen=True, eq=False)
+class AffineSolution:
+    """``dq(p) = a_q + p b_q`` and ``lam(p) = a_l + p b_l``: eq. 18's equality rows solved."""
+
+    a_q: FloatArray
+    b_q: FloatArray
+    a_l: FloatArray
+    b_l: FloatArray
+
+
+def affine_solution(problem: Problem) -> AffineSolution | None:
+    """Solve eq. 18's equality rows for ``dq`` and ``lam`` as affine functions of ``p``.
+
+    With ``H = M + Lambda`` (positive definite) and ``c = f + Lambda (q_ref - q0)``,
+    the rows read ``H dq + J^T lam = c`` and ``J dq = p dw``. Eliminating ``dq``
+    leaves the Schur complement ``S lam = J H^-1 c - p dw`` with
+    ``S = J H^-1 J^T`` (one factorisation, two right-hand sides).
+
+    Returns:
+        The affine solution, or ``None`` when ``S`` is singular or its condition
+        number exceeds :data:`MAX_SCHUR_CONDITION`.
+    """
+    H, c = criterion(problem)
+    J = problem.J
+    H_factor = sla.cho_factor(H)
+    HinvJt = sla.cho_solve(H_factor, J.T)
+    Hinvc = sla.cho_solve(H_factor, c)
+    S = J @ HinvJt
+    S = 0.5 * (S + S.T)
+    eig = np.linalg.eigvalsh(S)
+    if eig[-1] <= 0 or eig[0] <= eig[-1] / MAX_SCHUR_CONDITION:
+        return None
+    S_factor = sla.cho_factor(S)
+    rhs = np.column_stack([J @ Hinvc, -problem.dw])
+    lam_ab = sla.cho_solve(S_factor, rhs)
+    a_l, b_l = lam_ab[:, 0], lam_ab[:, 1]
+    return AffineSolution(a_q=Hinvc - HinvJt @ a_l, b_q=-HinvJt @ b_l, a_l=a_l, b_l=b_l)
+
+
+@dataclass(frozen=True)
+class RatioTest:
+    """Outcome of the ratio test: the largest feasible ``p`` and what limits it."""
+
+    feasible: bool
+    p: float
+    binding: str | None
+
+
+def ratio_test(
+    a: FloatArray,
+    b: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    lo_labels: tuple[str, ...],
+    hi_labels: tuple[str, ...],
+) -> RatioTest:
+    """Largest ``p`` in [0, 1] with ``lo <= a + p b <= hi`` for every entry.
+
+    Ties go to the first entry in order (joint bounds, then multipliers, then rows).
+    """
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s_hi = hi - a
+        s_lo = a - lo
+        s_hi = np.where((s_hi < 0) & (s_hi >= -SLACK_TOL * np.maximum(1.0, np.abs(hi))), 0.0, s_hi)
+        s_lo = np.where((s_lo < 0) & (s_lo >= -SLACK_TOL * np.maximum(1.0, np.abs(lo))), 0.0, s_lo)
+        eps = RATE_TOL * max(1.0, float(np.abs(b).max(initial=0.0)))
+        pos, neg = b > eps, b < -eps
+        flat = ~(pos | neg)
+        stuck_hi = flat & (s_hi < 0)
+        stuck_lo = flat & (s_lo < 0)
+        if stuck_hi.any():
+            return RatioTest(False, 0.0, hi_labels[int(np.argmax(stuck_hi))])
+        if stuck_lo.any():
+            return RatioTest(False, 0.0, lo_labels[int(np.argmax(stuck_lo))])
+        # a + p b <= hi: p <= s_hi / b for b > 0, p >= s_hi / b for b < 0.
+        # a + p b >= lo: p <= s_lo / -b for b < 0, p >= -s_lo / b for b > 0.
+        up_hi = np.where(pos, s_hi / b, np.inf)
+        up_lo = np.where(neg, s_lo / -b, np.inf)
+        low_hi = np.where(neg, s_hi / b, -np.inf)
+        low_lo = np.where(pos, -s_lo / b, -np.inf)
+    i_hi, i_lo = int(np.argmin(up_hi)), int(np.argmin(up_lo))
+    if up_hi[i_hi] <= up_lo[i_lo]:
+        p_up, up_label = float(up_hi[i_hi]), hi_labels[i_hi]
+    else:
+        p_up, up_label = float(up_lo[i_lo]), lo_labels[i_lo]
+    j_hi, j_lo = int(np.argmax(low_hi)), int(np.argmax(low_lo))
+    if low_hi[j_hi] >= low_lo[j_lo]:
+        p_down, down_label = float(low_hi[j_hi]), hi_labels[j_hi]
+    else:
+        p_down, down_label = float(low_lo[j_lo]), lo_labels[j_lo]
+    p_hi = min(1.0, p_up)
+    p_lo = max(0.0, p_down)
+    if p_hi < p_lo - 1e-12:
+        return RatioTest(False, 0.0, down_label if p_lo > 1.0 else up_label)
+    p = max(p_hi, p_lo)
+    return RatioTest(True, p, up_label if p < FULL_P else None)
+
+
+def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = None) -> Result:
+    """Solve LP2 (eqs. 15-18) with the smoothing term (sec. 3.1) and multiplier bounds (sec. 3.2).
+
+    Args:
+        problem: The step to solve. ``M``, ``f``, ``Lambda``, ``q_ref`` weight the
+            criterion; ``lam_min``/``lam_max`` bound the multipliers.
+        path: ``"auto"`` (ratio test when valid, else HiGHS), ``"ratio-test"``
+            (fails over to HiGHS all the same when ``K`` is singular) or ``"highs"``
+            (the general LP, the reference).
+        solver: A :class:`~lpik.lp.HighsSolver` to reuse across steps.
+
+    Returns:
+        The step; ``binding`` names the limit that keeps ``p < 1`` (e.g.
+        ``"joint 1 upper end-stop"``, ``"multiplier 2 upper bound"``), or the
+        conflicting limit when the step is infeasible even at ``p = 0``.
+    """
+    if path not in PATHS:
+        raise ValueError(f"path: unknown LP2 path {path!r}; available: {', '.join(PATHS)}")
+    start = time.perf_counter()
+    if path != "highs":
+        affine = affine_solution(problem)
+        if affine is not None:
+            result = _ratio_path(problem, affine, start)
+            if result.status != st.CHECK_FAILED:
+                return result
+    return _highs_path(problem, solver, start)
+
+
+def _ratio_path(problem: Problem, aff: AffineSolution, start: float) -> Result:
+    lower, upper, lower_labels, upper_labels = problem.step_bounds()
+    lam_lo_labels, lam_hi_labels = problem.multiplier_labels()
+    G = problem.G
+    g = problem.h - G @ problem.q0
+    a = np.concatenate([aff.a_q, aff.a_l, G @ aff.a_q])
+    b = np.concatenate([aff.b_q, aff.b_l, G @ aff.b_q])
+    lo = np.concatenate([lower, problem.lam_min, np.full(g.size, -np.inf)])
+    hi = np.concatenate([upper, problem.lam_max, g])
+    rows = tuple(problem.row_labels)
+    test = ratio_test(
+        a, b, lo, hi, lower_labels + lam_lo_labels + rows, upper_labels + lam_hi_labels + rows
+    )
+    if not test.feasible:
+        return st.safe_step(
+            problem,
+            "lp2",
+            st.INFEASIBLE,
+            test.binding,
+            solve_time=time.perf_counter() - start,
+            path="ratio-test",
+        )
+    p = test.p
+    return finish(
+        problem,
+        "lp2",
+        aff.a_q + p * aff.b_q,
+        p,
+        aff.a_l + p * aff.b_l,
+        test.binding,
+        start,
+        "ratio-test",
+    )
+
+
+def _highs_path(problem: Problem, solver: HighsSolver | None, start: float) -> Result:
+    n, m = problem.n, problem.m
+    H, c = criterion(problem)
+    lower, upper = problem.step_bounds()[:2]
+    A_eq = np.block(
+        [
+            [H, problem.J.T, np.zeros((n, 1))],
+            [problem.J, np.zeros((m, m)), -problem.dw[:, None]],
+        ]
+    )
+    b_eq = np.concatenate([c, np.zeros(m)])
+    cost = np.zeros(n + m + 1)
+    cost[-1] = -1.0
+    col_lower = np.concatenate([lower, problem.lam_min, [0.0]])
+    col_upper = np.concatenate([upper, problem.lam_max, [1.0]])
+    crossed = crossed_label(problem)
+    if crossed is not None:
+        return st.safe_step(problem, "lp2", st.INFEASIBLE, crossed, path="highs")
+    lp = lp_over(problem, cost, A_eq, b_eq, col_lower, col_upper)
+    sol = solver_for(solver).solve(lp)
+    if sol.status != st.OPTIMAL:
+        return st.safe_step(
+            problem, "lp2", sol.status, solve_time=time.perf_counter() - start, path="highs"
+        )
+    p = float(sol.x[-1])
+    binding = binding_from_duals(problem, sol, lp, p, n + m, lam_slice=slice(n, n + m))
+    return finish(problem, "lp2", sol.x[:n], p, sol.x[n : n + m], binding, start, "highs")

@@ -1,0 +1,189 @@
+"""Schlemmer's nonlinear program with respect to affine manipulability (sec. 2.2).
+
+The slow, exact baseline the LPs are compared with: the forward kinematics
+(eq. 1) is used as it is, not linearised (eq. 2), so the end effector lands on
+``w0 + p dw`` exactly (eq. 10), and the quadratic criterion resolves the
+redundancy.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import minimize
+
+from lpik import result as st
+from lpik.methods._common import FULL_P, criterion, crossed_label
+from lpik.problem import Problem
+from lpik.result import Result
+from lpik.robots.base import TaskModel
+
+FloatArray = NDArray[np.float64]
+
+#: Tolerance handed to SLSQP.
+SLSQP_TOL = 1e-12
+#: Largest accepted residual of the nonlinear constraint (eq. 10) [m or rad].
+NONLINEAR_TOL = 1e-7
+
+
+def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Result:
+    """Maximise ``p`` subject to ``phi(q) - w0 = p (w_desired - w0)`` and the bounds (sec. 2.2).
+
+    Solved by SQP (scipy's SLSQP) in two stages, lexicographically: first the
+    largest ``p*`` in [0, 1] such that the nonlinear forward kinematics puts the
+    end effector at ``w0 + p dw`` (eq. 10) within the end-stops (eq. 13), step
+    bounds (eq. 14) and extra rows; then, with ``p >= p*``, the configuration
+    that minimises the quadratic criterion (eq. 3 plus sec. 3.1's term).
+
+    Args:
+        problem: The step; ``problem.J`` is not used, ``problem.dw`` is the command.
+        model: The task model whose ``pose``/``difference`` give ``phi`` and ``w - w0``.
+        max_iterations: SLSQP iteration limit per stage.
+
+    Returns:
+        The step; ``lam`` is ``None``; ``residual`` is the nonlinear residual
+        ``max |phi(q) - w0 - p dw|``; ``binding`` is the active limit with the
+        largest multiplier when ``p < 1``.
+    """
+    start = time.perf_counter()
+    if model.n_joints != problem.n or model.task_dim != problem.m:
+        raise ValueError(
+            f"model: {model.name} has {model.n_joints} joints and {model.task_dim} task "
+            f"coordinates, the problem {problem.n} and {problem.m}"
+        )
+    crossed = crossed_label(problem)
+    if crossed is not None:
+        return st.safe_step(problem, "nlp", st.INFEASIBLE, crossed, path="slsqp")
+    n = problem.n
+    q0, dw = problem.q0, problem.dw
+    w0 = model.pose(q0)
+    lower, upper, lower_labels, upper_labels = problem.step_bounds()
+    g_rhs = problem.h - problem.G @ q0
+
+    def task_eq(x: FloatArray) -> FloatArray:
+        return model.difference(w0, model.pose(q0 + x[:n])) - x[n] * dw
+
+    def task_eq_jac(x: FloatArray) -> FloatArray:
+        return np.hstack([model.jacobian(q0 + x[:n]), -dw[:, None]])
+
+    lin_rows, lin_rhs, lin_labels = _inequalities(
+        problem, lower, upper, lower_labels, upper_labels, g_rhs
+    )
+    constraints = [
+        {"type": "eq", "fun": task_eq, "jac": task_eq_jac},
+        {"type": "ineq", "fun": lambda x: lin_rhs - lin_rows @ x, "jac": lambda x: -lin_rows},
+    ]
+    box = [
+        (lo if np.isfinite(lo) else None, hi if np.isfinite(hi) else None)
+        for lo, hi in zip(lower, upper)
+    ]
+    options = {"maxiter": max_iterations, "ftol": SLSQP_TOL}
+    first = minimize(
+        lambda x: -x[n],
+        np.zeros(n + 1),
+        jac=lambda x: -np.eye(n + 1)[n],
+        method="SLSQP",
+        bounds=box + [(0.0, 1.0)],
+        constraints=constraints,
+        options=options,
+    )
+    if not first.success:
+        return st.safe_step(
+            problem,
+            "nlp",
+            st.SOLVER_ERROR,
+            str(first.message),
+            solve_time=time.perf_counter() - start,
+            path="slsqp",
+        )
+    p_star = float(np.clip(first.x[n], 0.0, 1.0))
+    binding = None
+    if p_star < FULL_P:
+        binding = _binding(first, lin_rows, lin_rhs, lin_labels, problem.m)
+    H, c = criterion(problem)
+    second = minimize(
+        lambda x: 0.5 * x[:n] @ H @ x[:n] - c @ x[:n],
+        first.x,
+        jac=lambda x: np.append(H @ x[:n] - c, 0.0),
+        method="SLSQP",
+        bounds=box + [(p_star if p_star >= FULL_P else max(0.0, p_star - 1e-9), 1.0)],
+        constraints=constraints,
+        options=options,
+    )
+    x = second.x if second.success else first.x
+    dq = st.clip_to_bounds(problem, x[:n])
+    p = float(np.clip(x[n], 0.0, 1.0))
+    residual = float(np.abs(model.difference(w0, model.pose(q0 + dq)) - p * dw).max())
+    violation = st.worst_violation(problem, dq)
+    elapsed = time.perf_counter() - start
+    if residual > NONLINEAR_TOL or violation.amount > st.FEASIBILITY_TOL:
+        reason = violation.label if violation.amount > st.FEASIBILITY_TOL else "phi(q) - w0 != p dw"
+        return st.safe_step(
+            problem, "nlp", st.CHECK_FAILED, reason, solve_time=elapsed, path="slsqp"
+        )
+    return Result(
+        q=q0 + dq,
+        dq=dq,
+        p=p,
+        lam=None,
+        status=st.OPTIMAL,
+        binding=binding if p < FULL_P else None,
+        method="nlp",
+        solve_time=elapsed,
+        residual=residual,
+        path="slsqp",
+    )
+
+
+def _inequalities(
+    problem: Problem,
+    lower: FloatArray,
+    upper: FloatArray,
+    lower_labels: tuple[str, ...],
+    upper_labels: tuple[str, ...],
+    g_rhs: FloatArray,
+) -> tuple[FloatArray, FloatArray, list[str]]:
+    """Finite bounds and extra rows as ``rows @ (dq, p) <= rhs`` (so SLSQP reports multipliers)."""
+    n = problem.n
+    rows, rhs, labels = [], [], []
+    for i in range(n):
+        e = np.zeros(n + 1)
+        e[i] = 1.0
+        if np.isfinite(upper[i]):
+            rows.append(e)
+            rhs.append(upper[i])
+            labels.append(upper_labels[i])
+        if np.isfinite(lower[i]):
+            rows.append(-e)
+            rhs.append(-lower[i])
+            labels.append(lower_labels[i])
+    for i in range(problem.G.shape[0]):
+        rows.append(np.append(problem.G[i], 0.0))
+        rhs.append(g_rhs[i])
+        labels.append(problem.row_labels[i])
+    if not rows:
+        return np.zeros((0, n + 1)), np.zeros(0), []
+    return np.array(rows), np.array(rhs), labels
+
+
+def _binding(
+    res: object, rows: FloatArray, rhs: FloatArray, labels: list[str], m: int
+) -> str | None:
+    """The active inequality with the largest SLSQP multiplier."""
+    if not labels:
+        return None
+    x = res.x  # type: ignore[attr-defined]
+    slack = rhs - rows @ x
+    active = slack <= 1e-7 * np.maximum(1.0, np.abs(rhs))
+    if not active.any():
+        return None
+    multipliers = np.asarray(getattr(res, "multipliers", np.zeros(m + len(labels))))
+    ineq = (
+        multipliers[m : m + len(labels)]
+        if multipliers.size >= m + len(labels)
+        else np.zeros(len(labels))
+    )
+    score = np.where(active, np.abs(ineq), -1.0)
+    return labels[int(np.argmax(score))]

@@ -1,0 +1,320 @@
+"""One control step's inverse-kinematics problem as one validated value.
+
+Everything a method needs for one step: the Jacobian ``J`` and commanded
+end-effector displacement ``dw = w_desired - w0`` (eq. 2), the current joint
+coordinates ``q0``, the weights of the quadratic criterion (``M``, ``f`` of
+eq. 3; ``Lambda``, ``q_ref`` of sec. 3.1) and the technical limits: end-stops
+(eq. 13), per-step bounds on ``q - q0`` from velocity and acceleration limits
+(eq. 14), multiplier bounds (sec. 3.2) and extra linear rows ``G q <= h``
+(obstacles). Internally every method works in ``dq = q - q0``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from lpik.exceptions import InvalidProblemError
+
+FloatArray = NDArray[np.float64]
+
+#: Relative tolerance on the symmetry of M and Lambda.
+SYMMETRY_RTOL = 1e-9
+
+#: Default name of the limit that sets ``dq_min`` / ``dq_max`` (eq. 14).
+STEP_BOUND_KIND = "velocity limit"
+
+
+def _vector(name: str, value: Any, size: int, *, allow_inf: bool = False) -> FloatArray:
+    """Convert ``value`` to a float vector of length ``size`` or raise naming ``name``."""
+    try:
+        arr = np.array(
+            [np.nan if v is None else v for v in value] if isinstance(value, list) else value,
+            dtype=np.float64,
+        )
+    except (TypeError, ValueError) as exc:
+        raise InvalidProblemError(name, f"must be a list of {size} numbers ({exc})") from None
+    if arr.ndim == 0 and size == 1:
+        arr = arr.reshape(1)
+    if arr.shape != (size,):
+        raise InvalidProblemError(name, f"must have length {size}, got shape {arr.shape}")
+    if np.isnan(arr).any():
+        raise InvalidProblemError(
+            name, f"contains NaN or null at index {int(np.argmax(np.isnan(arr)))}"
+        )
+    if not allow_inf and not np.isfinite(arr).all():
+        raise InvalidProblemError(
+            name, f"contains inf at index {int(np.argmax(~np.isfinite(arr)))}"
+        )
+    return arr
+
+
+def _bound_vector(name: str, value: Any, size: int, default: float) -> FloatArray:
+    """A bound vector where ``None`` entries (JSON null) mean unbounded (``default``)."""
+    if value is None:
+        return np.full(size, default)
+    if isinstance(value, list | tuple):
+        value = [default if v is None else v for v in value]
+    return _vector(name, value, size, allow_inf=True)
+
+
+def _matrix(name: str, value: Any, n: int, default_diag: float) -> FloatArray:
+    """An n x n matrix, given as a matrix, a diagonal vector or ``None``."""
+    if value is None:
+        return np.eye(n) * default_diag
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidProblemError(
+            name, f"must be an {n} x {n} matrix or {n} numbers ({exc})"
+        ) from None
+    if arr.ndim == 1:
+        if arr.shape != (n,):
+            raise InvalidProblemError(
+                name, f"as a diagonal must have length {n}, got {arr.shape[0]}"
+            )
+        arr = np.diag(arr)
+    if arr.shape != (n, n):
+        raise InvalidProblemError(
+            name, f"must be {n} x {n} (or a diagonal of length {n}), got shape {arr.shape}"
+        )
+    if not np.isfinite(arr).all():
+        raise InvalidProblemError(name, "contains NaN or inf")
+    scale = max(1.0, float(np.abs(arr).max()))
+    if np.abs(arr - arr.T).max() > SYMMETRY_RTOL * scale:
+        raise InvalidProblemError(name, "must be symmetric")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """One step of inverse kinematics, validated on construction.
+
+    Args:
+        J: Task Jacobian at ``q0``, shape (m, n) (eq. 2).
+        dw: Commanded task displacement ``w_desired - w0``, shape (m,) [m or rad].
+        q0: Current joint coordinates, shape (n,) [rad or m].
+        q_min: Lower end-stops, shape (n,); ``None`` entries or ``-inf`` mean unbounded (eq. 13).
+        q_max: Upper end-stops, shape (n,); ``None`` entries or ``+inf`` mean unbounded (eq. 13).
+        dq_min: Lower bound on ``q - q0`` for this step, shape (n,) (eq. 14: velocity
+            limit times dt).
+        dq_max: Upper bound on ``q - q0`` for this step, shape (n,) (eq. 14).
+        M: Positive definite weight matrix of eq. 3, (n, n) or its diagonal (n,); default identity.
+        f: Weight vector (artificial generalised force) of eq. 3, shape (n,); default zero.
+        Lambda: Positive semidefinite smoothing weight of sec. 3.1, (n, n) or diagonal;
+            default zero.
+        q_ref: Reference configuration of sec. 3.1, shape (n,); default the midpoint of the
+            end-stops where both are finite, else ``q0``.
+        lam_min: Lower bounds of the Lagrange multipliers (sec. 3.2), shape (m,); default unbounded.
+        lam_max: Upper bounds of the Lagrange multipliers (sec. 3.2), shape (m,); default unbounded.
+        G: Extra inequality rows ``G q <= h`` (e.g. obstacles), shape (r, n); default none.
+        h: Right-hand side of the extra rows, shape (r,).
+        row_labels: One label per extra row, used to name a binding row.
+        k: Damping of the robust inverse (eq. 19); ``None`` means Yoshikawa's
+            manipulability ``sqrt(det(J J^T))``.
+        dq_min_kind: Which limit set each entry of ``dq_min`` (e.g. ``"velocity limit"``).
+        dq_max_kind: Which limit set each entry of ``dq_max``.
+        joint_names: Names used in binding labels; default ``"joint 1"`` ... ``"joint n"``.
+
+    Raises:
+        InvalidProblemError: (a ``ValueError``) naming the field that is wrong.
+    """
+
+    J: FloatArray
+    dw: FloatArray
+    q0: FloatArray
+    q_min: Any = None
+    q_max: Any = None
+    dq_min: Any = None
+    dq_max: Any = None
+    M: Any = None
+    f: Any = None
+    Lambda: Any = None
+    q_ref: Any = None
+    lam_min: Any = None
+    lam_max: Any = None
+    G: Any = None
+    h: Any = None
+    row_labels: Sequence[str] | None = None
+    k: float | None = None
+    dq_min_kind: Sequence[str] | None = None
+    dq_max_kind: Sequence[str] | None = None
+    joint_names: Sequence[str] | None = None
+    _cache: dict[str, Any] = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        try:
+            J = np.array(self.J, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise InvalidProblemError("J", f"must be an m x n matrix of numbers ({exc})") from None
+        if J.ndim != 2 or J.shape[0] < 1 or J.shape[1] < 1:
+            raise InvalidProblemError("J", f"must be a non-empty m x n matrix, got shape {J.shape}")
+        if not np.isfinite(J).all():
+            raise InvalidProblemError("J", "contains NaN or inf")
+        m, n = J.shape
+        set_(self, "J", J)
+        set_(self, "dw", _vector("dw", self.dw, m))
+        set_(self, "q0", _vector("q0", self.q0, n))
+
+        q_min = _bound_vector("q_min", self.q_min, n, -np.inf)
+        q_max = _bound_vector("q_max", self.q_max, n, np.inf)
+        _check_ordered("q_min", q_min, "q_max", q_max)
+        set_(self, "q_min", q_min)
+        set_(self, "q_max", q_max)
+        dq_min = _bound_vector("dq_min", self.dq_min, n, -np.inf)
+        dq_max = _bound_vector("dq_max", self.dq_max, n, np.inf)
+        _check_ordered("dq_min", dq_min, "dq_max", dq_max)
+        set_(self, "dq_min", dq_min)
+        set_(self, "dq_max", dq_max)
+
+        M = _matrix("M", self.M, n, 1.0)
+        try:
+            np.linalg.cholesky(M)
+        except np.linalg.LinAlgError:
+            raise InvalidProblemError("M", "must be positive definite") from None
+        set_(self, "M", M)
+        Lam = _matrix("Lambda", self.Lambda, n, 0.0)
+        if np.linalg.eigvalsh(Lam).min() < -1e-12 * max(1.0, float(np.abs(Lam).max())):
+            raise InvalidProblemError("Lambda", "must be positive semidefinite")
+        set_(self, "Lambda", Lam)
+        set_(self, "f", np.zeros(n) if self.f is None else _vector("f", self.f, n))
+        if self.q_ref is None:
+            finite = np.isfinite(q_min) & np.isfinite(q_max)
+            q_ref = np.where(
+                finite, 0.5 * (np.where(finite, q_min, 0) + np.where(finite, q_max, 0)), self.q0
+            )
+        else:
+            q_ref = _vector("q_ref", self.q_ref, n)
+        set_(self, "q_ref", q_ref)
+
+        lam_min = _bound_vector("lam_min", self.lam_min, m, -np.inf)
+        lam_max = _bound_vector("lam_max", self.lam_max, m, np.inf)
+        _check_ordered("lam_min", lam_min, "lam_max", lam_max)
+        set_(self, "lam_min", lam_min)
+        set_(self, "lam_max", lam_max)
+
+        self._init_rows(n)
+        if self.k is not None:
+            try:
+                k = float(self.k)
+            except (TypeError, ValueError):
+                raise InvalidProblemError("k", f"must be a number, got {self.k!r}") from None
+            if not np.isfinite(k) or k < 0:
+                raise InvalidProblemError("k", f"must be a finite number >= 0, got {k}")
+            set_(self, "k", k)
+        set_(self, "dq_min_kind", _labels("dq_min_kind", self.dq_min_kind, n, STEP_BOUND_KIND))
+        set_(self, "dq_max_kind", _labels("dq_max_kind", self.dq_max_kind, n, STEP_BOUND_KIND))
+        names = tuple(f"joint {i + 1}" for i in range(n))
+        set_(self, "joint_names", _labels("joint_names", self.joint_names, n, None) or names)
+
+    def _init_rows(self, n: int) -> None:
+        set_ = object.__setattr__
+        if self.G is None and self.h is None:
+            set_(self, "G", np.zeros((0, n)))
+            set_(self, "h", np.zeros(0))
+            set_(self, "row_labels", ())
+            return
+        if self.G is None or self.h is None:
+            raise InvalidProblemError(
+                "G" if self.G is None else "h", "G and h must be given together"
+            )
+        try:
+            G = (
+                np.array(self.G, dtype=np.float64).reshape(-1, n)
+                if np.size(self.G)
+                else np.zeros((0, n))
+            )
+        except (TypeError, ValueError) as exc:
+            raise InvalidProblemError("G", f"must be an r x {n} matrix ({exc})") from None
+        if not np.isfinite(G).all():
+            raise InvalidProblemError("G", "contains NaN or inf")
+        r = G.shape[0]
+        set_(self, "G", G)
+        set_(self, "h", _vector("h", self.h, r))
+        default = tuple(f"row {i + 1}" for i in range(r))
+        set_(self, "row_labels", _labels("row_labels", self.row_labels, r, None) or default)
+
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return int(self.J.shape[1])
+
+    @property
+    def m(self) -> int:
+        """Number of task coordinates."""
+        return int(self.J.shape[0])
+
+    def step_bounds(self) -> tuple[FloatArray, FloatArray, tuple[str, ...], tuple[str, ...]]:
+        """Effective bounds on ``dq = q - q0`` from end-stops and step bounds (eqs. 13-14).
+
+        Returns:
+            ``(lower, upper, lower_labels, upper_labels)``: the tighter of
+            ``q_min - q0`` and ``dq_min`` (and of ``q_max - q0`` and ``dq_max``),
+            with the label of the limit that is tighter, e.g.
+            ``"joint 1 upper end-stop"``.
+        """
+        if "bounds" not in self._cache:
+            lo_stop = self.q_min - self.q0
+            hi_stop = self.q_max - self.q0
+            lower = np.maximum(lo_stop, self.dq_min)
+            upper = np.minimum(hi_stop, self.dq_max)
+            lower_labels = tuple(
+                f"{name} lower {'end-stop' if s >= d else kind}"
+                for name, s, d, kind in zip(
+                    self.joint_names, lo_stop, self.dq_min, self.dq_min_kind
+                )
+            )
+            upper_labels = tuple(
+                f"{name} upper {'end-stop' if s <= d else kind}"
+                for name, s, d, kind in zip(
+                    self.joint_names, hi_stop, self.dq_max, self.dq_max_kind
+                )
+            )
+            self._cache["bounds"] = (lower, upper, lower_labels, upper_labels)
+        return self._cache["bounds"]  # type: ignore[no-any-return]
+
+    def multiplier_labels(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """Labels of the lower and upper multiplier bounds (sec. 3.2)."""
+        return (
+            tuple(f"multiplier {i + 1} lower bound" for i in range(self.m)),
+            tuple(f"multiplier {i + 1} upper bound" for i in range(self.m)),
+        )
+
+    def replace(self, **changes: Any) -> Problem:
+        """A copy with some fields changed (validated again)."""
+        fields = {
+            name: getattr(self, name) for name in self.__dataclass_fields__ if name != "_cache"
+        }
+        fields.update(changes)
+        return Problem(**fields)
+
+
+def _check_ordered(lo_name: str, lo: FloatArray, hi_name: str, hi: FloatArray) -> None:
+    bad = np.nonzero(lo > hi)[0]
+    if bad.size:
+        i = int(bad[0])
+        raise InvalidProblemError(
+            lo_name, f"{lo_name}[{i}] = {lo[i]:g} exceeds {hi_name}[{i}] = {hi[i]:g}"
+        )
+    if np.isposinf(lo).any():
+        raise InvalidProblemError(lo_name, "a lower bound cannot be +inf")
+    if np.isneginf(hi).any():
+        raise InvalidProblemError(hi_name, "an upper bound cannot be -inf")
+
+
+def _labels(
+    name: str, value: Sequence[str] | None, size: int, default: str | None
+) -> tuple[str, ...]:
+    if value is None:
+        return (default,) * size if default is not None else ()
+    if isinstance(value, str):
+        return (value,) * size
+    labels = tuple(str(v) for v in value)
+    if len(labels) != size:
+        raise InvalidProblemError(name, f"must have {size} entries, got {len(labels)}")
+    return labels
