@@ -1,0 +1,264 @@
+"""Compiled single-problem LP2 and batched LP2 (many problems of the same n, m, r).
+
+:func:`lp2_compiled` is :func:`lpik.methods.lp2.lp2` with the ratio test run by
+the compiled kernel; :func:`lp2_batch` solves a stack of problems in parallel.
+Both return exactly what one-by-one :func:`~lpik.methods.lp2.lp2` returns:
+items whose KKT matrix is singular or ill-conditioned (or whose compiled
+answer fails its own check) are handed to the general HiGHS path one by one.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from lpik import result as st
+from lpik.fast import kernels as K
+from lpik.methods._common import criterion
+from lpik.methods.lp2 import lp2
+from lpik.problem import Problem
+from lpik.result import Result
+
+FloatArray = NDArray[np.float64]
+
+
+def constraint_labels(problem: Problem) -> tuple[str, ...]:
+    """Labels indexed by the kernels' binding codes (``2 k`` lower, ``2 k + 1`` upper)."""
+    lower_labels, upper_labels = problem.step_bounds()[2:]
+    lam_lo, lam_hi = problem.multiplier_labels()
+    labels: list[str] = []
+    for lo, hi in zip(lower_labels + lam_lo, upper_labels + lam_hi):
+        labels += [lo, hi]
+    for row in problem.row_labels:
+        labels += [row, row]
+    return tuple(labels)
+
+
+def _kernel_args(problem: Problem) -> tuple:
+    H, c = criterion(problem)
+    lower, upper = problem.step_bounds()[:2]
+    h_diag = bool(np.count_nonzero(H - np.diag(np.diagonal(H))) == 0)
+    g = problem.h - problem.G @ problem.q0
+    return (
+        problem.J,
+        problem.dw,
+        H,
+        h_diag,
+        c,
+        lower,
+        upper,
+        problem.lam_min,
+        problem.lam_max,
+        problem.G,
+        g,
+    )
+
+
+def lp2_compiled(problem: Problem) -> Result:
+    """LP2 (eqs. 15-18) by the compiled ratio test; HiGHS when ``K`` is singular.
+
+    Same answer as :func:`lpik.methods.lp2.lp2` with ``path="ratio-test"``.
+    """
+    start = time.perf_counter()
+    n, m = problem.n, problem.m
+    dq, lam = np.empty(n), np.empty(m)
+    code, p, binding = K.lp2_kernel(*_kernel_args(problem), dq, lam)
+    if code == K.OK:
+        label = None if binding < 0 else constraint_labels(problem)[binding]
+        return Result(
+            q=problem.q0 + dq,
+            dq=dq,
+            p=float(p),
+            lam=lam,
+            status=st.OPTIMAL,
+            binding=label,
+            method="lp2",
+            solve_time=time.perf_counter() - start,
+            residual=st.task_residual(problem, dq, p),
+            path="compiled",
+        )
+    if code == K.INFEASIBLE:
+        return st.safe_step(
+            problem,
+            "lp2",
+            st.INFEASIBLE,
+            constraint_labels(problem)[binding],
+            solve_time=time.perf_counter() - start,
+            path="compiled",
+        )
+    return lp2(problem, path="highs")
+
+
+@dataclass(frozen=True, eq=False)
+class BatchResult:
+    """Answers of a batch, one row per problem (see :class:`~lpik.result.Result`).
+
+    Attributes:
+        q: (B, n). dq: (B, n). p: (B,). lam: (B, m), NaN rows for safe steps.
+        status: (B,) status words. binding: (B,) binding labels or ``None``.
+        path: (B,) ``"compiled"`` or ``"highs"`` (items handed to HiGHS).
+    """
+
+    q: FloatArray
+    dq: FloatArray
+    p: FloatArray
+    lam: FloatArray
+    status: NDArray[np.object_]
+    binding: NDArray[np.object_]
+    path: NDArray[np.object_]
+
+    def __len__(self) -> int:
+        return int(self.p.shape[0])
+
+    def __getitem__(self, i: int) -> Result:
+        """Item ``i`` as a :class:`~lpik.result.Result`."""
+        lam = None if np.isnan(self.lam[i]).all() else self.lam[i].copy()
+        return Result(
+            q=self.q[i].copy(),
+            dq=self.dq[i].copy(),
+            p=float(self.p[i]),
+            lam=lam,
+            status=str(self.status[i]),
+            binding=self.binding[i],
+            method="lp2",
+            path=str(self.path[i]),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class BatchArrays:
+    """A batch of LP2 problems as stacked arrays (the compiled kernel's input).
+
+    Build it with :meth:`from_problems` or directly from arrays of shape
+    ``(B, ...)``: ``J (B, m, n)``, ``dw (B, m)``, ``H (B, n, n)`` (``M + Lambda``),
+    ``c (B, n)`` (``f + Lambda (q_ref - q0)``), ``lower``/``upper (B, n)`` bounds
+    on ``dq``, ``lam_min``/``lam_max (B, m)``, ``G (B, r, n)``, ``g (B, r)``
+    (rows ``G dq <= g``), ``q0 (B, n)``.
+    """
+
+    J: FloatArray
+    dw: FloatArray
+    H: FloatArray
+    c: FloatArray
+    lower: FloatArray
+    upper: FloatArray
+    lam_min: FloatArray
+    lam_max: FloatArray
+    G: FloatArray
+    g: FloatArray
+    q0: FloatArray
+    h_diag: bool
+
+    @classmethod
+    def from_problems(cls, problems: Sequence[Problem]) -> BatchArrays:
+        """Stack validated problems of equal ``n``, ``m`` and number of rows."""
+        if not problems:
+            raise ValueError("problems: the batch is empty")
+        shapes = {(p.n, p.m, p.G.shape[0]) for p in problems}
+        if len(shapes) != 1:
+            raise ValueError(
+                f"problems: every problem must share n, m and rows; got {sorted(shapes)}"
+            )
+        args = [_kernel_args(p) for p in problems]
+        stack = [
+            np.ascontiguousarray(np.stack([a[i] for a in args]))
+            for i in (0, 1, 2, 4, 5, 6, 7, 8, 9, 10)
+        ]
+        J, dw, H, c, lower, upper, lam_min, lam_max, G, g = stack
+        q0 = np.stack([p.q0 for p in problems])
+        return cls(J, dw, H, c, lower, upper, lam_min, lam_max, G, g, q0, all(a[3] for a in args))
+
+
+def lp2_batch(problems: Sequence[Problem] | BatchArrays) -> BatchResult:
+    """Solve a batch of LP2 problems (eqs. 15-18) in parallel; identical to one by one.
+
+    Args:
+        problems: Validated problems of equal ``n``, ``m`` and rows, or a
+            prepared :class:`BatchArrays` (faster: no per-problem Python work).
+
+    Returns:
+        The stacked answers; items the compiled ratio test cannot take
+        (singular ``K``) are solved by :func:`lpik.methods.lp2.lp2` one by one.
+    """
+    arrays = problems if isinstance(problems, BatchArrays) else BatchArrays.from_problems(problems)
+    B, m, n = arrays.J.shape
+    dq = np.empty((B, n))
+    lam = np.empty((B, m))
+    codes = np.empty(B, dtype=np.int64)
+    ps = np.empty(B)
+    bindings = np.empty(B, dtype=np.int64)
+    K.lp2_batch_kernel(
+        arrays.J,
+        arrays.dw,
+        arrays.H,
+        arrays.h_diag,
+        arrays.c,
+        arrays.lower,
+        arrays.upper,
+        arrays.lam_min,
+        arrays.lam_max,
+        arrays.G,
+        arrays.g,
+        dq,
+        lam,
+        codes,
+        ps,
+        bindings,
+        4 * numba.get_num_threads(),
+    )
+    status = np.full(B, st.OPTIMAL, dtype=object)
+    binding = np.full(B, None, dtype=object)
+    path = np.full(B, "compiled", dtype=object)
+    problem_list = None if isinstance(problems, BatchArrays) else list(problems)
+    infeasible = codes == K.INFEASIBLE
+    status[infeasible] = st.INFEASIBLE
+    dq[infeasible], ps[infeasible], lam[infeasible] = 0.0, 0.0, np.nan
+    labelled = np.nonzero(((codes == K.OK) | infeasible) & (bindings >= 0))[0]
+    if problem_list is None:  # raw arrays: every item has the same labels
+        generic = np.array(constraint_labels(_problem_at(arrays, 0)), dtype=object)
+        binding[labelled] = generic[bindings[labelled]]
+    else:
+        for i in labelled:
+            binding[i] = constraint_labels(problem_list[i])[bindings[i]]
+    for i in np.nonzero(~((codes == K.OK) | infeasible))[0]:
+        problem = problem_list[i] if problem_list is not None else _problem_at(arrays, int(i))
+        res = lp2(problem, path="highs")
+        dq[i], ps[i], status[i], binding[i], path[i] = (
+            res.dq,
+            res.p,
+            res.status,
+            res.binding,
+            res.path,
+        )
+        lam[i] = np.nan if res.lam is None else res.lam
+    return BatchResult(
+        q=arrays.q0 + dq, dq=dq, p=ps, lam=lam, status=status, binding=binding, path=path
+    )
+
+
+def _problem_at(arrays: BatchArrays, i: int) -> Problem:
+    """Item ``i`` of raw batch arrays as a :class:`Problem` (for labels and the HiGHS path).
+
+    ``H`` becomes ``M`` with ``Lambda = 0`` and ``c`` becomes ``f``: the same criterion.
+    """
+    q0 = arrays.q0[i]
+    return Problem(
+        J=arrays.J[i],
+        dw=arrays.dw[i],
+        q0=q0,
+        dq_min=arrays.lower[i],
+        dq_max=arrays.upper[i],
+        M=arrays.H[i],
+        f=arrays.c[i],
+        lam_min=arrays.lam_min[i],
+        lam_max=arrays.lam_max[i],
+        G=arrays.G[i],
+        h=arrays.g[i] + arrays.G[i] @ q0,
+        dq_min_kind="step bound",
+        dq_max_kind="step bound",
+    )

@@ -1,0 +1,316 @@
+"""A fused, compiled LP2 control step for a robot: the path a 1 kHz loop calls.
+
+:class:`Lp2Controller` prepares everything that does not change between steps
+(the chain's geometry, the limits, the weights) once; :meth:`Lp2Controller.step`
+then runs forward kinematics, the Jacobian, the command law, the limits and
+LP2's ratio test (eqs. 15-18) in one compiled call and returns the same
+:class:`~lpik.result.Result` as building the problem with
+:func:`lpik.limits.build_problem` and solving it with
+:func:`lpik.methods.lp2.lp2` (tests hold the two equal). Steps the ratio test
+cannot take (singular KKT matrix) go to the HiGHS path.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from lpik import result as st
+from lpik.fast import chain_kernels as CK
+from lpik.fast import kernels as K
+from lpik.limits import (
+    AccelerationLimits,
+    EndStops,
+    Limit,
+    LinearRows,
+    MultiplierBounds,
+    VelocityLimits,
+    build_problem,
+)
+from lpik.methods.lp2 import lp2
+from lpik.problem import Problem
+from lpik.result import Result
+from lpik.robots.base import FloatArray, TaskModel
+from lpik.robots.planar import PlanarArm
+
+ROW_INDEX = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
+
+
+class Lp2Controller:
+    """Compiled LP2 steps for one task model with fixed limits and weights.
+
+    Args:
+        model: A :class:`~lpik.robots.planar.PlanarArm`, or a task of
+            :mod:`lpik.robots.tasks` over a :class:`~lpik.robots.chain.SerialChain`.
+        dt: Control period [s].
+        v_max: Largest commanded linear speed of the task point [m/s].
+        w_max: Largest commanded angular speed of the task frame [rad/s].
+        qdd_max: Symmetric joint acceleration limits [rad/s^2] (scalar or (n,)); none when None.
+        velocity_limits: Whether the model's ``qd_max`` bounds each step (eq. 14).
+        lambda_bound: Symmetric bound on every multiplier (sec. 3.2); none when None.
+        M, f, Lambda, q_ref: Weights of the criterion (eq. 3, sec. 3.1), as in
+            :class:`~lpik.problem.Problem`.
+        G, h, row_labels: Extra rows ``G q <= h``.
+
+    Raises:
+        ValueError: For a model the compiled path does not support, or bad limits/weights.
+    """
+
+    def __init__(
+        self,
+        model: TaskModel,
+        *,
+        dt: float,
+        v_max: float = 0.5,
+        w_max: float = 1.0,
+        qdd_max: ArrayLike | None = None,
+        velocity_limits: bool = True,
+        lambda_bound: float | None = None,
+        M: Any = None,
+        f: Any = None,
+        Lambda: Any = None,
+        q_ref: Any = None,
+        G: Any = None,
+        h: Any = None,
+        row_labels: Any = None,
+    ) -> None:
+        if not (np.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt: must be a finite number > 0, got {dt}")
+        if not (v_max > 0 and w_max > 0):
+            raise ValueError("v_max, w_max: must be > 0")
+        self.model = model
+        self.dt, self.v_max, self.w_max = float(dt), float(v_max), float(w_max)
+        n = model.n_joints
+        self._kind, self._geometry, rows = _geometry(model)
+        self._rows = np.array(rows, dtype=np.int64)
+        m = len(rows)
+        limits: list[Limit] = [EndStops(model.q_min, model.q_max)]
+        if velocity_limits:
+            limits.append(VelocityLimits(np.broadcast_to(model.qd_max, (n,))))
+        if qdd_max is not None:
+            limits.append(AccelerationLimits(np.broadcast_to(np.asarray(qdd_max, float), (n,))))
+        if lambda_bound is not None:
+            limits.append(MultiplierBounds.symmetric(lambda_bound))
+        if G is not None or h is not None:
+            limits.append(LinearRows(G, h, tuple(row_labels or ())))
+        self.limits = tuple(limits)
+        self._weights = {
+            "M": M,
+            "f": f,
+            "Lambda": Lambda,
+            "q_ref": q_ref,
+            "joint_names": model.joint_names,
+        }
+        # One validated template problem checks every weight and limit once.
+        template = self._problem(
+            np.zeros((m, n)), np.zeros(m), np.clip(np.zeros(n), model.q_min, model.q_max), None
+        )
+        H = template.M + template.Lambda
+        self._H = np.ascontiguousarray(H)
+        self._h_diag = bool(np.count_nonzero(H - np.diag(np.diagonal(H))) == 0)
+        if q_ref is None:  # Problem's default: midpoint of finite end-stops, else q0 (NaN here)
+            finite = np.isfinite(template.q_min) & np.isfinite(template.q_max)
+            mid = 0.5 * (
+                np.where(finite, template.q_min, 0.0) + np.where(finite, template.q_max, 0.0)
+            )
+            ref = np.where(finite, mid, np.nan)
+        else:
+            ref = template.q_ref
+        self._f_ref = np.vstack([template.f, ref])
+        self._Lam = np.ascontiguousarray(template.Lambda)
+        self._lam_bounds = np.vstack([template.lam_min, template.lam_max])
+        self._G = np.ascontiguousarray(template.G)
+        self._h = np.ascontiguousarray(template.h)
+        qd = (
+            np.broadcast_to(np.asarray(model.qd_max, float), (n,))
+            if velocity_limits
+            else np.full(n, np.inf)
+        )
+        qdd = (
+            np.full(n, np.inf)
+            if qdd_max is None
+            else np.broadcast_to(np.asarray(qdd_max, float), (n,))
+        )
+        self._limits = np.vstack([template.q_min, template.q_max, -qd, qd, -qdd, qdd])
+        self._scalars = np.array([self.dt, self.v_max, self.w_max, 0.0])
+        self._out = np.empty(n + 2 * m + 3)
+        self._ws = np.empty(K.workspace_size(n, m, self._G.shape[0]))
+        self._names = tuple(model.joint_names)
+        self._rows_labels = tuple(template.row_labels)
+
+    def _problem(
+        self, J: FloatArray, dw: FloatArray, q0: FloatArray, q_prev: FloatArray | None
+    ) -> Problem:
+        return build_problem(J, dw, q0, self.limits, dt=self.dt, q_prev=q_prev, **self._weights)
+
+    def step(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Result:
+        """One LP2 step from ``q0`` towards ``target`` (a value of ``model.pose``'s kind).
+
+        Args:
+            q0: Joint coordinates now, (n,).
+            target: Commanded task value: (x, y[, angle]) for the planar arm; xyz,
+                a rotation (3, 3) or a pose (4, 4) for the 3-D tasks.
+            q_prev: Joint coordinates one period ago (acceleration limits); ``None``: at rest.
+        """
+        start = time.perf_counter()
+        q0 = np.asarray(q0, dtype=np.float64)
+        prev = q0 if q_prev is None else np.asarray(q_prev, dtype=np.float64)
+        self._scalars[3] = 0.0 if q_prev is None else 1.0
+        f_ref = self._f_ref
+        out = self._out
+        if self._kind == "planar":
+            code, p, binding = CK.planar_step(
+                self._geometry[0],
+                self._rows,
+                self._limits,
+                self._H,
+                self._h_diag,
+                f_ref,
+                self._Lam,
+                self._lam_bounds,
+                self._G,
+                self._h,
+                self._scalars,
+                q0,
+                prev,
+                _planar_target(target, len(self._rows)),
+                out,
+                self._ws,
+            )
+        else:
+            origins, axes, revolute, tip = self._geometry
+            code, p, binding = CK.chain_step(
+                origins,
+                axes,
+                revolute,
+                tip,
+                self._rows,
+                self._limits,
+                self._H,
+                self._h_diag,
+                f_ref,
+                self._Lam,
+                self._lam_bounds,
+                self._G,
+                self._h,
+                self._scalars,
+                q0,
+                prev,
+                _pose_target(target, self._rows),
+                out,
+                self._ws,
+            )
+        n, m = q0.size, self._rows.size
+        if code == K.OK:
+            dq = out[:n].copy()
+            return Result(
+                q=q0 + dq,
+                dq=dq,
+                p=float(p),
+                lam=out[n : n + m].copy(),
+                status=st.OPTIMAL,
+                binding=None if binding < 0 else self._label(binding, q0, prev, q_prev),
+                method="lp2",
+                solve_time=time.perf_counter() - start,
+                path="compiled",
+            )
+        if code == K.INFEASIBLE:
+            return Result(
+                q=q0.copy(),
+                dq=np.zeros(n),
+                p=0.0,
+                lam=None,
+                status=st.INFEASIBLE,
+                binding=self._label(binding, q0, prev, q_prev),
+                method="lp2",
+                solve_time=time.perf_counter() - start,
+                path="compiled",
+            )
+        return lp2(self.problem(q0, target, q_prev), path="highs")
+
+    def problem(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Problem:
+        """The step's :class:`~lpik.problem.Problem`, built by the pure-numpy layers."""
+        q0 = np.asarray(q0, dtype=np.float64)
+        model = self.model
+        dw = np.asarray(model.difference(model.pose(q0), np.asarray(target, float)), float)
+        rows = self._rows
+        lin = float(np.linalg.norm(dw[rows < 3]))
+        ang = float(np.linalg.norm(dw[rows >= 3]))
+        scale = 1.0
+        if lin > self.v_max * self.dt:
+            scale = min(scale, self.v_max * self.dt / lin)
+        if ang > self.w_max * self.dt:
+            scale = min(scale, self.w_max * self.dt / ang)
+        return self._problem(
+            model.jacobian(q0),
+            dw * scale,
+            q0,
+            None if q_prev is None else np.asarray(q_prev, float),
+        )
+
+    def _label(self, code: int, q0: FloatArray, prev: FloatArray, q_prev: Any) -> str:
+        """The label :meth:`Problem.step_bounds` would give the constraint ``code``."""
+        k, upper = divmod(code, 2)
+        n, m = q0.size, self._rows.size
+        if k >= n + m:
+            return self._rows_labels[k - n - m]
+        if k >= n:
+            return f"multiplier {k - n + 1} {'upper' if upper else 'lower'} bound"
+        lim, dt = self._limits, self.dt
+        last = 0.0 if q_prev is None else q0[k] - prev[k]
+        if upper:
+            stop, vel, acc = lim[1, k] - q0[k], lim[3, k] * dt, last + lim[5, k] * dt * dt
+            kind = "acceleration limit" if acc < vel else "velocity limit"
+            kind = "end-stop" if stop <= min(vel, acc) else kind
+        else:
+            stop, vel, acc = lim[0, k] - q0[k], lim[2, k] * dt, last + lim[4, k] * dt * dt
+            kind = "acceleration limit" if acc > vel else "velocity limit"
+            kind = "end-stop" if stop >= max(vel, acc) else kind
+        return f"{self._names[k]} {'upper' if upper else 'lower'} {kind}"
+
+
+def _geometry(model: TaskModel) -> tuple[str, tuple, tuple[int, ...]]:
+    """Arrays of the compiled kinematics and the kept task rows, or a ValueError."""
+    if isinstance(model, PlanarArm):
+        rows = (0, 1) if model.task_dim == 2 else (0, 1, 3)
+        return "planar", (np.ascontiguousarray(model.link_lengths),), rows
+    chain = getattr(model, "kinematics", None)
+    row_names = getattr(model, "row_names", None)
+    joints = getattr(chain, "joints", None)
+    if joints is None or row_names is None:
+        raise ValueError(
+            f"model: the compiled path supports PlanarArm and tasks over a SerialChain, not "
+            f"{type(model).__name__}"
+        )
+    origins = np.ascontiguousarray(np.array([j.origin for j in joints], dtype=np.float64))
+    axes = np.ascontiguousarray(np.array([j.axis for j in joints], dtype=np.float64))
+    revolute = np.array([j.kind == "revolute" for j in joints])
+    tip = np.ascontiguousarray(chain.tip_offset @ chain.tool)
+    return "chain", (origins, axes, revolute, tip), tuple(ROW_INDEX[r] for r in row_names)
+
+
+def _planar_target(target: Any, m: int) -> FloatArray:
+    t = np.asarray(target, dtype=np.float64)
+    if t.shape != (m,):
+        raise ValueError(f"target: must have length {m}, got shape {t.shape}")
+    return t
+
+
+def _pose_target(target: Any, rows: np.ndarray) -> FloatArray:
+    """A (4, 4) target from xyz (3,), a rotation (3, 3) or a pose (4, 4)."""
+    t = np.asarray(target, dtype=np.float64)
+    if t.shape == (4, 4):
+        return t if t.flags.c_contiguous else np.ascontiguousarray(t)
+    out = np.eye(4)
+    if t.shape == (3,):
+        out[:3, 3] = t
+    elif t.shape == (3, 3):
+        out[:3, :3] = t
+    else:
+        raise ValueError(
+            f"target: must be xyz (3,), a rotation (3, 3) or a pose (4, 4), got {t.shape}"
+        )
+    return out

@@ -1,0 +1,332 @@
+"""Compiled kernels of LP2's exact ratio-test path (numba, cached on disk).
+
+These are loop-level re-writes of :func:`lpik.methods.lp2.affine_solution`
+and :func:`lpik.methods.lp2.ratio_test` (eqs. 15-18): the same algorithm, the
+same conditioning test, the same tie-breaking, so that they return the same
+``p``, ``dq``, ``lam`` and binding limit as the pure-numpy path (tests hold
+them to 1e-12). They also re-check their own answer (bounds, multiplier
+bounds, rows and ``J dq = p dw``) with :mod:`lpik.result`'s tolerances.
+
+Binding limits are returned as codes: ``2 k`` is the lower side and
+``2 k + 1`` the upper side of constraint ``k``, with constraints ordered as
+joints ``0..n-1``, multipliers ``n..n+m-1``, extra rows ``n+m..``; ``-1``
+means none.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+#: Kernel outcome codes.
+OK = 0
+INFEASIBLE = 1
+SINGULAR = 2  # K singular or ill-conditioned: the caller solves the LP with HiGHS
+CHECK_FAILED = 3
+
+# Keep these equal to lpik.methods.lp2 / lpik.result (a test asserts it).
+MAX_SCHUR_CONDITION = 1e10
+SLACK_TOL = 1e-12
+RATE_TOL = 1e-14
+FULL_P = 1.0 - 1e-9
+FEASIBILITY_TOL = 1e-7
+EQUALITY_RTOL = 1e-7
+
+
+@njit(cache=True)
+def cholesky(A, L):  # noqa: ANN001, ANN201 - numba kernel
+    """Lower Cholesky factor of the SPD matrix ``A`` into ``L``; False if not SPD."""
+    n = A.shape[0]
+    for j in range(n):
+        s = A[j, j]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if not s > 0.0:
+            return False
+        d = math.sqrt(s)
+        L[j, j] = d
+        for i in range(j + 1, n):
+            t = A[i, j]
+            for k in range(j):
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / d
+        for i in range(j):
+            L[i, j] = 0.0
+    return True
+
+
+@njit(cache=True)
+def cho_solve(L, b, x):  # noqa: ANN001, ANN201
+    """Solve ``L L^T x = b`` (vectors)."""
+    n = L.shape[0]
+    for i in range(n):
+        s = b[i]
+        for k in range(i):
+            s -= L[i, k] * x[k]
+        x[i] = s / L[i, i]
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+
+
+@njit(cache=True)
+def workspace_size(n, m, r):  # noqa: ANN001, ANN201
+    """Length of the float workspace :func:`lp2_core` needs."""
+    return n * m + n * n + 5 * n + 2 * m * m + 3 * m + 4 * (n + m + r)
+
+
+@njit(cache=True)
+def lp2_kernel(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam):  # noqa: ANN001, ANN201
+    """:func:`lp2_core` with its own workspace."""
+    m, n = J.shape
+    ws = np.empty(workspace_size(n, m, G.shape[0]))
+    return lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam, ws)
+
+
+@njit(cache=True)
+def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam, ws):  # noqa: ANN001, ANN201, PLR0912, PLR0915
+    """LP2 by the ratio test. Writes ``dq`` and ``lam``; returns ``(code, p, binding)``.
+
+    Args:
+        J: Jacobian, (m, n).
+        dw: Commanded displacement, (m,).
+        H: ``M + Lambda``, (n, n).
+        h_diag: True when ``H`` is diagonal (no factorisation of ``H`` needed).
+        c: ``f + Lambda (q_ref - q0)``, (n,).
+        lower: Lower bounds on ``dq``, (n,).
+        upper: Upper bounds on ``dq``, (n,).
+        lam_min: Lower multiplier bounds, (m,).
+        lam_max: Upper multiplier bounds, (m,).
+        G: Extra rows, (r, n).
+        g: Their right-hand side in ``dq``: ``G dq <= g``, (r,).
+        dq: Output step, (n,).
+        lam: Output multipliers, (m,).
+        ws: Float workspace of length :func:`workspace_size` (no allocation inside).
+    """
+    m, n = J.shape
+    r = G.shape[0]
+    total = n + m + r
+    o = 0
+    HinvJt = ws[o : o + n * m].reshape((n, m))
+    o += n * m
+    LH = ws[o : o + n * n].reshape((n, n))
+    o += n * n
+    Hinvc, col, out, a_q, b_q = (
+        ws[o : o + n],
+        ws[o + n : o + 2 * n],
+        ws[o + 2 * n : o + 3 * n],
+        ws[o + 3 * n : o + 4 * n],
+        ws[o + 4 * n : o + 5 * n],
+    )
+    o += 5 * n
+    S = ws[o : o + m * m].reshape((m, m))
+    o += m * m
+    LS = ws[o : o + m * m].reshape((m, m))
+    o += m * m
+    rhs, a_l, b_l = ws[o : o + m], ws[o + m : o + 2 * m], ws[o + 2 * m : o + 3 * m]
+    o += 3 * m
+    av, bv, lo, hi = (
+        ws[o : o + total],
+        ws[o + total : o + 2 * total],
+        ws[o + 2 * total : o + 3 * total],
+        ws[o + 3 * total : o + 4 * total],
+    )
+    # --- affine solution: dq = a_q + p b_q, lam = a_l + p b_l (Schur complement) ---
+    if h_diag:
+        for i in range(n):
+            if not H[i, i] > 0.0:
+                return SINGULAR, 0.0, -1
+            for k in range(m):
+                HinvJt[i, k] = J[k, i] / H[i, i]
+            Hinvc[i] = c[i] / H[i, i]
+    else:
+        if not cholesky(H, LH):
+            return SINGULAR, 0.0, -1
+        for k in range(m):
+            for i in range(n):
+                col[i] = J[k, i]
+            cho_solve(LH, col, out)
+            for i in range(n):
+                HinvJt[i, k] = out[i]
+        cho_solve(LH, c, Hinvc)
+    for a in range(m):
+        for b in range(a, m):
+            s = 0.0
+            for i in range(n):
+                s += J[a, i] * HinvJt[i, b]
+            S[a, b] = s
+            S[b, a] = s
+    if not cholesky(S, LS):
+        return SINGULAR, 0.0, -1
+    dmax, dmin = 0.0, np.inf
+    for a in range(m):
+        dmax = max(dmax, LS[a, a])
+        dmin = min(dmin, LS[a, a])
+    if (dmax / dmin) ** 2 > MAX_SCHUR_CONDITION:
+        return SINGULAR, 0.0, -1
+    for a in range(m):
+        s = 0.0
+        for i in range(n):
+            s += J[a, i] * Hinvc[i]
+        rhs[a] = s
+    cho_solve(LS, rhs, a_l)
+    for a in range(m):
+        rhs[a] = -dw[a]
+    cho_solve(LS, rhs, b_l)
+    for i in range(n):
+        sa, sb = Hinvc[i], 0.0
+        for k in range(m):
+            sa -= HinvJt[i, k] * a_l[k]
+            sb -= HinvJt[i, k] * b_l[k]
+        a_q[i] = sa
+        b_q[i] = sb
+    # --- ratio test over joints, multipliers, rows ---
+    for i in range(n):
+        av[i], bv[i], lo[i], hi[i] = a_q[i], b_q[i], lower[i], upper[i]
+    for k in range(m):
+        av[n + k], bv[n + k], lo[n + k], hi[n + k] = a_l[k], b_l[k], lam_min[k], lam_max[k]
+    for j in range(r):
+        sa, sb = 0.0, 0.0
+        for i in range(n):
+            sa += G[j, i] * a_q[i]
+            sb += G[j, i] * b_q[i]
+        av[n + m + j], bv[n + m + j], lo[n + m + j], hi[n + m + j] = sa, sb, -np.inf, g[j]
+    bmax = 0.0
+    for k in range(total):
+        bmax = max(bmax, abs(bv[k]))
+    eps = RATE_TOL * max(1.0, bmax)
+    up_hi, up_lo, low_hi, low_lo = np.inf, np.inf, -np.inf, -np.inf
+    i_up_hi, i_up_lo, i_low_hi, i_low_lo = 0, 0, 0, 0
+    stuck_hi, stuck_lo = -1, -1
+    for k in range(total):
+        s_hi = hi[k] - av[k]
+        s_lo = av[k] - lo[k]
+        if s_hi < 0 and s_hi >= -SLACK_TOL * max(1.0, abs(hi[k])):
+            s_hi = 0.0
+        if s_lo < 0 and s_lo >= -SLACK_TOL * max(1.0, abs(lo[k])):
+            s_lo = 0.0
+        b = bv[k]
+        if b > eps:
+            v = s_hi / b
+            if v < up_hi:
+                up_hi, i_up_hi = v, k
+            v = -s_lo / b
+            if v > low_lo:
+                low_lo, i_low_lo = v, k
+        elif b < -eps:
+            v = s_lo / -b
+            if v < up_lo:
+                up_lo, i_up_lo = v, k
+            v = s_hi / b
+            if v > low_hi:
+                low_hi, i_low_hi = v, k
+        else:
+            if stuck_hi < 0 and s_hi < 0:
+                stuck_hi = 2 * k + 1
+            if stuck_lo < 0 and s_lo < 0:
+                stuck_lo = 2 * k
+    if stuck_hi >= 0:
+        return INFEASIBLE, 0.0, stuck_hi
+    if stuck_lo >= 0:
+        return INFEASIBLE, 0.0, stuck_lo
+    if up_hi <= up_lo:
+        p_up, up_code = up_hi, 2 * i_up_hi + 1
+    else:
+        p_up, up_code = up_lo, 2 * i_up_lo
+    if low_hi >= low_lo:
+        p_down, down_code = low_hi, 2 * i_low_hi + 1
+    else:
+        p_down, down_code = low_lo, 2 * i_low_lo
+    p_hi = min(1.0, p_up)
+    p_lo = max(0.0, p_down)
+    if p_hi < p_lo - 1e-12:
+        return INFEASIBLE, 0.0, down_code if p_lo > 1.0 else up_code
+    p = max(p_hi, p_lo)
+    binding = up_code if p < FULL_P else -1
+    p = min(1.0, max(0.0, p))
+    # --- the step, clipped to solver-tolerance excursions, and its own check ---
+    worst = 0.0
+    for i in range(n):
+        v = a_q[i] + p * b_q[i]
+        dq[i] = min(max(v, lower[i]), upper[i])
+    for k in range(m):
+        lam[k] = a_l[k] + p * b_l[k]
+        if lam[k] < lam_min[k]:
+            worst = max(worst, (lam_min[k] - lam[k]) / max(1.0, abs(lam_min[k])))
+        if lam[k] > lam_max[k]:
+            worst = max(worst, (lam[k] - lam_max[k]) / max(1.0, abs(lam_max[k])))
+    for j in range(r):
+        s = 0.0
+        for i in range(n):
+            s += G[j, i] * dq[i]
+        if s > g[j]:
+            worst = max(worst, (s - g[j]) / max(1.0, abs(g[j])))
+    jmax, qmax, wmax, res = 0.0, 0.0, 0.0, 0.0
+    for a in range(m):
+        s = -p * dw[a]
+        for i in range(n):
+            s += J[a, i] * dq[i]
+            jmax = max(jmax, abs(J[a, i]))
+        res = max(res, abs(s))
+        wmax = max(wmax, abs(dw[a]))
+    for i in range(n):
+        qmax = max(qmax, abs(dq[i]))
+    if not (worst <= FEASIBILITY_TOL and res <= EQUALITY_RTOL * max(1.0, jmax * qmax + wmax)):
+        return CHECK_FAILED, p, binding
+    return OK, p, binding
+
+
+@njit(cache=True, parallel=True)
+def lp2_batch_kernel(
+    J,
+    dw,
+    H,
+    h_diag,
+    c,
+    lower,
+    upper,
+    lam_min,
+    lam_max,
+    G,
+    g,
+    dq,
+    lam,  # noqa: ANN001, ANN201
+    codes,
+    ps,
+    bindings,
+    chunks,
+):
+    """:func:`lp2_core` over a batch (leading axis ``B`` on every argument), in parallel.
+
+    The batch is cut into ``chunks`` parts (a few per thread); each allocates its
+    workspace once.
+    """
+    B, m, n = J.shape
+    chunks = max(1, min(B, chunks))
+    size = workspace_size(n, m, G.shape[1])
+    for chunk in prange(chunks):
+        ws = np.empty(size)
+        for b in range(chunk * B // chunks, (chunk + 1) * B // chunks):
+            code, p, binding = lp2_core(
+                J[b],
+                dw[b],
+                H[b],
+                h_diag,
+                c[b],
+                lower[b],
+                upper[b],
+                lam_min[b],
+                lam_max[b],
+                G[b],
+                g[b],
+                dq[b],
+                lam[b],
+                ws,
+            )
+            codes[b] = code
+            ps[b] = p
+            bindings[b] = binding

@@ -1,0 +1,173 @@
+"""The compiled LP2 path (lpik.fast) against the pure-numpy ratio test and the HiGHS LP."""
+
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+from lpik import result as st  # noqa: E402
+from lpik.fast import BatchArrays, lp2_batch, lp2_compiled  # noqa: E402
+from lpik.fast import kernels as K  # noqa: E402
+from lpik.lp import HighsSolver  # noqa: E402
+from lpik.methods.lp2 import affine_solution, lp2  # noqa: E402
+from lpik.problem import Problem  # noqa: E402
+
+N_RANDOM = 20000  # instances held to the HiGHS path
+# The module, not the function of the same name that lpik.methods exports.
+lp2_module = importlib.import_module("lpik.methods.lp2")
+
+
+def test_kernel_constants_match_the_numpy_path() -> None:
+    assert K.MAX_SCHUR_CONDITION == lp2_module.MAX_SCHUR_CONDITION
+    assert K.SLACK_TOL == lp2_module.SLACK_TOL
+    assert K.RATE_TOL == lp2_module.RATE_TOL
+    assert K.FEASIBILITY_TOL == st.FEASIBILITY_TOL
+    assert K.EQUALITY_RTOL == st.EQUALITY_RTOL
+
+
+def degenerate_problem(rng: np.random.Generator, n: int, m: int) -> Problem:
+    """A random LP2 step, often degenerate: ties, on a bound, p = 0 or 1, binding multipliers."""
+    J = rng.normal(size=(m, n))
+    kind = rng.integers(0, 8)
+    if kind == 0:  # a tie: two identical joints with identical bounds
+        J[:, 1] = J[:, 0]
+    dw = rng.normal(size=m) * rng.choice([0.0, 1e-3, 1e-2, 0.1])
+    q0 = rng.uniform(-2, 2, size=n)
+    step = rng.uniform(1e-3, 2e-2, size=n)
+    lower, upper = -step.copy(), step.copy()
+    if kind == 0:
+        lower[1], upper[1] = lower[0], upper[0]
+    if kind == 1:  # start exactly on an end-stop
+        j = rng.integers(n)
+        (lower if rng.random() < 0.5 else upper)[j] = 0.0
+    if kind == 2:  # q0 outside an end-stop by more than one step: infeasible
+        lower[rng.integers(n)] = 1e-3
+    kw: dict = {}
+    if kind in (3, 4):  # multiplier bounds, often binding
+        bound = rng.uniform(1e-4, 1e-1, size=m)
+        kw.update(lam_min=-bound, lam_max=bound)
+    if kind == 5:  # an extra row that q0 satisfies, sometimes tightly
+        G = rng.normal(size=(1, n))
+        kw.update(G=G, h=G @ q0 + rng.choice([0.0, 1e-3]))
+    if kind == 6:  # smoothing term towards q_ref
+        kw.update(Lambda=np.diag(rng.uniform(0, 1e-2, n)), q_ref=q0 + rng.normal(size=n) * 1e-2)
+    if kind == 7:  # non-diagonal M
+        A = rng.normal(size=(n, n))
+        kw.update(M=A @ A.T + n * np.eye(n), f=rng.normal(size=n) * 1e-3)
+    return Problem(
+        J=J,
+        dw=dw,
+        q0=q0,
+        q_min=q0 + lower,
+        q_max=q0 + upper,
+        dq_min=np.full(n, -0.05),
+        dq_max=np.full(n, 0.05),
+        **kw,
+    )
+
+
+def unique_minimum(problem: Problem) -> bool:
+    """Whether exactly one constraint attains LP2's smallest ratio (no tie to break)."""
+    aff = affine_solution(problem)
+    if aff is None:
+        return False
+    lower, upper = problem.step_bounds()[:2]
+    a = np.concatenate([aff.a_q, aff.a_l, problem.G @ aff.a_q])
+    b = np.concatenate([aff.b_q, aff.b_l, problem.G @ aff.b_q])
+    lo = np.concatenate([lower, problem.lam_min, np.full(problem.G.shape[0], -np.inf)])
+    hi = np.concatenate([upper, problem.lam_max, problem.h - problem.G @ problem.q0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratios = np.concatenate(
+            [np.where(b > 0, (hi - a) / b, np.inf), np.where(b < 0, (lo - a) / b, np.inf)]
+        )
+    best = ratios.min()
+    return bool(np.sum(np.abs(ratios - best) <= 1e-9 * max(1.0, abs(best))) == 1)
+
+
+@pytest.fixture(scope="module")
+def random_batches() -> list[list[Problem]]:
+    rng = np.random.default_rng(20261123)
+    shapes = [(3, 2), (4, 2), (5, 3), (7, 6), (6, 3)]
+    per_shape = N_RANDOM // len(shapes)
+    batches = []
+    for n, m in shapes:
+        kinds: dict[int, list[Problem]] = {}
+        for _ in range(per_shape):
+            p = degenerate_problem(rng, n, m)
+            kinds.setdefault(p.G.shape[0], []).append(p)
+        batches.extend(kinds.values())
+    return batches
+
+
+def test_batch_equals_highs_on_random_degenerate_instances(random_batches) -> None:
+    solver = HighsSolver()
+    counts = {
+        "p=0": 0,
+        "p=1": 0,
+        "0<p<1": 0,
+        "infeasible": 0,
+        "highs fallback": 0,
+        "multiplier binding": 0,
+    }
+    checked_bindings = 0
+    total = 0
+    for problems in random_batches:
+        batch = lp2_batch(problems)
+        for i, problem in enumerate(problems):
+            total += 1
+            fast = batch[i]
+            ref = lp2(problem, path="highs", solver=solver)
+            assert fast.status == ref.status, (i, fast, ref)
+            if fast.path == "highs":
+                counts["highs fallback"] += 1
+            if fast.status == st.INFEASIBLE:
+                counts["infeasible"] += 1
+                continue
+            assert fast.status == st.OPTIMAL
+            assert abs(fast.p - ref.p) <= 1e-9, (fast, ref)
+            counts["p=0" if fast.p == 0 else "p=1" if fast.p == 1 else "0<p<1"] += 1
+            if fast.path == "compiled":  # unique q, lam: the KKT matrix is nonsingular
+                np.testing.assert_allclose(fast.q, ref.q, atol=1e-9, rtol=0)
+                scale = max(1.0, float(np.abs(ref.lam).max()))
+                np.testing.assert_allclose(fast.lam, ref.lam, atol=1e-9 * scale, rtol=0)
+                if fast.binding is not None and unique_minimum(problem):
+                    assert fast.binding == ref.binding, (problem, fast, ref)
+                    checked_bindings += 1
+            if fast.binding and fast.binding.startswith("multiplier"):
+                counts["multiplier binding"] += 1
+    assert total >= N_RANDOM - 10
+    # The generator must really reach the degenerate cases it is meant to.
+    assert all(v > 50 for v in counts.values()), counts
+    assert checked_bindings > 1000
+
+
+def test_compiled_single_equals_numpy_ratio_test(random_batches) -> None:
+    for problems in random_batches[:3]:
+        for problem in problems[:500]:
+            a = lp2(problem, path="ratio-test")
+            b = lp2_compiled(problem)
+            assert (a.status, a.binding) == (b.status, b.binding)
+            assert abs(a.p - b.p) <= 1e-12
+            np.testing.assert_allclose(a.q, b.q, atol=1e-12, rtol=0)
+
+
+def test_batch_from_arrays_equals_batch_from_problems(random_batches) -> None:
+    problems = random_batches[0][:300]
+    from_problems = lp2_batch(problems)
+    arrays = BatchArrays.from_problems(problems)
+    from_arrays = lp2_batch(arrays)
+    np.testing.assert_array_equal(from_problems.p, from_arrays.p)
+    np.testing.assert_array_equal(from_problems.q, from_arrays.q)
+    assert list(from_problems.status) == list(from_arrays.status)
+
+
+def test_batch_rejects_mixed_shapes() -> None:
+    rng = np.random.default_rng(1)
+    with pytest.raises(ValueError, match="problems"):
+        lp2_batch([degenerate_problem(rng, 3, 2), degenerate_problem(rng, 4, 2)])
+    with pytest.raises(ValueError, match="empty"):
+        lp2_batch([])
