@@ -171,3 +171,65 @@ def test_batch_rejects_mixed_shapes() -> None:
         lp2_batch([degenerate_problem(rng, 3, 2), degenerate_problem(rng, 4, 2)])
     with pytest.raises(ValueError, match="empty"):
         lp2_batch([])
+
+
+def _closed_loop_matches(controller, q, target, steps: int) -> dict[str, int]:
+    """Run the compiled controller and, on every step, the numpy layers; they must agree."""
+    seen = {"compiled": 0, "binding": 0, "infeasible": 0}
+    q_prev = None
+    for _ in range(steps):
+        fast = controller.step(q, target, q_prev)
+        problem = controller.problem(q, target, q_prev)
+        ref = lp2(problem, path="ratio-test")
+        assert (fast.status, fast.binding) == (ref.status, ref.binding)
+        assert abs(fast.p - ref.p) <= 1e-12
+        np.testing.assert_allclose(fast.q, ref.q, atol=1e-12, rtol=0)
+        if fast.lam is not None:
+            np.testing.assert_allclose(fast.lam, ref.lam, atol=1e-10, rtol=1e-10)
+            assert abs(fast.residual - st.task_residual(problem, fast.dq, fast.p)) <= 1e-15
+        seen["compiled"] += fast.path == "compiled"
+        seen["binding"] += fast.binding is not None
+        seen["infeasible"] += fast.status == st.INFEASIBLE
+        q_prev, q = q, fast.q
+    return seen
+
+
+def test_controller_equals_numpy_layers_planar() -> None:
+    from lpik.fast.controller import Lp2Controller
+    from lpik.robots.planar import PlanarArm
+
+    arm = PlanarArm([1, 1, 1, 1], q_min=np.deg2rad([-180, -180, -180, -180]),
+                    q_max=np.deg2rad([95, 180, 180, 180]), qd_max=1.0)  # fmt: skip
+    controller = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5)
+    seen = _closed_loop_matches(controller, np.deg2rad([60.0, -30, -30, -30]),
+                                np.array([0.2, 0.866]), 400)  # fmt: skip
+    assert seen["compiled"] == 400 and seen["binding"] > 50
+
+
+def test_controller_equals_numpy_layers_panda() -> None:
+    from lpik.fast.controller import Lp2Controller
+    from lpik.robots.registry import home_configuration, load_robot
+
+    panda = load_robot("panda", task="pose")
+    q = home_configuration("panda")
+    target = panda.pose(q)
+    target[:3, 3] += [0.3, -0.2, -0.2]
+    controller = Lp2Controller(panda, dt=0.001, v_max=0.5, w_max=1.0, qdd_max=10.0,
+                               Lambda=np.full(7, 1e-4))  # fmt: skip
+    seen = _closed_loop_matches(controller, q, target, 600)
+    assert seen["compiled"] == 600 and seen["binding"] > 10
+
+
+def test_controller_rejects_bad_input() -> None:
+    from lpik.fast.controller import Lp2Controller
+    from lpik.robots.planar import PlanarArm
+
+    controller = Lp2Controller(PlanarArm([1, 1, 1]), dt=0.01)
+    with pytest.raises(ValueError, match="q0"):
+        controller.step(np.zeros(2), np.array([1.0, 1.0]))
+    with pytest.raises(ValueError, match="target"):
+        controller.step(np.zeros(3), np.array([1.0, 1.0, 1.0]))
+    with pytest.raises(ValueError, match="q0"):  # NaN: the HiGHS fallback's validation says so
+        controller.step(np.array([0.1, np.nan, 0.2]), np.array([1.0, 1.0]))
+    with pytest.raises(ValueError, match="dt"):
+        Lp2Controller(PlanarArm([1, 1, 1]), dt=0.0)

@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from lpik.fast.kernels import lp2_core
+from lpik.fast.kernels import lp2_core, workspace_size
 
 
 @njit(cache=True)
@@ -36,14 +36,26 @@ def _axis_rotation(axis, angle, R):  # noqa: ANN001, ANN201
 
 
 @njit(cache=True)
-def chain_fk_jacobian(origins, axes, revolute, tip, q, T, J6):  # noqa: ANN001, ANN201
-    """Task-frame pose ``T`` (4, 4) and world-aligned Jacobian ``J6`` (6, n) at ``q``."""
+def fk_scratch_size(n):  # noqa: ANN001, ANN201
+    """Length of the scratch array :func:`chain_fk_jacobian` needs for ``n`` joints."""
+    return 41 + 6 * n
+
+
+@njit(cache=True)
+def chain_fk_jacobian(origins, axes, revolute, tip, q, T, J6, scratch):  # noqa: ANN001, ANN201
+    """Task-frame pose ``T`` (4, 4) and world-aligned Jacobian ``J6`` (6, n) at ``q``.
+
+    ``scratch`` is a float array of at least :func:`fk_scratch_size` entries.
+    """
     n = q.shape[0]
-    cur = np.eye(4)
-    tmp = np.empty((4, 4))
-    R = np.empty((3, 3))
-    joint_pos = np.empty((n, 3))
-    joint_axis = np.empty((n, 3))
+    cur = scratch[0:16].reshape((4, 4))
+    tmp = scratch[16:32].reshape((4, 4))
+    R = scratch[32:41].reshape((3, 3))
+    joint_pos = scratch[41 : 41 + 3 * n].reshape((n, 3))
+    joint_axis = scratch[41 + 3 * n : 41 + 6 * n].reshape((n, 3))
+    for a in range(4):
+        for b in range(4):
+            cur[a, b] = 1.0 if a == b else 0.0
     for i in range(n):
         # cur = cur @ origin_i
         for a in range(3):
@@ -128,30 +140,33 @@ def rotation_log(R, out):  # noqa: ANN001, ANN201
 
 
 @njit(cache=True)
-def pose_error(T, target, e6):  # noqa: ANN001, ANN201
-    """``[p_target - p; log(R_target R^T)]`` into ``e6`` (6,)."""
+def pose_error(T, target, e6, scratch):  # noqa: ANN001, ANN201
+    """``[p_target - p; log(R_target R^T)]`` into ``e6`` (6,); ``scratch`` >= 12 floats."""
     for a in range(3):
         e6[a] = target[a, 3] - T[a, 3]
-    Rd = np.empty((3, 3))
+    Rd = scratch[0:9].reshape((3, 3))
     for a in range(3):
         for b in range(3):
             s = 0.0
             for k in range(3):
                 s += target[a, k] * T[b, k]
             Rd[a, b] = s
-    w = np.empty(3)
+    w = scratch[9:12]
     rotation_log(Rd, w)
     e6[3], e6[4], e6[5] = w[0], w[1], w[2]
 
 
 @njit(cache=True)
-def planar_fk_jacobian(lengths, pose_task, q, w, J):  # noqa: ANN001, ANN201
-    """The planar arm (relative angles): task value ``w`` (2 or 3,) and Jacobian ``J``."""
+def planar_fk_jacobian(lengths, pose_task, q, w, J, scratch):  # noqa: ANN001, ANN201
+    """The planar arm (relative angles): task value ``w`` (2 or 3,) and Jacobian ``J``.
+
+    ``scratch`` is a float array of at least ``2 n`` entries.
+    """
     n = q.shape[0]
     s = 0.0
     x, y = 0.0, 0.0
-    cx = np.empty(n)
-    cy = np.empty(n)
+    cx = scratch[0:n]
+    cy = scratch[n : 2 * n]
     for i in range(n):
         s += q[i]
         cx[i] = lengths[i] * math.cos(s)
@@ -198,15 +213,15 @@ def limit_and_solve(
     """
     m, n = J.shape
     r = G.shape[0]
-    lower = np.empty(n)
-    upper = np.empty(n)
+    lower = ws[0:n]
+    upper = ws[n : 2 * n]
     for i in range(n):
         lo = max(limits[0, i] - q0[i], limits[2, i] * dt)
         hi = min(limits[1, i] - q0[i], limits[3, i] * dt)
         last = q0[i] - q_prev[i] if has_prev else 0.0
         lower[i] = max(lo, last + limits[4, i] * dt * dt)
         upper[i] = min(hi, last + limits[5, i] * dt * dt)
-    c = np.empty(n)
+    c = ws[2 * n : 3 * n]
     for i in range(n):
         s = f_ref[0, i]
         for k in range(n):
@@ -214,15 +229,16 @@ def limit_and_solve(
             if not math.isnan(ref):  # NaN: q_ref defaults to q0 for this joint
                 s += Lam[i, k] * (ref - q0[k])
         c[i] = s
-    g = np.empty(r)
+    g = ws[3 * n : 3 * n + r]
     for j in range(r):
         s = h[j]
         for i in range(n):
             s -= G[j, i] * q0[i]
         g[j] = s
     return lp2_core(
-        J, dw, H, h_diag, c, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam, ws
-    )
+        J, dw, H, h_diag, c, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam,
+        ws[3 * n + r :],
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -247,125 +263,139 @@ def clamp_command(dw, rows, v_max, w_max, dt):  # noqa: ANN001, ANN201
         dw[k] *= scale
 
 
+def pack_constants(origins, axes, tip, limits, H, f_ref, Lam, lam_bounds, G, h, scalars):  # noqa: ANN001, ANN201
+    """One float buffer of everything a step of a chain keeps constant (see :func:`chain_step`)."""
+    return np.concatenate([np.ravel(a) for a in (origins, axes, tip, limits, H, f_ref, Lam,
+                                                  lam_bounds, G, h, scalars)])  # fmt: skip
+
+
+def step_workspace_size(n, m, r):  # noqa: ANN001, ANN201
+    """Length of the float workspace :func:`chain_step` / :func:`planar_step` need."""
+    return 16 + 6 * n + 6 + m * n + fk_scratch_size(n) + 12 + 3 * n + r + workspace_size(n, m, r)
+
+
+#: Layout of a step's output buffer (``n`` joints, ``m`` task rows):
+#: ``[q (n) | dq (n) | lam (m) | task position (3) | dw (m) | code, p, binding, residual]``.
+OUT_TAIL = 4
+
+
 @njit(cache=True)
-def chain_step(
-    origins,
-    axes,
-    revolute,
-    tip,
-    rows,
-    limits,
-    H,
-    h_diag,
-    f_ref,
-    Lam,  # noqa: ANN001, ANN201, PLR0913
-    lam_bounds,
-    G,
-    h,
-    scalars,
-    q0,
-    q_prev,
-    target,
-    out,
-    ws,
-):
+def _unpack(fbuf, n, m, r, o):  # noqa: ANN001, ANN201
+    """The criterion, limits, rows and scalars from ``fbuf`` starting at offset ``o``."""
+    limits = fbuf[o : o + 6 * n].reshape((6, n))
+    o += 6 * n
+    H = fbuf[o : o + n * n].reshape((n, n))
+    o += n * n
+    f_ref = fbuf[o : o + 2 * n].reshape((2, n))
+    o += 2 * n
+    Lam = fbuf[o : o + n * n].reshape((n, n))
+    o += n * n
+    lam_bounds = fbuf[o : o + 2 * m].reshape((2, m))
+    o += 2 * m
+    G = fbuf[o : o + r * n].reshape((r, n))
+    o += r * n
+    h = fbuf[o : o + r]
+    o += r
+    return limits, H, f_ref, Lam, lam_bounds, G, h, fbuf[o : o + 4]
+
+
+@njit(cache=True)
+def _finish(q0, J, dw, limits, H, h_diag, f_ref, Lam, lam_bounds, G, h, scalars, q_prev, out,  # noqa: ANN001, ANN201, PLR0913
+            ws):  # fmt: skip
+    """Limits and LP2, then ``q = q0 + dq``, the outcome and the residual into ``out``."""
+    n = q0.shape[0]
+    m = J.shape[0]
+    r = G.shape[0]
+    code, p, binding = limit_and_solve(
+        J, dw, limits, H, h_diag, f_ref, Lam, lam_bounds, G, h, scalars[0], scalars[3] > 0.5,
+        q0, q_prev, out[n : 2 * n], out[2 * n : 2 * n + m], ws,
+    )  # fmt: skip
+    for i in range(n):
+        out[i] = q0[i] + out[n + i]
+    k = out.shape[0] - OUT_TAIL
+    out[k] = code
+    out[k + 1] = p
+    out[k + 2] = binding
+    out[k + 3] = ws[3 * n + r]  # lp2_core leaves max |J dq - p dw| in its ws[0]
+
+
+@njit(cache=True)
+def chain_step(fbuf, ibuf, q0, q_prev, target, out, ws):  # noqa: ANN001, ANN201
     """One fused LP2 control step of a serial chain: FK, Jacobian, command, limits, LP2.
 
-    ``scalars = [dt, v_max, w_max, has_prev]``; ``target`` is the commanded (4, 4)
-    pose; ``rows`` the kept task rows among ``[x, y, z, rx, ry, rz]``. ``out``
-    (length ``n + 2 m + 3``) receives ``dq``, ``lam``, the task position and the
-    clamped ``dw``. Returns ``(code, p, binding)`` as :func:`lp2_core`.
+    Args:
+        fbuf: The constants, packed by :func:`pack_constants`: joint origins (n, 4, 4),
+            axes (n, 3), tip (4, 4), limits (6, n: q_min, q_max, qd_min, qd_max,
+            qdd_min, qdd_max, inf when none), ``H = M + Lambda`` (n, n), ``f`` and
+            ``q_ref`` (2, n; NaN: q_ref = q0 there), ``Lambda`` (n, n), multiplier
+            bounds (2, m), rows ``G`` (r, n) and ``h`` (r,), ``[dt, v_max, w_max, has_prev]``.
+        ibuf: ``[n, m, r, h_diag, revolute (n), task rows (m) among x, y, z, rx, ry, rz]``.
+        q0: Joint coordinates now, (n,).
+        q_prev: Joint coordinates one period ago, (n,).
+        target: Commanded pose (4, 4).
+        out: Output buffer, see :data:`OUT_TAIL` for the layout.
+        ws: Float workspace of :func:`step_workspace_size` entries.
     """
-    n = q0.shape[0]
-    m = rows.shape[0]
-    T = np.empty((4, 4))
-    J6 = np.empty((6, n))
-    chain_fk_jacobian(origins, axes, revolute, tip, q0, T, J6)
-    e6 = np.empty(6)
-    pose_error(T, target, e6)
-    J = np.empty((m, n))
-    dw = out[n + m + 3 : n + 2 * m + 3]
+    n, m, r = ibuf[0], ibuf[1], ibuf[2]
+    h_diag = ibuf[3] != 0
+    revolute = ibuf[4 : 4 + n]
+    rows = ibuf[4 + n : 4 + n + m]
+    origins = fbuf[0 : 16 * n].reshape((n, 4, 4))
+    axes = fbuf[16 * n : 19 * n].reshape((n, 3))
+    tip = fbuf[19 * n : 19 * n + 16].reshape((4, 4))
+    limits, H, f_ref, Lam, lam_bounds, G, h, scalars = _unpack(fbuf, n, m, r, 19 * n + 16)
+    o = 0
+    T = ws[o : o + 16].reshape((4, 4))
+    o += 16
+    J6 = ws[o : o + 6 * n].reshape((6, n))
+    o += 6 * n
+    e6 = ws[o : o + 6]
+    o += 6
+    J = ws[o : o + m * n].reshape((m, n))
+    o += m * n
+    chain_fk_jacobian(origins, axes, revolute, tip, q0, T, J6, ws[o:])
+    o += fk_scratch_size(n)
+    pose_error(T, target, e6, ws[o:])
+    o += 12
+    dw = out[2 * n + m + 3 : 2 * n + 2 * m + 3]
     for k in range(m):
         dw[k] = e6[rows[k]]
         for i in range(n):
             J[k, i] = J6[rows[k], i]
     clamp_command(dw, rows, scalars[1], scalars[2], scalars[0])
     for a in range(3):
-        out[n + m + a] = T[a, 3]
-    return limit_and_solve(
-        J,
-        dw,
-        limits,
-        H,
-        h_diag,
-        f_ref,
-        Lam,
-        lam_bounds,
-        G,
-        h,
-        scalars[0],
-        scalars[3] > 0.5,
-        q0,
-        q_prev,
-        out[:n],
-        out[n : n + m],
-        ws,
-    )
+        out[2 * n + m + a] = T[a, 3]
+    _finish(q0, J, dw, limits, H, h_diag, f_ref, Lam, lam_bounds, G, h, scalars, q_prev, out,
+            ws[o:])  # fmt: skip
 
 
 @njit(cache=True)
-def planar_step(
-    lengths,
-    rows,
-    limits,
-    H,
-    h_diag,
-    f_ref,
-    Lam,
-    lam_bounds,
-    G,
-    h,
-    scalars,  # noqa: ANN001, ANN201, PLR0913
-    q0,
-    q_prev,
-    target,
-    out,
-    ws,
-):
+def planar_step(fbuf, ibuf, q0, q_prev, target, out, ws):  # noqa: ANN001, ANN201
     """One fused LP2 control step of the planar arm (see :func:`chain_step`).
 
-    ``target`` is the commanded task value (x, y[, angle]); ``rows`` is
-    ``[0, 1]`` or ``[0, 1, 3]`` (the tool angle counts as an angular row).
+    ``fbuf`` starts with the link lengths (n,) instead of the chain, then as
+    :func:`chain_step`; ``ibuf = [n, m, r, h_diag, task rows (m)]`` with rows
+    ``[0, 1]`` or ``[0, 1, 3]`` (the tool angle counts as angular); ``target``
+    is (x, y[, angle]).
     """
-    n = q0.shape[0]
-    m = rows.shape[0]
-    pose_task = m == 3
-    w = np.empty(m)
-    J = np.empty((m, n))
-    planar_fk_jacobian(lengths, pose_task, q0, w, J)
-    dw = out[n + m + 3 : n + 2 * m + 3]
+    n, m, r = ibuf[0], ibuf[1], ibuf[2]
+    h_diag = ibuf[3] != 0
+    rows = ibuf[4 : 4 + m]
+    lengths = fbuf[0:n]
+    limits, H, f_ref, Lam, lam_bounds, G, h, scalars = _unpack(fbuf, n, m, r, n)
+    o = 0
+    w = ws[o : o + m]
+    o += m
+    J = ws[o : o + m * n].reshape((m, n))
+    o += m * n
+    planar_fk_jacobian(lengths, m == 3, q0, w, J, ws[o:])
+    o += 2 * n
+    dw = out[2 * n + m + 3 : 2 * n + 2 * m + 3]
     for k in range(m):
         dw[k] = target[k] - w[k]
-    if pose_task:  # wrap the angle difference to (-pi, pi]
+    if m == 3:  # wrap the angle difference to (-pi, pi]
         dw[2] = -((-dw[2] + math.pi) % (2 * math.pi) - math.pi)
     clamp_command(dw, rows, scalars[1], scalars[2], scalars[0])
-    out[n + m], out[n + m + 1], out[n + m + 2] = w[0], w[1], 0.0
-    return limit_and_solve(
-        J,
-        dw,
-        limits,
-        H,
-        h_diag,
-        f_ref,
-        Lam,
-        lam_bounds,
-        G,
-        h,
-        scalars[0],
-        scalars[3] > 0.5,
-        q0,
-        q_prev,
-        out[:n],
-        out[n : n + m],
-        ws,
-    )
+    out[2 * n + m], out[2 * n + m + 1], out[2 * n + m + 2] = w[0], w[1], 0.0
+    _finish(q0, J, dw, limits, H, h_diag, f_ref, Lam, lam_bounds, G, h, scalars, q_prev, out,
+            ws[o:])  # fmt: skip

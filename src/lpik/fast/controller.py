@@ -135,105 +135,87 @@ class Lp2Controller:
             else np.broadcast_to(np.asarray(qdd_max, float), (n,))
         )
         self._limits = np.vstack([template.q_min, template.q_max, -qd, qd, -qdd, qdd])
-        self._scalars = np.array([self.dt, self.v_max, self.w_max, 0.0])
-        self._out = np.empty(n + 2 * m + 3)
-        self._ws = np.empty(K.workspace_size(n, m, self._G.shape[0]))
+        scalars = np.array([self.dt, self.v_max, self.w_max, 0.0])
+        r = self._G.shape[0]
+        rest = (self._limits, self._H, self._f_ref, self._Lam, self._lam_bounds, self._G, self._h,
+                scalars)  # fmt: skip
+        if self._kind == "planar":
+            self._fbuf = CK.pack_constants(self._geometry[0], np.zeros(0), np.zeros(0), *rest)
+            self._ibuf = np.array([n, m, r, int(self._h_diag), *rows], dtype=np.int64)
+            self._kernel = CK.planar_step
+        else:
+            origins, axes, revolute, tip = self._geometry
+            self._fbuf = CK.pack_constants(origins, axes, tip, *rest)
+            self._ibuf = np.array([n, m, r, int(self._h_diag), *revolute.astype(int), *rows],
+                                  dtype=np.int64)  # fmt: skip
+            self._kernel = CK.chain_step
+        self._has_prev = self._fbuf.size - 1  # index of the has_prev flag in fbuf
+        self._buf = np.empty(2 * n + 2 * m + 3 + CK.OUT_TAIL)
+        self._ws = np.empty(CK.step_workspace_size(n, m, r))
+        self._n, self._m = n, m
         self._names = tuple(model.joint_names)
         self._rows_labels = tuple(template.row_labels)
+
+    def step(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Result:
+        """One LP2 step from ``q0`` towards ``target`` (eqs. 15-18, compiled).
+
+        Args:
+            q0: Joint coordinates now, (n,) [rad or m].
+            target: Commanded task value: (x, y[, angle]) for the planar arm; xyz,
+                a rotation (3, 3) or a pose (4, 4) for the 3-D tasks.
+            q_prev: Joint coordinates one period ago (acceleration limits); ``None``: at rest.
+
+        Returns:
+            The same :class:`~lpik.result.Result` as ``lp2(self.problem(q0, target, q_prev))``.
+
+        Raises:
+            ValueError: For a ``q0``, ``q_prev`` or ``target`` of the wrong shape, or
+                non-finite values (reported by the problem's validation).
+        """
+        start = time.perf_counter()
+        q0 = np.asarray(q0, dtype=np.float64)
+        n, m = self._n, self._m
+        if q0.shape != (n,):
+            raise ValueError(f"q0: must have length {n}, got shape {q0.shape}")
+        if q_prev is None:
+            prev = q0
+            self._fbuf[self._has_prev] = 0.0
+        else:
+            prev = np.asarray(q_prev, dtype=np.float64)
+            if prev.shape != (n,):
+                raise ValueError(f"q_prev: must have length {n}, got shape {prev.shape}")
+            self._fbuf[self._has_prev] = 1.0
+        goal = _planar_target(target, m) if self._kind == "planar" else _pose_target(target)
+        buf = self._buf
+        self._kernel(self._fbuf, self._ibuf, q0, prev, goal, buf, self._ws)
+        code, p, binding = int(buf[-4]), float(buf[-3]), int(buf[-2])
+        if code == K.OK:
+            out = buf.copy()
+            label = None if binding < 0 else self._label(binding, q0, prev, q_prev)
+            return Result.trusted(
+                q=out[:n], dq=out[n : 2 * n], p=p, lam=out[2 * n : 2 * n + m],
+                status=st.OPTIMAL, binding=label, method="lp2",
+                solve_time=time.perf_counter() - start, residual=float(out[-1]), path="compiled",
+            )  # fmt: skip
+        if code == K.INFEASIBLE:
+            return Result.trusted(
+                q=q0.copy(), dq=np.zeros(n), p=0.0, lam=None, status=st.INFEASIBLE,
+                binding=self._label(binding, q0, prev, q_prev), method="lp2",
+                solve_time=time.perf_counter() - start, residual=0.0, path="compiled",
+            )  # fmt: skip
+        return lp2(self.problem(q0, target, q_prev), path="highs")
 
     def _problem(
         self, J: FloatArray, dw: FloatArray, q0: FloatArray, q_prev: FloatArray | None
     ) -> Problem:
         return build_problem(J, dw, q0, self.limits, dt=self.dt, q_prev=q_prev, **self._weights)
 
-    def step(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Result:
-        """One LP2 step from ``q0`` towards ``target`` (a value of ``model.pose``'s kind).
-
-        Args:
-            q0: Joint coordinates now, (n,).
-            target: Commanded task value: (x, y[, angle]) for the planar arm; xyz,
-                a rotation (3, 3) or a pose (4, 4) for the 3-D tasks.
-            q_prev: Joint coordinates one period ago (acceleration limits); ``None``: at rest.
-        """
-        start = time.perf_counter()
-        q0 = np.asarray(q0, dtype=np.float64)
-        prev = q0 if q_prev is None else np.asarray(q_prev, dtype=np.float64)
-        self._scalars[3] = 0.0 if q_prev is None else 1.0
-        f_ref = self._f_ref
-        out = self._out
-        if self._kind == "planar":
-            code, p, binding = CK.planar_step(
-                self._geometry[0],
-                self._rows,
-                self._limits,
-                self._H,
-                self._h_diag,
-                f_ref,
-                self._Lam,
-                self._lam_bounds,
-                self._G,
-                self._h,
-                self._scalars,
-                q0,
-                prev,
-                _planar_target(target, len(self._rows)),
-                out,
-                self._ws,
-            )
-        else:
-            origins, axes, revolute, tip = self._geometry
-            code, p, binding = CK.chain_step(
-                origins,
-                axes,
-                revolute,
-                tip,
-                self._rows,
-                self._limits,
-                self._H,
-                self._h_diag,
-                f_ref,
-                self._Lam,
-                self._lam_bounds,
-                self._G,
-                self._h,
-                self._scalars,
-                q0,
-                prev,
-                _pose_target(target, self._rows),
-                out,
-                self._ws,
-            )
-        n, m = q0.size, self._rows.size
-        if code == K.OK:
-            dq = out[:n].copy()
-            return Result(
-                q=q0 + dq,
-                dq=dq,
-                p=float(p),
-                lam=out[n : n + m].copy(),
-                status=st.OPTIMAL,
-                binding=None if binding < 0 else self._label(binding, q0, prev, q_prev),
-                method="lp2",
-                solve_time=time.perf_counter() - start,
-                path="compiled",
-            )
-        if code == K.INFEASIBLE:
-            return Result(
-                q=q0.copy(),
-                dq=np.zeros(n),
-                p=0.0,
-                lam=None,
-                status=st.INFEASIBLE,
-                binding=self._label(binding, q0, prev, q_prev),
-                method="lp2",
-                solve_time=time.perf_counter() - start,
-                path="compiled",
-            )
-        return lp2(self.problem(q0, target, q_prev), path="highs")
-
     def problem(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Problem:
         """The step's :class:`~lpik.problem.Problem`, built by the pure-numpy layers."""
         q0 = np.asarray(q0, dtype=np.float64)
+        for name, value in (("q0", q0), ("q_prev", q_prev), ("target", target)):
+            if value is not None and not np.isfinite(np.asarray(value, dtype=np.float64)).all():
+                raise ValueError(f"{name}: contains NaN or inf")
         model = self.model
         dw = np.asarray(model.difference(model.pose(q0), np.asarray(target, float)), float)
         rows = self._rows
@@ -299,7 +281,7 @@ def _planar_target(target: Any, m: int) -> FloatArray:
     return t
 
 
-def _pose_target(target: Any, rows: np.ndarray) -> FloatArray:
+def _pose_target(target: Any) -> FloatArray:
     """A (4, 4) target from xyz (3,), a rotation (3, 3) or a pose (4, 4)."""
     t = np.asarray(target, dtype=np.float64)
     if t.shape == (4, 4):

@@ -105,7 +105,8 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
         g: Their right-hand side in ``dq``: ``G dq <= g``, (r,).
         dq: Output step, (n,).
         lam: Output multipliers, (m,).
-        ws: Float workspace of length :func:`workspace_size` (no allocation inside).
+        ws: Float workspace of length :func:`workspace_size` (no allocation inside);
+            on return ``ws[0]`` holds the residual ``max |J dq - p dw|``.
     """
     m, n = J.shape
     r = G.shape[0]
@@ -275,6 +276,7 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
         wmax = max(wmax, abs(dw[a]))
     for i in range(n):
         qmax = max(qmax, abs(dq[i]))
+    ws[0] = res  # the caller may read the residual max |J dq - p dw| here
     if not (worst <= FEASIBILITY_TOL and res <= EQUALITY_RTOL * max(1.0, jmax * qmax + wmax)):
         return CHECK_FAILED, p, binding
     return OK, p, binding
