@@ -32,9 +32,11 @@ def test_kernel_constants_match_the_numpy_path() -> None:
 def degenerate_problem(rng: np.random.Generator, n: int, m: int) -> Problem:
     """A random LP2 step, often degenerate: ties, on a bound, p = 0 or 1, binding multipliers."""
     J = rng.normal(size=(m, n))
-    kind = rng.integers(0, 8)
+    kind = rng.integers(0, 9)
     if kind == 0:  # a tie: two identical joints with identical bounds
         J[:, 1] = J[:, 0]
+    if kind == 8:  # a singular J (dependent rows): the KKT matrix is singular, HiGHS takes it
+        J[-1] = J[0] * rng.choice([1.0, -2.0])
     dw = rng.normal(size=m) * rng.choice([0.0, 1e-3, 1e-2, 0.1])
     q0 = rng.uniform(-2, 2, size=n)
     step = rng.uniform(1e-3, 2e-2, size=n)

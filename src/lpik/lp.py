@@ -46,9 +46,23 @@ HIGHS_STATUS: dict[object, str] = {
 HIGHS_OPTIONS: dict[str, object] = {
     "primal_feasibility_tolerance": 1e-10,
     "dual_feasibility_tolerance": 1e-10,
-    "time_limit": 5.0,
+    "presolve": "choose",
     "threads": 1,
 }
+
+#: Wall-time limit of one solve [s]. HiGHS's own ``time_limit`` counts the whole life of
+#: an instance, so a solver reused across thousands of control steps would hit it after
+#: a few seconds of total solving: :meth:`HighsSolver._run` moves it before every run.
+SOLVE_TIME_LIMIT = 5.0
+
+#: Options tried in turn, from scratch, when a solve does not end optimal. With the
+#: tight tolerances above, HiGHS's presolve can call a nearly singular program (an arm
+#: with aligned links) infeasible although it is not, and its simplex can stop with a
+#: solve error; the retries settle it, and every answer is re-checked by the caller.
+RETRY_OPTIONS: tuple[dict[str, object], ...] = (
+    {"presolve": "off"},
+    {"presolve": "off", "primal_feasibility_tolerance": 1e-7, "dual_feasibility_tolerance": 1e-7},
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,6 +90,8 @@ class LpSolution:
     row_dual: FloatArray
     highs_status: str
     solve_time: float
+    #: Which columns, then which rows, are basic in the final basis (``None`` if unknown).
+    basic: NDArray[np.bool_] | None = None
 
 
 class HighsSolver:
@@ -107,8 +123,10 @@ class HighsSolver:
                 self._load(lp, nz)
                 self._pattern = pattern
             self._A = lp.A.copy()
-            h.run()
+            self._run()
             model_status = h.getModelStatus()
+            if model_status != _MS.kOptimal:
+                model_status = self._retry(model_status)
         except Exception as exc:  # noqa: BLE001 - a solver crash must become a status
             self._pattern = None
             return LpSolution(
@@ -138,7 +156,48 @@ class HighsSolver:
             row_dual,
             h.modelStatusToString(model_status),
             time.perf_counter() - start,
+            self._basic(lp.c.size + lp.A.shape[0]),
         )
+
+    def _basic(self, size: int) -> NDArray[np.bool_] | None:
+        """The final basis as a mask over the columns, then the rows."""
+        basis = self._highs.getBasis()
+        if not basis.valid:
+            return None
+        statuses = list(basis.col_status) + list(basis.row_status)
+        mask = np.array([s == highspy.HighsBasisStatus.kBasic for s in statuses], dtype=bool)
+        return mask if mask.size == size else None
+
+    def _run(self) -> None:
+        """One HiGHS run with at most :data:`SOLVE_TIME_LIMIT` seconds of its own."""
+        h = self._highs
+        h.setOptionValue("time_limit", h.getRunTime() + SOLVE_TIME_LIMIT)
+        h.run()
+
+    def _retry(self, first: object) -> object:
+        """Solve again from scratch under each of :data:`RETRY_OPTIONS` until one is optimal.
+
+        Returns the optimal status; else ``kInfeasible`` if any attempt proved
+        infeasibility (a warm-started run can end ``kUnknown`` on a program that
+        a fresh one calls infeasible); else ``first``. When no attempt is
+        optimal, the solution left in HiGHS is the last retry's, which the
+        caller discards.
+        """
+        h = self._highs
+        verdict = first
+        for options in RETRY_OPTIONS:
+            for name, value in options.items():
+                h.setOptionValue(name, value)
+            h.clearSolver()
+            self._run()
+            status = h.getModelStatus()
+            for name in options:
+                h.setOptionValue(name, HIGHS_OPTIONS[name])
+            if status == _MS.kOptimal:
+                return status
+            if status == _MS.kInfeasible:
+                verdict = status
+        return verdict
 
     def _load(self, lp: LinearProgram, nz: NDArray[np.bool_]) -> None:
         model = highspy.HighsLp()

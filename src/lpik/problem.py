@@ -224,13 +224,15 @@ class Problem:
                 "G" if self.G is None else "h", "G and h must be given together"
             )
         try:
-            G = (
-                np.array(self.G, dtype=np.float64).reshape(-1, n)
-                if np.size(self.G)
-                else np.zeros((0, n))
-            )
+            G = np.array(self.G, dtype=np.float64)
         except (TypeError, ValueError) as exc:
             raise InvalidProblemError("G", f"must be an r x {n} matrix ({exc})") from None
+        if G.size == 0:
+            G = np.zeros((0, n))
+        elif G.shape == (n,):
+            G = G.reshape(1, n)
+        if G.ndim != 2 or G.shape[1] != n:
+            raise InvalidProblemError("G", f"must be an r x {n} matrix, got shape {G.shape}")
         if not np.isfinite(G).all():
             raise InvalidProblemError("G", "contains NaN or inf")
         r = G.shape[0]
@@ -314,7 +316,10 @@ def _labels(
         return (default,) * size if default is not None else ()
     if isinstance(value, str):
         return (value,) * size
-    labels = tuple(str(v) for v in value)
+    try:
+        labels = tuple(str(v) for v in value)
+    except TypeError:
+        raise InvalidProblemError(name, f"must be a list of {size} names") from None
     if len(labels) != size:
         raise InvalidProblemError(name, f"must have {size} entries, got {len(labels)}")
     return labels

@@ -88,13 +88,11 @@ def load_problem(path: str | Path) -> tuple[str, Problem]:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise InvalidProblemError("problem", f"cannot read {str(path)!r}: {reason}") from None
     try:
-        data = json.loads(text, parse_constant=_reject_constant)
+        # NaN and Infinity (not JSON, but what json.dumps writes for Python floats) are
+        # read as floats, so that validation names the key they sit in.
+        data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise InvalidProblemError(
             "problem", f"unreadable JSON: {exc.msg} at line {exc.lineno} column {exc.colno}"
         ) from None
     return problem_from_dict(data)
-
-
-def _reject_constant(name: str) -> float:
-    raise InvalidProblemError("problem", f"{name} is not valid JSON (use null for unbounded)")

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from lpik.exceptions import InvalidProblemError
 from lpik.methods.classical import pinv, robust, weighted, yoshikawa_manipulability
 from lpik.methods.l1 import l1
 from lpik.methods.lp1 import lp1
@@ -52,19 +53,20 @@ def solve(problem: Problem, method: str = "lp2", *, model: TaskModel | None = No
         model: The task model; required by ``"nlp"``, ignored by the others.
 
     Raises:
-        ValueError: For an unknown method name, or ``"nlp"`` without a model.
+        InvalidProblemError: (a ``ValueError``) for an unknown method name, or
+            ``"nlp"`` without a model.
     """
     if method == "nlp":
         if model is None:
-            raise ValueError(
-                "method: 'nlp' needs the robot model (use lpik simulate, or pass model=)"
+            raise InvalidProblemError(
+                "method", "'nlp' needs the robot model (use lpik simulate, or pass model=)"
             )
         return nlp(problem, model)
     try:
         fn = METHODS[method]
-    except KeyError:
-        raise ValueError(
-            f"method: unknown method {method!r}; available: {', '.join(ALL_METHODS)}"
+    except (KeyError, TypeError):
+        raise InvalidProblemError(
+            "method", f"unknown method {method!r}; available: {', '.join(ALL_METHODS)}"
         ) from None
     return fn(problem)
 

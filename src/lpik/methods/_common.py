@@ -16,8 +16,14 @@ FloatArray = NDArray[np.float64]
 
 #: p at or above this counts as the full displacement (no binding limit).
 FULL_P = 1.0 - 1e-9
-#: A dual value (sensitivity of p to a limit) below this does not make a limit binding.
+#: Duals (sensitivities of p to the limits) all at or below this cannot tell which limit
+#: binds: :func:`binding_from_duals` then relaxes the active limits to find out.
 DUAL_TOL = 1e-9
+#: Relative amount by which :func:`binding_from_duals` relaxes each active limit then.
+RELAX = 1e-6
+#: Binding label when ``p < 1`` although no limit is active: ``J`` cannot produce
+#: ``dw`` (a singularity of the arm, paper sec. 3.2).
+SINGULARITY = "singularity"
 
 
 def criterion(problem: Problem) -> tuple[FloatArray, FloatArray]:
@@ -75,28 +81,36 @@ def binding_from_duals(
     p: float,
     n_eq: int,
     lam_slice: slice | None = None,
+    *,
+    relaxed: bool = False,
 ) -> str | None:
     """Name the limit that keeps ``p`` below 1, from the solver's duals.
 
     Among the bounds of ``dq`` (and of the multipliers) that are active, and the
     extra rows that are active, the one with the largest dual value (the largest
-    sensitivity of the optimum to that limit) is binding.
+    sensitivity of the optimum to that limit) is binding. At a degenerate vertex
+    (an active limit that is basic, typically ``p = 0`` with several joints on
+    bounds) the duals are not unique and may name a limit that does not hold
+    ``p`` at all; then the active limits are relaxed outward by tiny, distinct
+    amounts and the binding limit of that nondegenerate program is named
+    (:func:`_binding_after_relaxing`). When ``p < 1`` and no limit is active,
+    the equality rows stop ``p``: :data:`SINGULARITY`.
+
+    The bounds are read from ``lp`` (the columns of ``dq`` first, those of the
+    multipliers at ``lam_slice``, ``p`` last) and the labels from ``problem``.
     """
     if p >= FULL_P:
         return None
     n = problem.n
-    lower, upper, lower_labels, upper_labels = problem.step_bounds()
+    _, _, lower_labels, upper_labels = problem.step_bounds()
     candidates: list[tuple[float, str]] = []
+    # (position among the columns then the rows, label at the lower bound, at the upper)
+    active: list[tuple[int, str | None, str | None]] = []
     x = sol.x
 
-    def add_columns(
-        sl: slice,
-        lo: FloatArray,
-        hi: FloatArray,
-        lo_labels: tuple[str, ...],
-        hi_labels: tuple[str, ...],
-    ) -> None:
+    def add_columns(sl: slice, lo_labels: tuple[str, ...], hi_labels: tuple[str, ...]) -> None:
         values, duals = x[sl], sol.col_dual[sl]
+        lo, hi = lp.col_lower[sl], lp.col_upper[sl]
         for i in range(values.size):
             at_lo = np.isfinite(lo[i]) and abs(values[i] - lo[i]) <= 1e-9 * max(1.0, abs(lo[i]))
             at_hi = np.isfinite(hi[i]) and abs(values[i] - hi[i]) <= 1e-9 * max(1.0, abs(hi[i]))
@@ -104,11 +118,14 @@ def binding_from_duals(
                 candidates.append((abs(duals[i]), hi_labels[i]))
             elif at_lo:
                 candidates.append((abs(duals[i]), lo_labels[i]))
+            if at_lo or at_hi:
+                active.append(
+                    (sl.start + i, lo_labels[i] if at_lo else None, hi_labels[i] if at_hi else None)
+                )
 
-    add_columns(slice(0, n), lower, upper, lower_labels, upper_labels)
+    add_columns(slice(0, n), lower_labels, upper_labels)
     if lam_slice is not None:
-        lam_lo, lam_hi = problem.multiplier_labels()
-        add_columns(lam_slice, problem.lam_min, problem.lam_max, lam_lo, lam_hi)
+        add_columns(lam_slice, *problem.multiplier_labels())
     r = problem.G.shape[0]
     if r:
         activity = lp.A[n_eq : n_eq + r] @ x
@@ -116,10 +133,66 @@ def binding_from_duals(
         for i in range(r):
             if abs(activity[i] - rhs[i]) <= 1e-9 * max(1.0, abs(rhs[i])):
                 candidates.append((abs(sol.row_dual[n_eq + i]), problem.row_labels[i]))
+                active.append((lp.A.shape[1] + n_eq + i, None, problem.row_labels[i]))
     if not candidates:
-        return None
+        return SINGULARITY
     best = max(candidates, key=lambda item: item[0])
+    if not relaxed and (best[0] <= DUAL_TOL or _degenerate(sol, lp, active, p)):
+        label = _binding_after_relaxing(problem, lp, active, p, n_eq, lam_slice)
+        if label is not None:
+            return label
     return best[1]
+
+
+def _degenerate(
+    sol: LpSolution, lp: LinearProgram, active: list[tuple[int, str | None, str | None]], p: float
+) -> bool:
+    """True when an active limit, or ``p`` at 0, is basic: the duals are then not unique."""
+    basic = sol.basic
+    n_row, n_col = lp.A.shape
+    if basic is None or basic.size != n_col + n_row:
+        return False
+    p_basic_at_zero = p <= 0 and bool(basic[n_col - 1])
+    return p_basic_at_zero or any(bool(basic[position]) for position, _, _ in active)
+
+
+def _binding_after_relaxing(
+    problem: Problem,
+    lp: LinearProgram,
+    active: list[tuple[int, str | None, str | None]],
+    p: float,
+    n_eq: int,
+    lam_slice: slice | None,
+) -> str | None:
+    """The binding limit once every active limit is relaxed outward by a distinct tiny amount.
+
+    Only limits that hold ``p`` can bind the relaxed program, which is
+    nondegenerate; a label that was not active before (another limit close by)
+    is not trusted, and ``None`` is returned. When relaxing every active limit
+    does not raise ``p``, none of them holds it: :data:`SINGULARITY`.
+    """
+    col_lower, col_upper = lp.col_lower.copy(), lp.col_upper.copy()
+    row_upper = lp.row_upper.copy()
+    n_col = lp.A.shape[1]
+    labels: set[str] = set()
+    for k, (position, lo_label, hi_label) in enumerate(active):
+        step = RELAX * (1.0 + k / len(active))
+        if position >= n_col:
+            row_upper[position - n_col] += step * max(1.0, abs(row_upper[position - n_col]))
+        if position < n_col and lo_label is not None:
+            col_lower[position] -= step * max(1.0, abs(col_lower[position]))
+        if position < n_col and hi_label is not None:
+            col_upper[position] += step * max(1.0, abs(col_upper[position]))
+        labels.update(label for label in (lo_label, hi_label) if label is not None)
+    relaxed_lp = LinearProgram(lp.c, lp.A, lp.row_lower, row_upper, col_lower, col_upper)
+    sol = HighsSolver().solve(relaxed_lp)
+    if sol.status != st.OPTIMAL:
+        return None
+    p_relaxed = float(sol.x[-1])
+    if p_relaxed <= p + 1e-3 * RELAX:
+        return SINGULARITY
+    label = binding_from_duals(problem, sol, relaxed_lp, p_relaxed, n_eq, lam_slice, relaxed=True)
+    return label if label in labels else None
 
 
 def finish(

@@ -8,7 +8,7 @@ import numpy as np
 
 from lpik import result as st
 from lpik.lp import HighsSolver
-from lpik.methods._common import crossed_label, finish, lp_over, solver_for
+from lpik.methods._common import FULL_P, crossed_label, finish, lp_over, solver_for
 from lpik.methods.lp1 import lp1
 from lpik.problem import Problem
 from lpik.result import Result
@@ -58,6 +58,8 @@ def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
     sol, x = _least_l1(problem, solver, max(0.0, best.p - 1e-9), best.p)
     if sol != st.OPTIMAL:  # the LP1 step itself is feasible at p*: keep it rather than fail
         x = np.concatenate([best.dq, np.abs(best.dq), [best.p]])
+    if best.p >= FULL_P:  # the first solve misjudged a nearly singular program: p = 1 holds
+        return finish(problem, "l1", x[:n], float(x[-1]), None, None, start, "highs")
     return finish(
         problem, "l1", x[:n], float(x[-1]), None, best.binding, start, "highs", status=st.SCALED
     )

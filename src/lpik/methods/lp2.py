@@ -173,6 +173,15 @@ def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = No
     if path not in PATHS:
         raise ValueError(f"path: unknown LP2 path {path!r}; available: {', '.join(PATHS)}")
     start = time.perf_counter()
+    crossed = crossed_label(problem)
+    if crossed is not None:  # both paths name the same conflict
+        return st.safe_step(
+            problem,
+            "lp2",
+            st.INFEASIBLE,
+            crossed,
+            path="highs" if path == "highs" else "ratio-test",
+        )
     if path != "highs":
         affine = affine_solution(problem)
         if affine is not None:
@@ -232,15 +241,43 @@ def _highs_path(problem: Problem, solver: HighsSolver | None, start: float) -> R
     cost[-1] = -1.0
     col_lower = np.concatenate([lower, problem.lam_min, [0.0]])
     col_upper = np.concatenate([upper, problem.lam_max, [1.0]])
-    crossed = crossed_label(problem)
-    if crossed is not None:
-        return st.safe_step(problem, "lp2", st.INFEASIBLE, crossed, path="highs")
     lp = lp_over(problem, cost, A_eq, b_eq, col_lower, col_upper)
     sol = solver_for(solver).solve(lp)
     if sol.status != st.OPTIMAL:
         return st.safe_step(
             problem, "lp2", sol.status, solve_time=time.perf_counter() - start, path="highs"
         )
-    p = float(sol.x[-1])
+    dq, lam, p = sol.x[:n], sol.x[n : n + m], float(sol.x[-1])
+    failure = _criterion_failure(problem, H, c, dq, lam)
+    if failure is not None:
+        return st.safe_step(
+            problem,
+            "lp2",
+            st.CHECK_FAILED,
+            failure,
+            solve_time=time.perf_counter() - start,
+            path="highs",
+        )
     binding = binding_from_duals(problem, sol, lp, p, n + m, lam_slice=slice(n, n + m))
-    return finish(problem, "lp2", sol.x[:n], p, sol.x[n : n + m], binding, start, "highs")
+    return finish(problem, "lp2", dq, p, lam, binding, start, "highs")
+
+
+def _criterion_failure(
+    problem: Problem, H: FloatArray, c: FloatArray, dq: FloatArray, lam: FloatArray
+) -> str | None:
+    """Re-check eq. 18's criterion rows ``H dq + J^T lam = c``, which :func:`finish` does not.
+
+    Without them a solver's answer could be any LP1 step: the rows are what
+    resolve the redundancy. Tolerance as for ``J dq = p dw`` (``EQUALITY_RTOL``).
+    """
+    if not (np.isfinite(dq).all() and np.isfinite(lam).all()):
+        return "non-finite step"
+    residual = float(np.abs(H @ dq + problem.J.T @ lam - c).max())
+    scale = (
+        np.abs(H).max() * np.abs(dq).max()
+        + np.abs(problem.J).max() * np.abs(lam).max(initial=0.0)
+        + np.abs(c).max()
+    )
+    if residual > st.EQUALITY_RTOL * max(1.0, float(scale)):
+        return f"criterion rows of eq. 18 violated by {residual:.3g}"
+    return None

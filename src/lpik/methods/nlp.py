@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from scipy.optimize import minimize
 
 from lpik import result as st
-from lpik.methods._common import FULL_P, criterion, crossed_label
+from lpik.methods._common import FULL_P, SINGULARITY, criterion, crossed_label
 from lpik.problem import Problem
 from lpik.result import Result
 from lpik.robots.base import TaskModel
@@ -65,8 +65,14 @@ def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Res
     def task_eq(x: FloatArray) -> FloatArray:
         return model.difference(w0, model.pose(q0 + x[:n])) - x[n] * dw
 
+    # The exact derivative of difference(w0, pose(q)) when the model offers it (orientation
+    # rows: the inverse left Jacobian of SO(3)); J(q) is exact for vector tasks.
+    exact = getattr(model, "difference_jacobian", None)
+
     def task_eq_jac(x: FloatArray) -> FloatArray:
-        return np.hstack([model.jacobian(q0 + x[:n]), -dw[:, None]])
+        q = q0 + x[:n]
+        jac = exact(w0, q) if exact is not None else model.jacobian(q)
+        return np.hstack([jac, -dw[:, None]])
 
     lin_rows, lin_rhs, lin_labels = _inequalities(
         problem, lower, upper, lower_labels, upper_labels, g_rhs
@@ -100,8 +106,8 @@ def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Res
         )
     p_star = float(np.clip(first.x[n], 0.0, 1.0))
     binding = None
-    if p_star < FULL_P:
-        binding = _binding(first, lin_rows, lin_rhs, lin_labels, problem.m)
+    if p_star < FULL_P:  # no active limit: the kinematics itself stops p (a singularity)
+        binding = _binding(first, lin_rows, lin_rhs, lin_labels, problem.m) or SINGULARITY
     H, c = criterion(problem)
     second = minimize(
         lambda x: 0.5 * x[:n] @ H @ x[:n] - c @ x[:n],

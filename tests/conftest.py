@@ -1,0 +1,46 @@
+"""Shared configuration and fixtures of the test suite.
+
+Hypothesis profiles (select with ``HYPOTHESIS_PROFILE=<name>``):
+
+- ``ci`` (default): hypothesis's default number of examples, no deadline
+  (a 2-core CI machine must not make timing flaky);
+- ``dev``: a tenth of the examples, for quick local runs;
+- ``thorough``: ten times the examples, for a nightly or a pre-release run.
+
+Property tests of the core ask for ``core_strategies.examples(n)``, which
+scales ``n`` with the loaded profile.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, settings
+
+from lpik.robots.planar import PlanarArm
+
+settings.register_profile("ci", deadline=None, print_blob=True)
+settings.register_profile(
+    "dev", deadline=None, max_examples=10, suppress_health_check=[HealthCheck.too_slow]
+)
+settings.register_profile("thorough", deadline=None, max_examples=1000, print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+#: The paper's start configuration (sec. 4, Fig. 2) [rad].
+PAPER_Q0 = np.radians([60.0, -30.0, -30.0, -30.0])
+
+
+@pytest.fixture
+def paper_arm() -> PlanarArm:
+    """The paper's planar 4-link arm, links 1 m each, joints within +-180 deg."""
+    return PlanarArm([1.0, 1.0, 1.0, 1.0], q_min=-np.pi, q_max=np.pi, qd_max=1.0)
+
+
+@pytest.fixture
+def paper_q0() -> np.ndarray:
+    """The paper's start configuration (60, -30, -30, -30) deg [rad]."""
+    return PAPER_Q0.copy()

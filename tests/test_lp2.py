@@ -1,0 +1,404 @@
+"""LP2 (eqs. 15-18, secs. 3.1-3.2): the ratio test against HiGHS and independent references."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core_reference import lp2_reference, weighted_reference
+from core_strategies import paper_problem
+from lpik import result as st
+from lpik.methods import affine_solution, lp1, lp2, ratio_test, weighted
+from lpik.methods._common import SINGULARITY
+from lpik.problem import Problem
+from lpik.robots.planar import PlanarArm
+
+PULL_IN = np.array([-0.005, 0.0])  # one step of the paper's pull-in command [m]
+
+
+def both_paths(P: Problem) -> tuple[st.Result, st.Result]:
+    return lp2(P, path="ratio-test"), lp2(P, path="highs")
+
+
+def assert_paths_agree(P: Problem, *, tol: float = 1e-9, same_binding: bool = True) -> st.Result:
+    fast, slow = both_paths(P)
+    assert fast.path == "ratio-test" and slow.path == "highs"
+    assert fast.status == slow.status
+    assert fast.p == pytest.approx(slow.p, abs=tol)
+    np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=tol)
+    if fast.lam is None or slow.lam is None:
+        assert fast.lam is None and slow.lam is None
+    else:
+        np.testing.assert_allclose(fast.lam, slow.lam, rtol=tol, atol=tol)
+    if same_binding:
+        assert fast.binding == slow.binding
+    return fast
+
+
+def assert_matches_reference(P: Problem, res: st.Result, tol: float = 1e-7) -> None:
+    ref = lp2_reference(P)
+    assert ref.feasible
+    assert res.p == pytest.approx(ref.p, abs=tol)
+    np.testing.assert_allclose(res.q, ref.q, rtol=0, atol=tol)
+    np.testing.assert_allclose(res.lam, ref.lam, rtol=tol, atol=tol)
+
+
+# --- the paper's arm -------------------------------------------------------------------
+
+
+def test_free_step_equals_eq7s_weighted_step(paper_arm: PlanarArm, paper_q0: np.ndarray) -> None:
+    P = paper_problem(paper_arm, paper_q0, PULL_IN)
+    res = assert_paths_agree(P)
+    assert res.status == st.OPTIMAL and res.p == 1.0 and res.binding is None
+    w = weighted(P)
+    np.testing.assert_allclose(res.q, w.q, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(res.lam, w.lam, rtol=1e-10, atol=1e-14)
+    q_ref, lam_ref = weighted_reference(P)
+    np.testing.assert_allclose(res.q, q_ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(res.lam, lam_ref, rtol=1e-10, atol=1e-14)
+
+
+@pytest.mark.parametrize(
+    "weights",
+    [
+        {"M": [1.0, 2.0, 3.0, 4.0]},
+        {"M": [2.0, 1.0, 1.0, 0.5], "f": [0.001, -0.002, 0.0, 0.001]},
+        {"Lambda": [0.5, 0.5, 0.5, 0.5]},
+        {"Lambda": [1.0, 0.0, 2.0, 0.0], "q_ref": [1.0, -0.5, -0.5, -0.5], "M": [1, 1, 2, 2]},
+    ],
+    ids=["M", "M-f", "Lambda-midpoint", "Lambda-q_ref"],
+)
+def test_weighted_lp2_equals_eq7_when_no_bound_is_active(
+    paper_arm: PlanarArm, paper_q0: np.ndarray, weights: dict[str, object]
+) -> None:
+    P = paper_problem(
+        paper_arm, paper_q0, PULL_IN, dq_min=-np.ones(4), dq_max=np.ones(4), **weights
+    )
+    res = assert_paths_agree(P)
+    assert res.p == 1.0
+    q_ref, lam_ref = weighted_reference(P)
+    np.testing.assert_allclose(res.q, q_ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(res.lam, lam_ref, rtol=1e-9, atol=1e-12)
+    w = weighted(P)
+    np.testing.assert_allclose(res.q, w.q, rtol=0, atol=1e-12)
+
+
+def test_joint_1_at_its_end_stop_stops_the_pull_in(
+    paper_arm: PlanarArm, paper_q0: np.ndarray
+) -> None:
+    # Sec. 4: q1 <= 95 deg. With q1 already at 95 deg the pull-in is blocked by joint 1.
+    q0 = paper_q0.copy()
+    q0[0] = np.radians(95.0)
+    q_max = np.full(4, np.pi)
+    q_max[0] = np.radians(95.0)
+    dw = 0.005 * np.array([-1.0, 0.0])
+    P = paper_problem(paper_arm, q0, dw, q_max=q_max)
+    res = assert_paths_agree(P)
+    assert res.status == st.OPTIMAL
+    assert res.p < 1.0
+    assert res.binding == "joint 1 upper end-stop"
+    assert res.q[0] <= np.radians(95.0)
+    assert_matches_reference(P, res)
+    assert lp1(P).p >= res.p - 1e-12
+
+
+def test_a_large_command_is_scaled_by_the_velocity_limit(
+    paper_arm: PlanarArm, paper_q0: np.ndarray
+) -> None:
+    P = paper_problem(paper_arm, paper_q0, 10 * PULL_IN)
+    res = assert_paths_agree(P)
+    assert 0.0 < res.p < 1.0
+    assert res.binding is not None and res.binding.endswith("velocity limit")
+    i = int(res.binding.split()[1]) - 1
+    bound = 0.01 if "upper" in res.binding else -0.01
+    assert res.dq[i] == pytest.approx(bound, abs=1e-12)
+    assert_matches_reference(P, res)
+    # eq. 15: the step achieves p dw, exactly in the linearisation
+    np.testing.assert_allclose(P.J @ res.dq, res.p * P.dw, atol=1e-12)
+
+
+def test_multiplier_bounds_stop_the_step_near_the_edge_singularity(
+    paper_arm: PlanarArm,
+) -> None:
+    q0 = np.radians([8.0, -1.0, -1.0, -1.0])
+    dw = np.array([0.0048, -0.0014])
+    free = paper_problem(paper_arm, q0, dw)
+    bounded = paper_problem(paper_arm, q0, dw, lam_min=[-0.01, -0.01], lam_max=[0.01, 0.01])
+    unbounded = assert_paths_agree(free)
+    res = assert_paths_agree(bounded)
+    assert np.abs(unbounded.lam).max() > 0.01
+    assert res.p < unbounded.p
+    assert res.binding is not None and res.binding.startswith("multiplier")
+    assert np.abs(res.lam).max() == pytest.approx(0.01, rel=1e-9)
+    assert_matches_reference(bounded, res)
+
+
+def test_the_stretched_arm_is_solved_by_highs_and_names_the_singularity(
+    paper_arm: PlanarArm,
+) -> None:
+    q0 = np.zeros(4)  # the edge singularity: J has rank 1
+    P = paper_problem(paper_arm, q0, np.array([0.005, 0.0]))
+    assert affine_solution(P) is None
+    for path in ("auto", "ratio-test", "highs"):
+        res = lp2(P, path=path)
+        assert res.path == "highs"  # the ratio test fails over to HiGHS
+        assert res.status == st.OPTIMAL
+        assert res.p == 0.0
+        assert res.binding == SINGULARITY
+    along = lp2(paper_problem(paper_arm, q0, np.array([0.0, 0.005])))
+    assert along.p == 1.0 and along.binding is None
+
+
+# --- small problems with known answers, degenerate cases included ----------------------
+
+
+def test_tie_between_two_bounds() -> None:
+    P = Problem(J=[[1.0, 1.0]], dw=[2.0], q0=[0.0, 0.0], dq_min=[-1, -1], dq_max=[0.5, 0.5])
+    res = assert_paths_agree(P, same_binding=False)
+    assert res.p == pytest.approx(0.5)
+    for r in both_paths(P):
+        assert r.binding in {"joint 1 upper velocity limit", "joint 2 upper velocity limit"}
+    assert_matches_reference(P, res)
+
+
+def test_p_equal_to_one_exactly_at_a_bound_names_nothing() -> None:
+    P = Problem(J=[[1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0], q_max=[0.5, 1.0])
+    res = assert_paths_agree(P)
+    assert res.p == 1.0 and res.binding is None
+    assert res.q[0] == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize(
+    ("q0", "q_min", "q_max", "binding"),
+    [
+        ([1.0, 0.0], [-5.0, -5.0], [1.0, 5.0], "joint 1 upper end-stop"),
+        ([1.0, 0.0], [-5.0, 0.0], [1.0, 5.0], "joint 1 upper end-stop"),
+        ([0.0, -1.0], [-5.0, -1.0], [5.0, -1.0], "joint 2 upper end-stop"),
+    ],
+    ids=["on-upper", "on-upper-other-on-lower", "fixed-joint"],
+)
+def test_starting_exactly_on_a_bound_gives_p_zero(
+    q0: list[float], q_min: list[float], q_max: list[float], binding: str
+) -> None:
+    P = Problem(J=[[1.0, 1.0]], dw=[1.0], q0=q0, q_min=q_min, q_max=q_max)
+    res = assert_paths_agree(P)
+    assert res.status == st.OPTIMAL
+    assert res.p == 0.0
+    assert res.binding == binding
+    np.testing.assert_array_equal(res.q, q0)
+    assert_matches_reference(P, res)
+
+
+def test_a_degenerate_vertex_names_the_limit_that_blocks() -> None:
+    # Regression (found by hypothesis): p = 0 with four joints on bounds. Joint 3 is
+    # fixed and blocks; joint 1 sits on its lower end-stop but would move inward. At
+    # this vertex HiGHS's duals of all four are zero, so the dual rule alone named joint 1.
+    a = PlanarArm([1.0, 1.0, 1.0, 0.5])
+    q0 = np.array([1.0, 0.0, 0.0, 1.0])
+    P = Problem(
+        J=a.jacobian(q0),
+        dw=[0.0035, 0.0],
+        q0=q0,
+        q_min=[1.0, -1.0, 0.0, -np.inf],
+        q_max=[2.0, 0.0, 0.0, 1.0],
+        dq_min=np.full(4, -0.125),
+        dq_max=np.full(4, 0.125),
+    )
+    res = assert_paths_agree(P)
+    assert res.p == 0.0
+    assert res.binding == "joint 3 lower end-stop"
+
+
+def test_starting_on_a_bound_and_moving_away_is_free() -> None:
+    P = Problem(J=[[1.0, 1.0]], dw=[-1.0], q0=[1.0, 0.0], q_max=[1.0, 5.0])
+    res = assert_paths_agree(P)
+    assert res.p == 1.0 and res.binding is None
+
+
+def test_multiplier_bound_binding_on_a_small_problem() -> None:
+    # M = I: lam = -(J J^T)^-1 p dw = -p / 2, so |lam| <= 0.25 allows p = 0.5.
+    P = Problem(J=[[1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0], lam_min=[-0.25], lam_max=[0.25])
+    res = assert_paths_agree(P)
+    assert res.p == pytest.approx(0.5)
+    assert res.binding == "multiplier 1 lower bound"
+    np.testing.assert_allclose(res.lam, [-0.25])
+    assert_matches_reference(P, res)
+
+
+def test_a_multiplier_bound_excluding_zero_makes_small_p_infeasible() -> None:
+    # lam = -p / 2 must be <= -0.1: p >= 0.2 is needed, and p = 1 is best.
+    P = Problem(J=[[1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0], lam_max=[-0.1])
+    res = assert_paths_agree(P)
+    assert res.p == 1.0
+    assert_matches_reference(P, res)
+    # lam in [-0.6, -0.55] would need p in [1.1, 1.2]: no p in [0, 1] is feasible.
+    Q = P.replace(lam_min=[-0.6], lam_max=[-0.55])
+    for r in both_paths(Q):
+        assert r.status == st.INFEASIBLE and not r.moved
+    assert not lp2_reference(Q).feasible
+
+
+def test_an_extra_row_binds_with_its_label() -> None:
+    P = Problem(
+        J=[[1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0], G=[[1.0, 1.0]], h=[0.3], row_labels=["wall"]
+    )
+    res = assert_paths_agree(P)
+    assert res.p == pytest.approx(0.3)
+    assert res.binding == "wall"
+    assert_matches_reference(P, res)
+
+
+def test_q0_outside_its_end_stops_by_more_than_a_step_is_infeasible() -> None:
+    P = Problem(
+        J=[[1.0, 1.0]],
+        dw=[-1.0],
+        q0=[2.0, 0.0],
+        q_max=[1.0, 1.0],
+        dq_min=[-0.1, -0.1],
+        dq_max=[0.1, 0.1],
+    )
+    fast, slow = both_paths(P)
+    for r in (fast, slow):
+        assert r.status == st.INFEASIBLE
+        assert r.p == 0.0 and r.lam is None
+        np.testing.assert_array_equal(r.q, P.q0)
+        assert r.binding == "joint 1 lower velocity limit / joint 1 upper end-stop"
+    assert not lp2_reference(P).feasible
+
+
+def test_q0_outside_its_end_stops_by_less_than_a_step_is_repaired() -> None:
+    # dq = (-p/2, -p/2); joint 1 needs dq1 <= -0.05 (p >= 0.1) and allows dq1 >= -0.1 (p <= 0.2).
+    P = Problem(
+        J=[[1.0, 1.0]],
+        dw=[-1.0],
+        q0=[1.05, 0.0],
+        q_max=[1.0, 1.0],
+        dq_min=[-0.1, -0.1],
+        dq_max=[0.1, 0.1],
+    )
+    res = assert_paths_agree(P)
+    assert res.status == st.OPTIMAL
+    assert res.p == pytest.approx(0.2)
+    assert res.q[0] <= 1.0
+    assert_matches_reference(P, res)
+
+
+def test_smoothing_that_pulls_past_a_bound_is_infeasible_on_both_paths() -> None:
+    P = Problem(
+        J=[[1.0, 1.0, 1.0]],
+        dw=[1.0],
+        q0=[0.0, 0.0, 0.0],
+        q_max=[0.0, 1.0, 1.0],
+        Lambda=[1.0, 1.0, 1.0],
+        q_ref=[1.0, 0.0, -1.0],
+    )
+    fast, slow = both_paths(P)
+    assert fast.status == slow.status == st.INFEASIBLE
+    assert fast.binding == "joint 1 upper end-stop"
+    assert not lp2_reference(P).feasible
+
+
+def test_zero_command_keeps_the_criterion_step() -> None:
+    P = Problem(J=[[1.0, 1.0]], dw=[0.0], q0=[0.0, 0.0], Lambda=[1.0, 1.0], q_ref=[0.2, -0.2])
+    res = assert_paths_agree(P)
+    assert res.p == 1.0
+    np.testing.assert_allclose(P.J @ res.dq, [0.0], atol=1e-15)
+    # Lambda = I, M = I: dq minimises |dq|^2 + |dq - (0.2, -0.2)|^2 in J's null space.
+    np.testing.assert_allclose(res.dq, [0.1, -0.1], atol=1e-12)
+
+
+def test_unknown_path_is_refused() -> None:
+    P = Problem(J=[[1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0])
+    with pytest.raises(ValueError, match="^path:"):
+        lp2(P, path="simplex")
+
+
+# --- the pieces ---------------------------------------------------------------------------
+
+
+def test_affine_solution_satisfies_eq18s_rows_for_every_p() -> None:
+    rng = np.random.default_rng(7)
+    J = rng.normal(size=(2, 5))
+    P = Problem(
+        J=J,
+        dw=rng.normal(size=2),
+        q0=rng.normal(size=5),
+        M=rng.uniform(0.5, 2.0, 5),
+        f=rng.normal(size=5) * 0.1,
+        Lambda=rng.uniform(0.0, 1.0, 5),
+        q_ref=rng.normal(size=5),
+    )
+    aff = affine_solution(P)
+    assert aff is not None
+    H = P.M + P.Lambda
+    for p in (0.0, 0.3, 1.0):
+        dq, lam = aff.a_q + p * aff.b_q, aff.a_l + p * aff.b_l
+        q = P.q0 + dq
+        # eq. 18 with sec. 3.1, in absolute coordinates
+        np.testing.assert_allclose(
+            H @ q + J.T @ lam, P.M @ P.q0 + P.Lambda @ P.q_ref + P.f, atol=1e-12
+        )
+        np.testing.assert_allclose(J @ q - p * P.dw, J @ P.q0, atol=1e-12)
+
+
+def test_ratio_test_on_plain_numbers() -> None:
+    labels_lo = ("a lo", "b lo", "c lo")
+    labels_hi = ("a hi", "b hi", "c hi")
+    a = np.zeros(3)
+    inf = np.inf
+    # a + p b <= hi: 0.4 limits entry 0 at p = 0.4; entry 1 moves away; entry 2 is flat.
+    res = ratio_test(
+        a,
+        np.array([1.0, -1.0, 0.0]),
+        -np.full(3, inf),
+        np.array([0.4, 0.1, 0.0]),
+        labels_lo,
+        labels_hi,
+    )
+    assert res.feasible and res.p == pytest.approx(0.4) and res.binding == "a hi"
+    # ties go to the first entry
+    res = ratio_test(
+        a,
+        np.array([1.0, 1.0, 0.0]),
+        -np.full(3, inf),
+        np.array([0.4, 0.4, 1.0]),
+        labels_lo,
+        labels_hi,
+    )
+    assert res.binding == "a hi"
+    # a lower bound reached while moving down
+    res = ratio_test(
+        a,
+        np.array([0.0, -2.0, 0.0]),
+        np.array([-1.0, -1.0, -1.0]),
+        np.full(3, inf),
+        labels_lo,
+        labels_hi,
+    )
+    assert res.p == pytest.approx(0.5) and res.binding == "b lo"
+    # nothing limits: p = 1, no binding
+    res = ratio_test(
+        a, np.array([1.0, -1.0, 0.0]), -np.full(3, inf), np.full(3, inf), labels_lo, labels_hi
+    )
+    assert res.feasible and res.p == 1.0 and res.binding is None
+    # a flat entry outside its bound: infeasible, named
+    res = ratio_test(
+        np.array([0.0, 0.0, 2.0]),
+        np.array([1.0, 1.0, 0.0]),
+        -np.full(3, inf),
+        np.full(3, 1.0),
+        labels_lo,
+        labels_hi,
+    )
+    assert not res.feasible and res.binding == "c hi"
+    # needs p >= 0.5 (entry 0) but allows p <= 0.25 (entry 1)
+    res = ratio_test(
+        np.array([-1.0, 0.0, 0.0]),
+        np.array([2.0, 1.0, 0.0]),
+        np.array([0.0, -inf, -inf]),
+        np.array([inf, 0.25, inf]),
+        labels_lo,
+        labels_hi,
+    )
+    assert not res.feasible
+    assert res.binding in {"a lo", "b hi"}

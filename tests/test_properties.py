@@ -1,0 +1,199 @@
+"""Property tests over random planar arms, configurations, commands and limits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from core_reference import (
+    HARD_TOL,
+    Bracket,
+    bracket,
+    hard_violation,
+    kkt_condition,
+    l1_reference,
+    limiting_ratios,
+    lp1_reference,
+    lp2_reference,
+    task_error,
+)
+from core_strategies import Case, cases, examples
+from lpik.methods import lp2
+from lpik.result import SCALED, STATUSES, Result
+
+#: Small commands, for which the linearisation is close to the nonlinear kinematics.
+DW_SMALL = st.sampled_from([1e-3, 1e-2])
+
+LP_SOLVERS = {
+    "lp1": lambda case: case.solve("lp1"),
+    "l1": lambda case: case.solve("l1"),
+    "lp2-ratio-test": lambda case: lp2(case.problem, path="ratio-test"),
+    "lp2-highs": lambda case: lp2(case.problem, path="highs"),
+}
+
+
+def assert_contract(case: Case, res: Result) -> None:
+    """What every result promises: a status word, p in [0, 1], a consistent q and dq."""
+    P = case.problem
+    assert res.status in STATUSES
+    assert 0.0 <= res.p <= 1.0
+    assert res.q.shape == res.dq.shape == (P.n,)
+    np.testing.assert_allclose(res.q, P.q0 + res.dq, rtol=0, atol=1e-12)
+    if not res.moved:
+        np.testing.assert_array_equal(res.q, P.q0)
+        np.testing.assert_array_equal(res.dq, np.zeros(P.n))
+        assert res.p == 0.0
+
+
+@pytest.mark.parametrize("name", list(LP_SOLVERS))
+@settings(max_examples=examples(250))
+@given(case=cases())
+def test_lp_step_keeps_every_hard_limit(name: str, case: Case) -> None:
+    res = LP_SOLVERS[name](case)
+    assert_contract(case, res)
+    if name.startswith("lp2") and not case.criterion_is_zero:
+        # With f != 0 or Lambda pulling, even p = 0 may be infeasible: then a safe step.
+        assert res.moved or res.status == "infeasible"
+    else:
+        # q0 satisfies every limit, so (dq, p) = (0, 0) is feasible: the LP must move.
+        assert res.moved, (res.status, res.binding)
+    if res.moved:
+        assert hard_violation(case.problem, res.q, res.lam) <= HARD_TOL
+        assert task_error(case.problem, res.dq, res.p) <= 1e-7
+        if res.p < 1.0 - 1e-9:
+            assert res.binding is not None
+
+
+@settings(max_examples=examples(250))
+@given(case=cases())
+def test_lp1_achieves_at_least_lp2s_dexterity(case: Case) -> None:
+    p1 = case.solve("lp1")
+    p2 = case.solve("lp2")
+    assert p1.moved
+    assert p1.p >= p2.p - 1e-9
+
+
+#: Agreement of an optimal value with linprog's, beyond the bracket of the tolerances.
+VALUE_TOL = 1e-7
+
+
+def assert_within(value: float, b: Bracket, sense: float = 1.0) -> None:
+    """``value`` is no better than the relaxed optimum and no worse than a proven one."""
+    assert b.loose.feasible
+    best = b.loose.objective
+    proven = b.attainable(sense)
+    if sense > 0:  # maximise
+        assert value <= best + VALUE_TOL
+        assert proven is None or value >= proven - VALUE_TOL
+    else:  # minimise
+        assert value >= best - VALUE_TOL
+        assert proven is None or value <= proven + VALUE_TOL
+
+
+@settings(max_examples=examples(250))
+@given(case=cases(well_posed=True))
+def test_lp1_and_l1_against_linprog(case: Case) -> None:
+    P = case.problem
+    res1 = case.solve("lp1")
+    assert res1.moved
+    assert_within(res1.p, bracket(lp1_reference, P))
+    resl = case.solve("l1")
+    assert resl.moved
+    full = bracket(l1_reference, P, 1.0)
+    if resl.status == "optimal":
+        assert resl.p == 1.0
+        assert_within(float(np.abs(resl.dq).sum()), full, sense=-1.0)
+    else:
+        assert resl.status == SCALED
+        assert not full.tight.feasible  # else the full displacement was within reach
+        assert resl.p == pytest.approx(res1.p, abs=1e-8)
+        assert_within(float(np.abs(resl.dq).sum()), bracket(l1_reference, P, resl.p), -1.0)
+
+
+@settings(max_examples=examples(250))
+@given(case=cases(well_posed=True))
+def test_lp2_agrees_with_linprog_in_absolute_coordinates(case: Case) -> None:
+    P = case.problem
+    b = bracket(lp2_reference, P, criterion=True)
+    res = case.solve("lp2")
+    if not res.moved:
+        assert res.status == "infeasible"
+        assert not b.tight.feasible
+        return
+    assert_within(res.p, b)
+    proven = b.attainable()
+    well_determined = proven is not None and b.loose.p - proven <= VALUE_TOL
+    if well_determined and b.exact.feasible and kkt_condition(P) < 1e6:
+        # q and lam are unique, and well determined
+        np.testing.assert_allclose(res.q, b.exact.q, rtol=0, atol=1e-7)
+        np.testing.assert_allclose(res.lam, b.exact.lam, rtol=1e-6, atol=1e-7)
+
+
+@settings(max_examples=examples(250))
+@given(case=cases(well_posed=True))
+def test_lp2_ratio_test_and_highs_paths_agree(case: Case) -> None:
+    P = case.problem
+    fast = lp2(P, path="ratio-test")
+    slow = lp2(P, path="highs")
+    assert fast.status == slow.status
+    if not fast.moved:
+        return
+    assert fast.p == pytest.approx(slow.p, abs=1e-8)
+    if kkt_condition(P) < 1e6:
+        np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=1e-8)
+        np.testing.assert_allclose(fast.lam, slow.lam, rtol=1e-7, atol=1e-8)
+
+
+@settings(max_examples=examples(250))
+@given(case=cases(well_posed=True))
+def test_lp2_stops_at_the_first_limit_on_its_path(case: Case) -> None:
+    # Independent of lpik's ratio test: walk eq. 16's solution from p = 0 and find
+    # where it first reaches a limit.
+    P = case.problem
+    if kkt_condition(P) > 1e6:
+        return  # the path is not well determined (near a singularity)
+    ratios = limiting_ratios(P)
+    if ratios is None:
+        return  # starts outside a limit: covered by the linprog comparison
+    first = ratios[0] if ratios else (np.inf, None)
+    expected_p = min(1.0, first[0])
+    for res in (lp2(P, path="ratio-test"), lp2(P, path="highs")):
+        assert res.status == "optimal"
+        assert res.p == pytest.approx(expected_p, abs=1e-8)
+        unique = len(ratios) < 2 or ratios[1][0] - first[0] > 1e-6
+        if expected_p < 1.0 - 1e-6 and unique:
+            assert res.binding == first[1], (res.path, ratios[:3])
+
+
+@pytest.mark.parametrize("name", ["pinv", "weighted", "robust"])
+@settings(max_examples=examples(200))
+@given(case=cases())
+def test_classical_steps_never_violate_silently(name: str, case: Case) -> None:
+    res = case.solve(name)
+    assert_contract(case, res)
+    assert res.status in {"optimal", "violates_limits", "singular"}
+    if res.status == "optimal":
+        assert hard_violation(case.problem, res.q) <= HARD_TOL
+    elif res.status == "violates_limits":
+        assert res.binding is not None
+        assert hard_violation(case.problem, res.q) > 0.0
+    if name != "robust" and res.moved:
+        assert res.p == 1.0
+        assert task_error(case.problem, res.dq, 1.0) <= 1e-7
+
+
+@settings(max_examples=examples(40))
+@given(case=cases(max_links=5, rows=False, multipliers=False, dw_sizes=DW_SMALL))
+def test_nlp_lands_on_the_scaled_command_within_limits(case: Case) -> None:
+    P = case.problem
+    res = case.solve("nlp")
+    assert_contract(case, res)
+    if not res.moved:
+        return
+    assert hard_violation(P, res.q) <= HARD_TOL
+    if res.p < 1.0 - 1e-9:
+        assert res.binding is not None
+    w0 = case.arm.pose(P.q0)
+    np.testing.assert_allclose(case.arm.pose(res.q), w0 + res.p * P.dw, rtol=0, atol=1e-7)
