@@ -10,7 +10,7 @@ answer fails its own check) are handed to the general HiGHS path one by one.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numba
@@ -98,35 +98,76 @@ def lp2_compiled(problem: Problem) -> Result:
 class BatchResult:
     """Answers of a batch, one row per problem (see :class:`~lpik.result.Result`).
 
+    The status words and binding labels are built on access from the kernel's
+    integer codes, so that a large batch pays no per-item Python work.
+
     Attributes:
         q: (B, n). dq: (B, n). p: (B,). lam: (B, m), NaN rows for safe steps.
-        status: (B,) status words. binding: (B,) binding labels or ``None``.
-        path: (B,) ``"compiled"`` or ``"highs"`` (items handed to HiGHS).
+        codes: (B,) kernel outcome per item (:mod:`lpik.fast.kernels` codes).
+        binding_codes: (B,) kernel binding codes (``-1``: none).
     """
 
     q: FloatArray
     dq: FloatArray
     p: FloatArray
     lam: FloatArray
-    status: NDArray[np.object_]
-    binding: NDArray[np.object_]
-    path: NDArray[np.object_]
+    codes: NDArray[np.int64]
+    binding_codes: NDArray[np.int64]
+    _labels: Callable[[int], tuple[str, ...]]
+    _fallback: dict[int, Result]
 
     def __len__(self) -> int:
         return int(self.p.shape[0])
 
+    def status_of(self, i: int) -> str:
+        """Status word of item ``i``."""
+        if i in self._fallback:
+            return self._fallback[i].status
+        return st.INFEASIBLE if self.codes[i] == K.INFEASIBLE else st.OPTIMAL
+
+    def binding_of(self, i: int) -> str | None:
+        """Binding label of item ``i``, or ``None``."""
+        if i in self._fallback:
+            return self._fallback[i].binding
+        code = int(self.binding_codes[i])
+        return None if code < 0 else self._labels(i)[code]
+
+    @property
+    def status(self) -> NDArray[np.object_]:
+        """(B,) status words."""
+        words = np.where(self.codes == K.INFEASIBLE, st.INFEASIBLE, st.OPTIMAL).astype(object)
+        for i, res in self._fallback.items():
+            words[i] = res.status
+        return words
+
+    @property
+    def binding(self) -> NDArray[np.object_]:
+        """(B,) binding labels or ``None``."""
+        return np.array([self.binding_of(i) for i in range(len(self))] + [None],
+                        dtype=object)[:-1]  # fmt: skip
+
+    @property
+    def path(self) -> NDArray[np.object_]:
+        """(B,) ``"compiled"``, or ``"highs"`` for the items handed to HiGHS."""
+        paths = np.full(len(self), "compiled", dtype=object)
+        for i, res in self._fallback.items():
+            paths[i] = res.path
+        return paths
+
     def __getitem__(self, i: int) -> Result:
         """Item ``i`` as a :class:`~lpik.result.Result`."""
+        if i in self._fallback:
+            return self._fallback[i]
         lam = None if np.isnan(self.lam[i]).all() else self.lam[i].copy()
         return Result(
             q=self.q[i].copy(),
             dq=self.dq[i].copy(),
             p=float(self.p[i]),
             lam=lam,
-            status=str(self.status[i]),
-            binding=self.binding[i],
+            status=self.status_of(i),
+            binding=self.binding_of(i),
             method="lp2",
-            path=str(self.path[i]),
+            path="compiled",
         )
 
 
@@ -211,34 +252,24 @@ def lp2_batch(problems: Sequence[Problem] | BatchArrays) -> BatchResult:
         bindings,
         4 * numba.get_num_threads(),
     )
-    status = np.full(B, st.OPTIMAL, dtype=object)
-    binding = np.full(B, None, dtype=object)
-    path = np.full(B, "compiled", dtype=object)
     problem_list = None if isinstance(problems, BatchArrays) else list(problems)
     infeasible = codes == K.INFEASIBLE
-    status[infeasible] = st.INFEASIBLE
-    dq[infeasible], ps[infeasible], lam[infeasible] = 0.0, 0.0, np.nan
-    labelled = np.nonzero(((codes == K.OK) | infeasible) & (bindings >= 0))[0]
-    if problem_list is None:  # raw arrays: every item has the same labels
-        generic = np.array(constraint_labels(_problem_at(arrays, 0)), dtype=object)
-        binding[labelled] = generic[bindings[labelled]]
-    else:
-        for i in labelled:
-            binding[i] = constraint_labels(problem_list[i])[bindings[i]]
-    for i in np.nonzero(~((codes == K.OK) | infeasible))[0]:
-        problem = problem_list[i] if problem_list is not None else _problem_at(arrays, int(i))
+    if infeasible.any():
+        dq[infeasible], ps[infeasible], lam[infeasible] = 0.0, 0.0, np.nan
+    fallback: dict[int, Result] = {}
+    for i in np.nonzero((codes != K.OK) & ~infeasible)[0].tolist():
+        problem = problem_list[i] if problem_list is not None else _problem_at(arrays, i)
         res = lp2(problem, path="highs")
-        dq[i], ps[i], status[i], binding[i], path[i] = (
-            res.dq,
-            res.p,
-            res.status,
-            res.binding,
-            res.path,
-        )
+        fallback[i] = res
+        dq[i], ps[i] = res.dq, res.p
         lam[i] = np.nan if res.lam is None else res.lam
-    return BatchResult(
-        q=arrays.q0 + dq, dq=dq, p=ps, lam=lam, status=status, binding=binding, path=path
-    )
+    if problem_list is None:  # raw arrays: every item has the same labels
+        generic = constraint_labels(_problem_at(arrays, 0))
+        labels: Callable[[int], tuple[str, ...]] = lambda i: generic  # noqa: E731
+    else:
+        labels = lambda i: constraint_labels(problem_list[i])  # noqa: E731
+    return BatchResult(q=arrays.q0 + dq, dq=dq, p=ps, lam=lam, codes=codes,
+                       binding_codes=bindings, _labels=labels, _fallback=fallback)  # fmt: skip
 
 
 def _problem_at(arrays: BatchArrays, i: int) -> Problem:
