@@ -163,11 +163,21 @@ class LinearRows:
         return Piece(G=G, h=h, row_labels=tuple(labels))
 
 
-def standard_limits(model: Any, *, velocity: bool = True) -> list[Limit]:
-    """End-stops and (optionally) velocity limits of a robot model."""
+def standard_limits(
+    model: Any, *, velocity: bool = True, lambda_bound: float | None = None
+) -> list[Limit]:
+    """A robot model's end-stops, velocity limits and, when given, ``|lam_i| <= lambda_bound``.
+
+    Args:
+        model: Anything with ``q_min``, ``q_max`` and ``qd_max`` (e.g. a task model).
+        velocity: Whether the model's ``qd_max`` bounds each step (eq. 14).
+        lambda_bound: Symmetric bound on every multiplier (sec. 3.2); none when None.
+    """
     limits: list[Limit] = [EndStops(model.q_min, model.q_max)]
     if velocity and np.isfinite(model.qd_max).any():
         limits.append(VelocityLimits(model.qd_max))
+    if lambda_bound is not None:
+        limits.append(MultiplierBounds.symmetric(lambda_bound))
     return limits
 
 

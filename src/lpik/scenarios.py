@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from lpik.limits import EndStops, Limit, MultiplierBounds, VelocityLimits
+from lpik.limits import Limit, standard_limits
 from lpik.robots.planar import PlanarArm
 
 if TYPE_CHECKING:  # lpik.simulate imports the methods (scipy, HiGHS): only when a run starts
@@ -83,10 +83,7 @@ class Scenario:
 
     def limits(self, lambda_bound: float | None = None) -> list[Limit]:
         """End-stops, velocity limits and, when given, ``|lam_i| <= lambda_bound`` (sec. 3.2)."""
-        limits: list[Limit] = [EndStops(self.q_min, self.q_max), VelocityLimits(self.qd_max)]
-        if lambda_bound is not None:
-            limits.append(MultiplierBounds.symmetric(lambda_bound))
-        return limits
+        return standard_limits(self.model(), lambda_bound=lambda_bound)
 
     def run(
         self,

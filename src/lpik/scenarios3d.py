@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from lpik.limits import EndStops, Limit, MultiplierBounds, VelocityLimits
+from lpik.limits import Limit, standard_limits
 from lpik.robots.registry import home_configuration, load_robot
 from lpik.robots.tasks import OrientationTask, PoseTask, PositionTask
 from lpik.simulate import ClampedTarget, Progress, SimulationLog, simulate
@@ -109,11 +109,7 @@ class Scenario3D:
 
     def limits(self, robot: str, lambda_bound: float | None = None) -> list[Limit]:
         """End-stops, velocity limits and, when given, ``|lam_i| <= lambda_bound``."""
-        model = self.model(robot)
-        limits: list[Limit] = [EndStops(model.q_min, model.q_max), VelocityLimits(model.qd_max)]
-        if lambda_bound is not None:
-            limits.append(MultiplierBounds.symmetric(lambda_bound))
-        return limits
+        return standard_limits(self.model(robot), lambda_bound=lambda_bound)
 
     def run(
         self,
