@@ -99,54 +99,69 @@ def _check_options(args: argparse.Namespace) -> None:
         raise ValueError(f"--frames: must be >= 2, got {args.frames}")
 
 
+def run_options(args: argparse.Namespace) -> dict[str, object]:
+    """The keyword arguments every scenario's ``run`` takes from the command line."""
+    return {
+        "lambda_bound": args.lambda_bound,
+        "steps": args.steps,
+        "dt": args.dt,
+        "warm_start": not args.cold_start,
+    }
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the scenario; write the CSV, figure and animation that were asked for."""
     from lpik.cli.progress import LazyProgress
-    from lpik.scenarios import get_scenario
 
-    if args.robot is not None:  # 3-D scenarios: lpik.scenarios3d, lpik.cli.simulate3d
-        from lpik.cli.simulate3d import run_3d
-
-        _check_options(args)
-        return run_3d(args, _writable("--out", args.out), _writable("--plot", args.plot))
-    scenario = get_scenario(args.scenario)
     _check_options(args)
-    out, fig, gif = (
-        _writable("--out", args.out),
-        _writable("--plot", args.plot),
-        _writable("--animate", args.animate),
-    )
+    out = _writable("--out", args.out)
+    fig = _writable("--plot", args.plot)
+    gif = _writable("--animate", args.animate)
+    if args.robot is not None:  # 3-D scenarios: lpik.scenarios3d, lpik.cli.simulate3d
+        from lpik.cli.simulate3d import prepare_3d
+
+        label, simulate, draw = prepare_3d(args, fig, gif)
+    else:
+        label, simulate, draw = _prepare_planar(args, fig, gif)
     if fig is not None or gif is not None:
         from lpik.plots import require_backend
 
         require_backend(animation=gif is not None)  # fail before the run, not after it
-    with LazyProgress(f"{scenario.name} {args.method}") as progress:
-        log = scenario.run(
-            args.method,
-            lambda_bound=args.lambda_bound,
-            steps=args.steps,
-            dt=args.dt,
-            warm_start=not args.cold_start,
-            progress=progress,
-        )
-    written = []
-    if out is not None:
-        written.append(log.to_csv(out))
-    if fig is not None or gif is not None:
-        from lpik import plots
-
-        model, target = scenario.model(), scenario.target
-        if fig is not None:
-            written.append(plots.run_overview(log, model, fig, target=target))
-        if gif is not None:
-            written.append(plots.animate(log, model, gif, frames=args.frames, target=target))
+    with LazyProgress(label) as progress:
+        log = simulate(progress)
+    written = [] if out is None else [log.to_csv(out)]
+    written += draw(log)
     m = log.metrics()
     position = ", ".join(f"{v:.4f}" for v in m.final_position)
     print(
-        f"{log.name}, {log.method}: {m.steps} steps, final p = {m.final_p:.4g}, end effector "
-        f"at ({position}) m, jitter {m.jitter:.4g} rad/s, statuses "
+        f"{log.name}, {log.method}: {m.steps} steps, final p = {m.final_p:.4g} "
+        f"(binding: {log.binding[-1] or 'none'}), end effector at ({position}) m, "
+        f"jitter {m.jitter:.4g} rad/s, statuses "
         + ", ".join(f"{k} {v}" for k, v in m.statuses.items())
     )
     for path in written:
         print(f"wrote {path}")
     return 0
+
+
+def _prepare_planar(args: argparse.Namespace, fig: Path | None, gif: Path | None):  # noqa: ANN202
+    """Label, run and drawing of a planar scenario (see :func:`run`)."""
+    from lpik.scenarios import get_scenario
+
+    scenario = get_scenario(args.scenario)
+
+    def simulate(progress):  # noqa: ANN001, ANN202
+        return scenario.run(args.method, progress=progress, **run_options(args))
+
+    def draw(log) -> list[Path]:  # noqa: ANN001
+        from lpik import plots
+
+        model, target = scenario.model(), scenario.target
+        written = []
+        if fig is not None:
+            written.append(plots.run_overview(log, model, fig, target=target))
+        if gif is not None:
+            written.append(plots.animate(log, model, gif, frames=args.frames, target=target))
+        return written
+
+    return f"{scenario.name} {args.method}", simulate, draw
