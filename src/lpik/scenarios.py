@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lpik.limits import Limit, standard_limits
+from lpik.naming import lookup
 from lpik.robots.planar import PlanarArm
 
 if TYPE_CHECKING:  # lpik.simulate imports the methods (scipy, HiGHS): only when a run starts
@@ -178,9 +179,4 @@ def get_scenario(name: str) -> Scenario:
     Raises:
         ValueError: For an unknown name; the message lists the available names.
     """
-    try:
-        return SCENARIOS[name]
-    except KeyError:
-        raise ValueError(
-            f"scenario: unknown scenario {name!r}; available: {', '.join(SCENARIOS)}"
-        ) from None
+    return lookup(SCENARIOS, name, "scenario: unknown scenario")

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lpik.limits import Limit, standard_limits
+from lpik.naming import lookup
 from lpik.robots.registry import home_configuration, load_robot
 from lpik.robots.tasks import OrientationTask, PoseTask, PositionTask
 from lpik.simulate import ClampedTarget, Progress, SimulationLog, simulate
@@ -192,9 +193,4 @@ def get_scenario_3d(name: str) -> Scenario3D:
     Raises:
         ValueError: For an unknown name; the message lists the available names.
     """
-    try:
-        return SCENARIOS_3D[name]
-    except KeyError:
-        raise ValueError(
-            f"scenario: unknown 3-D scenario {name!r}; available: {', '.join(SCENARIOS_3D)}"
-        ) from None
+    return lookup(SCENARIOS_3D, name, "scenario: unknown 3-D scenario")

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
+from lpik.naming import lookup
 from lpik.robots.base import FloatArray
 from lpik.robots.chain import SerialChain
 from lpik.robots.tasks import OrientationTask, PoseTask, PositionTask, make_task
@@ -122,10 +123,7 @@ def get_spec(name: str) -> RobotSpec:
     Raises:
         ValueError: If there is none; the message lists the available names.
     """
-    try:
-        return ROBOTS[name]
-    except KeyError:
-        raise ValueError(f"unknown robot '{name}'; available: " + ", ".join(ROBOTS)) from None
+    return lookup(ROBOTS, name, "unknown robot")
 
 
 def urdf_path(name: str) -> Path:
