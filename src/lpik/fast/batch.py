@@ -39,10 +39,15 @@ def constraint_labels(problem: Problem) -> tuple[str, ...]:
     return tuple(labels)
 
 
+def is_diagonal(H: FloatArray) -> bool:
+    """Whether ``H`` is diagonal, so that the kernels need not factorise it."""
+    return bool(np.count_nonzero(H - np.diag(np.diagonal(H))) == 0)
+
+
 def _kernel_args(problem: Problem) -> tuple:
     H, c = criterion(problem)
     lower, upper = problem.step_bounds()[:2]
-    h_diag = bool(np.count_nonzero(H - np.diag(np.diagonal(H))) == 0)
+    h_diag = is_diagonal(H)
     g = problem.h - problem.G @ problem.q0
     return (
         problem.J,

@@ -21,15 +21,8 @@ from numpy.typing import ArrayLike
 from lpik import result as st
 from lpik.fast import chain_kernels as CK
 from lpik.fast import kernels as K
-from lpik.limits import (
-    AccelerationLimits,
-    EndStops,
-    Limit,
-    LinearRows,
-    MultiplierBounds,
-    VelocityLimits,
-    build_problem,
-)
+from lpik.fast.batch import is_diagonal
+from lpik.limits import AccelerationLimits, LinearRows, build_problem, standard_limits
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
 from lpik.result import Result
@@ -84,16 +77,12 @@ class Lp2Controller:
         self.model = model
         self.dt, self.v_max, self.w_max = float(dt), float(v_max), float(w_max)
         n = model.n_joints
-        self._kind, self._geometry, rows = _geometry(model)
+        self._kind, geometry, rows = _geometry(model)
         self._rows = np.array(rows, dtype=np.int64)
         m = len(rows)
-        limits: list[Limit] = [EndStops(model.q_min, model.q_max)]
-        if velocity_limits:
-            limits.append(VelocityLimits(np.broadcast_to(model.qd_max, (n,))))
+        limits = standard_limits(model, velocity=velocity_limits, lambda_bound=lambda_bound)
         if qdd_max is not None:
             limits.append(AccelerationLimits(np.broadcast_to(np.asarray(qdd_max, float), (n,))))
-        if lambda_bound is not None:
-            limits.append(MultiplierBounds.symmetric(lambda_bound))
         if G is not None or h is not None:
             limits.append(LinearRows(G, h, tuple(row_labels or ())))
         self.limits = tuple(limits)
@@ -109,8 +98,6 @@ class Lp2Controller:
             np.zeros((m, n)), np.zeros(m), np.clip(np.zeros(n), model.q_min, model.q_max), None
         )
         H = template.M + template.Lambda
-        self._H = np.ascontiguousarray(H)
-        self._h_diag = bool(np.count_nonzero(H - np.diag(np.diagonal(H))) == 0)
         if q_ref is None:  # Problem's default: midpoint of finite end-stops, else q0 (NaN here)
             finite = np.isfinite(template.q_min) & np.isfinite(template.q_max)
             mid = 0.5 * (
@@ -119,34 +106,25 @@ class Lp2Controller:
             ref = np.where(finite, mid, np.nan)
         else:
             ref = template.q_ref
-        self._f_ref = np.vstack([template.f, ref])
-        self._Lam = np.ascontiguousarray(template.Lambda)
-        self._lam_bounds = np.vstack([template.lam_min, template.lam_max])
-        self._G = np.ascontiguousarray(template.G)
-        self._h = np.ascontiguousarray(template.h)
-        qd = (
-            np.broadcast_to(np.asarray(model.qd_max, float), (n,))
-            if velocity_limits
-            else np.full(n, np.inf)
-        )
-        qdd = (
-            np.full(n, np.inf)
-            if qdd_max is None
-            else np.broadcast_to(np.asarray(qdd_max, float), (n,))
-        )
+        qd = np.broadcast_to(np.asarray(model.qd_max, float), (n,)) if velocity_limits else \
+            np.full(n, np.inf)  # fmt: skip
+        qdd = np.full(n, np.inf) if qdd_max is None else np.broadcast_to(
+            np.asarray(qdd_max, float), (n,))  # fmt: skip
+        #: (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max (for the binding labels too).
         self._limits = np.vstack([template.q_min, template.q_max, -qd, qd, -qdd, qdd])
-        scalars = np.array([self.dt, self.v_max, self.w_max, 0.0])
-        r = self._G.shape[0]
-        rest = (self._limits, self._H, self._f_ref, self._Lam, self._lam_bounds, self._G, self._h,
-                scalars)  # fmt: skip
+        constants = (self._limits, H, np.vstack([template.f, ref]), template.Lambda,
+                     np.vstack([template.lam_min, template.lam_max]), template.G, template.h,
+                     np.array([self.dt, self.v_max, self.w_max, 0.0]))  # fmt: skip
+        r = template.G.shape[0]
+        h_diag = int(is_diagonal(H))
         if self._kind == "planar":
-            self._fbuf = CK.pack_constants(self._geometry[0], np.zeros(0), np.zeros(0), *rest)
-            self._ibuf = np.array([n, m, r, int(self._h_diag), *rows], dtype=np.int64)
+            self._fbuf = CK.pack_constants(geometry[0], np.zeros(0), np.zeros(0), *constants)
+            self._ibuf = np.array([n, m, r, h_diag, *rows], dtype=np.int64)
             self._kernel = CK.planar_step
         else:
-            origins, axes, revolute, tip = self._geometry
-            self._fbuf = CK.pack_constants(origins, axes, tip, *rest)
-            self._ibuf = np.array([n, m, r, int(self._h_diag), *revolute.astype(int), *rows],
+            origins, axes, revolute, tip = geometry
+            self._fbuf = CK.pack_constants(origins, axes, tip, *constants)
+            self._ibuf = np.array([n, m, r, h_diag, *revolute.astype(int), *rows],
                                   dtype=np.int64)  # fmt: skip
             self._kernel = CK.chain_step
         self._has_prev = self._fbuf.size - 1  # index of the has_prev flag in fbuf
