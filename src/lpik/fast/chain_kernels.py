@@ -36,6 +36,20 @@ def _axis_rotation(axis, angle, R):  # noqa: ANN001, ANN201
 
 
 @njit(cache=True)
+def _top_product(A, B, inner, cols, tmp, out):  # noqa: ANN001, ANN201
+    """``out[:3, :cols] = A[:3, :inner] @ B[:inner, :cols]``; ``out`` may be ``A`` (via ``tmp``)."""
+    for a in range(3):
+        for b in range(cols):
+            s = 0.0
+            for k in range(inner):
+                s += A[a, k] * B[k, b]
+            tmp[a, b] = s
+    for a in range(3):
+        for b in range(cols):
+            out[a, b] = tmp[a, b]
+
+
+@njit(cache=True)
 def fk_scratch_size(n):  # noqa: ANN001, ANN201
     """Length of the scratch array :func:`chain_fk_jacobian` needs for ``n`` joints."""
     return 41 + 6 * n
@@ -57,16 +71,7 @@ def chain_fk_jacobian(origins, axes, revolute, tip, q, T, J6, scratch):  # noqa:
         for b in range(4):
             cur[a, b] = 1.0 if a == b else 0.0
     for i in range(n):
-        # cur = cur @ origin_i
-        for a in range(3):
-            for b in range(4):
-                s = 0.0
-                for k in range(4):
-                    s += cur[a, k] * origins[i, k, b]
-                tmp[a, b] = s
-        for a in range(3):
-            for b in range(4):
-                cur[a, b] = tmp[a, b]
+        _top_product(cur, origins[i], 4, 4, tmp, cur)  # cur = cur @ origin_i
         for a in range(3):
             joint_pos[i, a] = cur[a, 3]
             s = 0.0
@@ -75,24 +80,11 @@ def chain_fk_jacobian(origins, axes, revolute, tip, q, T, J6, scratch):  # noqa:
             joint_axis[i, a] = s
         if revolute[i]:
             _axis_rotation(axes[i], q[i], R)
-            for a in range(3):
-                for b in range(3):
-                    s = 0.0
-                    for k in range(3):
-                        s += cur[a, k] * R[k, b]
-                    tmp[a, b] = s
-            for a in range(3):
-                for b in range(3):
-                    cur[a, b] = tmp[a, b]
+            _top_product(cur, R, 3, 3, tmp, cur)  # turn about the joint axis
         else:
             for a in range(3):
                 cur[a, 3] += joint_axis[i, a] * q[i]
-    for a in range(3):
-        for b in range(4):
-            s = 0.0
-            for k in range(4):
-                s += cur[a, k] * tip[k, b]
-            T[a, b] = s
+    _top_product(cur, tip, 4, 4, tmp, T)
     T[3, 0], T[3, 1], T[3, 2], T[3, 3] = 0.0, 0.0, 0.0, 1.0
     for i in range(n):
         zx, zy, zz = joint_axis[i, 0], joint_axis[i, 1], joint_axis[i, 2]
