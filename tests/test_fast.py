@@ -227,11 +227,102 @@ def test_controller_rejects_bad_input() -> None:
     from lpik.robots.planar import PlanarArm
 
     controller = Lp2Controller(PlanarArm([1, 1, 1]), dt=0.01)
-    with pytest.raises(ValueError, match="q0"):
-        controller.step(np.zeros(2), np.array([1.0, 1.0]))
-    with pytest.raises(ValueError, match="target"):
-        controller.step(np.zeros(3), np.array([1.0, 1.0, 1.0]))
-    with pytest.raises(ValueError, match="q0"):  # NaN: the HiGHS fallback's validation says so
-        controller.step(np.array([0.1, np.nan, 0.2]), np.array([1.0, 1.0]))
+    q, goal = np.array([0.1, 0.2, 0.3]), np.array([1.0, 1.0])
+    bad = [
+        ((np.zeros(2), goal), "q0: must have length 3"),
+        (([0.1, 0.2], goal), "q0: must have length 3"),
+        ((q, np.array([1.0, 1.0, 1.0])), "target: must have length 2"),
+        ((q, np.ones((2, 2))), "target: must have length 2"),
+        ((np.array([0.1, np.nan, 0.2]), goal), "q0: contains NaN"),
+        ((q, np.array([np.inf, 1.0])), "target: contains NaN"),
+        ((q, goal, np.array([0.1, 0.2, np.nan])), "q_prev: contains NaN"),
+        ((q, goal, np.zeros(4)), "q_prev: must have length 3"),
+        (("abc", goal), "q0: must be 3 numbers"),
+        ((q, {"x": 1}), "target: must be numbers"),
+    ]
+    for args, message in bad:
+        with pytest.raises(ValueError, match=message):
+            controller.step(*args)
     with pytest.raises(ValueError, match="dt"):
         Lp2Controller(PlanarArm([1, 1, 1]), dt=0.0)
+    pose = Lp2Controller(_panda("pose"), dt=0.001)
+    for target in (np.ones((2, 2)), np.ones(4), np.eye(4)[:3], np.full((4, 4), np.nan)):
+        with pytest.raises(ValueError, match="target"):
+            pose.step(np.zeros(7), target)
+
+
+def _panda(task: str):  # noqa: ANN202 - a TaskModel
+    from lpik.robots.registry import load_robot
+
+    return load_robot("panda", task=task)
+
+
+def test_controller_converts_other_inputs_to_the_same_step() -> None:
+    """Lists, integers, strided and read-only arrays take the converting path: same answers."""
+    from lpik.fast.controller import Lp2Controller
+    from lpik.robots.registry import home_configuration
+
+    model = _panda("pose")
+    controller = Lp2Controller(model, dt=0.001, qdd_max=10.0)
+    q = home_configuration("panda")
+    target = model.pose(q)
+    target[:3, 3] += [0.05, -0.02, 0.03]
+    prev = q - 1e-4
+    ref = controller.step(q.copy(), target.copy(), prev.copy())
+    assert ref.path == "compiled"
+    frozen = q.copy()
+    frozen.flags.writeable = False
+    strided = np.repeat(q, 2)[::2]
+    for args in (
+        (list(q), target.tolist(), list(prev)),
+        (frozen, target, prev),
+        (strided, np.asfortranarray(target), prev),
+        (tuple(q), target.astype(np.longdouble), prev.tolist()),
+    ):
+        got = controller.step(*args)
+        np.testing.assert_array_equal(got.q, ref.q)
+        assert (got.p, got.status, got.binding) == (ref.p, ref.status, ref.binding)
+    whole = np.array([0, 0, 0, -2, 0, 2, 1])  # integers
+    by_int = controller.step(whole, target)
+    assert by_int.status == st.OPTIMAL
+    np.testing.assert_array_equal(by_int.q, controller.step(whole.astype(float), target).q)
+    # xyz, a rotation and a pose address the same compiled step of a position task.
+    position = Lp2Controller(_panda("position"), dt=0.001)
+    by_xyz = position.step(q, np.ascontiguousarray(target[:3, 3]))
+    by_pose = position.step(q, target)
+    np.testing.assert_array_equal(by_xyz.q, by_pose.q)
+    orientation = Lp2Controller(_panda("orientation"), dt=0.001)
+    by_rotation = orientation.step(q, np.ascontiguousarray(target[:3, :3]))
+    np.testing.assert_array_equal(by_rotation.q, orientation.step(q, target).q)
+
+
+def test_controller_labels_every_kind_of_binding_limit_as_the_numpy_layers() -> None:
+    """Random states of a planar arm bound by end-stops, velocity and acceleration
+    limits, multiplier bounds and an extra row: the fused step names the same limit."""
+    from lpik.fast.controller import Lp2Controller
+    from lpik.robots.planar import PlanarArm
+
+    rng = np.random.default_rng(7)
+    qd_max = np.array([0.5, 0.8, 1.0, 1.2])
+    arm = PlanarArm([1.0, 0.8, 0.6, 0.4], q_min=np.full(4, -2.0), q_max=np.full(4, 2.0),
+                    qd_max=qd_max)  # fmt: skip
+    controller = Lp2Controller(
+        arm, dt=0.05, v_max=2.0, qdd_max=np.array([4.0, 6.0, 8.0, 10.0]), lambda_bound=0.05,
+        G=np.array([[1.0, 1.0, 0.0, 0.0]]), h=np.array([1.5]), row_labels=("elbow row",),
+    )  # fmt: skip
+    kinds: dict[str, int] = {}
+    for _ in range(3000):
+        q0 = rng.uniform(-2.0, 2.0, 4)
+        q0[1] = min(q0[1], 1.5 - q0[0])  # start on the feasible side of the row
+        # A last step within the velocity limits (else the numpy layers reject the bounds).
+        prev = q0 - rng.uniform(-1.0, 1.0, 4) * qd_max * 0.05 * rng.integers(0, 2)
+        target = arm.pose(q0)[:2] + rng.normal(0.0, 0.2, 2)
+        fast = controller.step(q0, target, prev)
+        ref = lp2(controller.problem(q0, target, prev), path="ratio-test")
+        assert (fast.status, fast.binding) == (ref.status, ref.binding), (q0, prev, target)
+        assert abs(fast.p - ref.p) <= 1e-12
+        for kind in ("end-stop", "velocity", "acceleration", "multiplier", "row", " / "):
+            if fast.binding and kind in fast.binding:
+                kinds[kind] = kinds.get(kind, 0) + 1
+    # " / ": a joint's lower bound above its upper one (infeasible even at p = 0).
+    assert {"end-stop", "velocity", "acceleration", "multiplier", "row", " / "} <= set(kinds), kinds

@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from lpik.fast.kernels import lp2_core, workspace_size
+from lpik.fast.kernels import INFEASIBLE, lp2_core, matrix, workspace_size
 
 
 @njit(cache=True)
@@ -62,11 +62,11 @@ def chain_fk_jacobian(origins, axes, revolute, tip, q, T, J6, scratch):  # noqa:
     ``scratch`` is a float array of at least :func:`fk_scratch_size` entries.
     """
     n = q.shape[0]
-    cur = scratch[0:16].reshape((4, 4))
-    tmp = scratch[16:32].reshape((4, 4))
-    R = scratch[32:41].reshape((3, 3))
-    joint_pos = scratch[41 : 41 + 3 * n].reshape((n, 3))
-    joint_axis = scratch[41 + 3 * n : 41 + 6 * n].reshape((n, 3))
+    cur = matrix(scratch, 0, 4, 4)
+    tmp = matrix(scratch, 16, 4, 4)
+    R = matrix(scratch, 32, 3, 3)
+    joint_pos = matrix(scratch, 41, n, 3)
+    joint_axis = matrix(scratch, 41 + 3 * n, n, 3)
     for a in range(4):
         for b in range(4):
             cur[a, b] = 1.0 if a == b else 0.0
@@ -136,7 +136,7 @@ def pose_error(T, target, e6, scratch):  # noqa: ANN001, ANN201
     """``[p_target - p; log(R_target R^T)]`` into ``e6`` (6,); ``scratch`` >= 12 floats."""
     for a in range(3):
         e6[a] = target[a, 3] - T[a, 3]
-    Rd = scratch[0:9].reshape((3, 3))
+    Rd = matrix(scratch, 0, 3, 3)
     for a in range(3):
         for b in range(3):
             s = 0.0
@@ -179,29 +179,15 @@ def planar_fk_jacobian(lengths, pose_task, q, w, J, scratch):  # noqa: ANN001, A
 
 
 @njit(cache=True)
-def limit_and_solve(
-    J,
-    dw,
-    limits,
-    H,
-    h_diag,
-    f_ref,
-    Lam,
-    lam_bounds,
-    G,
-    h,
-    dt,
-    has_prev,  # noqa: ANN001, ANN201, PLR0913
-    q0,
-    q_prev,
-    dq,
-    lam,
-    ws,
-):
+def limit_and_solve(J, dw, limits, H, h_diag, f_ref, Lam, lam_bounds, G, h, dt, q0, q_prev, dq,  # noqa: ANN001, ANN201, PLR0913
+                    lam, ws):  # fmt: skip
     """Bounds on ``dq`` (end-stops, velocity, acceleration), the criterion, rows; then LP2.
 
     ``limits`` is (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max (inf when none);
     ``f_ref`` is (2, n): ``f`` and ``q_ref`` (NaN entries mean ``q_ref = q0`` there).
+    The last step is ``q0 - q_prev``: pass ``q_prev = q0`` for a robot at rest.
+    Returns ``(code, p, binding)`` as :func:`lpik.fast.kernels.lp2_core`, with the
+    binding ``-2 - i`` when joint ``i``'s lower bound lies above its upper one.
     """
     m, n = J.shape
     r = G.shape[0]
@@ -210,9 +196,13 @@ def limit_and_solve(
     for i in range(n):
         lo = max(limits[0, i] - q0[i], limits[2, i] * dt)
         hi = min(limits[1, i] - q0[i], limits[3, i] * dt)
-        last = q0[i] - q_prev[i] if has_prev else 0.0
+        last = q0[i] - q_prev[i]
         lower[i] = max(lo, last + limits[4, i] * dt * dt)
         upper[i] = min(hi, last + limits[5, i] * dt * dt)
+    for i in range(n):  # a joint's bounds cross: no step is feasible (as lp2's crossed_label)
+        if lower[i] > upper[i]:
+            ws[3 * n + r] = 0.0
+            return INFEASIBLE, 0.0, -2 - i
     c = ws[2 * n : 3 * n]
     for i in range(n):
         s = f_ref[0, i]
@@ -231,6 +221,45 @@ def limit_and_solve(
         J, dw, H, h_diag, c, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam,
         ws[3 * n + r :],
     )  # fmt: skip
+
+
+@njit(cache=True)
+def _bound_kind(k, upper, q0, q_prev, limits, dt):  # noqa: ANN001, ANN201
+    """What sets joint ``k``'s bound on ``dq`` on one side: 0 end-stop, 1 velocity, 2 acceleration.
+
+    The tightest, named as :meth:`lpik.problem.Problem.step_bounds` names it.
+    """
+    last = q0[k] - q_prev[k]
+    if upper:
+        stop, vel, acc = limits[1, k] - q0[k], limits[3, k] * dt, last + limits[5, k] * dt * dt
+        kind = 2 if acc < vel else 1
+        return 0 if stop <= min(vel, acc) else kind
+    stop, vel, acc = limits[0, k] - q0[k], limits[2, k] * dt, last + limits[4, k] * dt * dt
+    kind = 2 if acc > vel else 1
+    return 0 if stop >= max(vel, acc) else kind
+
+
+@njit(cache=True)
+def binding_label_index(code, q0, q_prev, limits, dt, constraints):  # noqa: ANN001, ANN201
+    """Where the binding limit ``code`` sits in a controller's table of labels.
+
+    ``code >= 0`` is :mod:`lpik.fast.kernels`' binding code (``2 k + side``) and
+    ``code <= -2`` marks joint ``-2 - code`` whose lower step bound lies above its
+    upper one. The table holds, for each joint side (``code < 2 n``), three labels
+    by what sets the bound: ``3 code`` end-stop, ``+ 1`` velocity limit, ``+ 2``
+    acceleration limit; then the multipliers and rows (``code - 2 n`` after the
+    ``6 n`` joint labels, ``constraints`` of them in all); then, per joint, the
+    nine "lower / upper" pairs of a crossed joint.
+    """
+    n = q0.shape[0]
+    if code <= -2:
+        k = -2 - code
+        lower = _bound_kind(k, False, q0, q_prev, limits, dt)
+        upper = _bound_kind(k, True, q0, q_prev, limits, dt)
+        return 6 * n + 2 * constraints + 9 * k + 3 * lower + upper
+    if code >= 2 * n:
+        return 4 * n + code
+    return 3 * code + _bound_kind(code // 2, code % 2 == 1, q0, q_prev, limits, dt)
 
 
 @njit(cache=True)
@@ -255,130 +284,234 @@ def clamp_command(dw, rows, v_max, w_max, dt):  # noqa: ANN001, ANN201
         dw[k] *= scale
 
 
-def pack_constants(origins, axes, tip, limits, H, f_ref, Lam, lam_bounds, G, h, scalars):  # noqa: ANN001, ANN201
-    """One float buffer of everything a step of a chain keeps constant (see :func:`chain_step`)."""
-    return np.concatenate([np.ravel(a) for a in (origins, axes, tip, limits, H, f_ref, Lam,
-                                                  lam_bounds, G, h, scalars)])  # fmt: skip
+# ---------------------------------------------------------------- the fused step's state buffer
+#
+# A controller keeps everything of a step in one float array, so that a step is one
+# compiled call of four arguments (state, q0, q_prev, target):
+#
+#   [header (HEADER) | revolute flags (n) | task rows (m) | geometry | constants | out | ws]
+#
+# header: n, m, r, h_diag and the offsets of the geometry, constants, out and ws.
+# geometry: a chain's joint origins (n, 4, 4), axes (n, 3) and tip (4, 4), or the
+#   planar arm's link lengths (n,).
+# constants: limits (6, n: q_min, q_max, qd_min, qd_max, qdd_min, qdd_max, inf when
+#   none), H = M + Lambda (n, n), f and q_ref (2, n; NaN: q_ref = q0 there), Lambda
+#   (n, n), multiplier bounds (2, m), rows G (r, n) and h (r,), [dt, v_max, w_max].
+# out: [q (n) | dq (n) | lam (m) | task position (3) | dw (m) | p, label index, residual];
+#   the label index is -1 when no limit binds (see binding_label_index).
+
+#: Length of the state buffer's header.
+HEADER = 8
+#: Floats after the task command in ``out``: p, the binding label's index, the residual.
+OUT_TAIL = 3
+#: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
+BAD_INPUT = 4
 
 
-def step_workspace_size(n, m, r):  # noqa: ANN001, ANN201
+def out_size(n: int, m: int) -> int:
+    """Length of a step's output block (see the layout above)."""
+    return 2 * n + 2 * m + 3 + OUT_TAIL
+
+
+def step_workspace_size(n: int, m: int, r: int) -> int:
     """Length of the float workspace :func:`chain_step` / :func:`planar_step` need."""
-    return 16 + 6 * n + 6 + m * n + fk_scratch_size(n) + 12 + 3 * n + r + workspace_size(n, m, r)
+    return (
+        16 + 16 + 6 * n + 6 + m * n + fk_scratch_size(n) + 12 + 3 * n + r + workspace_size(n, m, r)
+    )
 
 
-#: Layout of a step's output buffer (``n`` joints, ``m`` task rows):
-#: ``[q (n) | dq (n) | lam (m) | task position (3) | dw (m) | code, p, binding, residual]``.
-OUT_TAIL = 4
+def pack_state(
+    revolute: np.ndarray,
+    rows: tuple[int, ...],
+    h_diag: bool,
+    geometry: tuple[np.ndarray, ...],
+    constants: tuple[np.ndarray, ...],
+) -> tuple[np.ndarray, int]:
+    """The state buffer of a fused step (see the layout above) and the offset of ``out``.
+
+    ``r`` is the number of rows of ``G`` (``constants[5]``).
+    """
+    n, m = len(revolute), len(rows)
+    r = constants[5].shape[0]
+    geo = np.concatenate([np.ravel(a) for a in geometry])
+    const = np.concatenate([np.ravel(a) for a in constants])
+    o_geo = HEADER + n + m
+    o_const = o_geo + geo.size
+    o_out = o_const + const.size
+    o_ws = o_out + out_size(n, m)
+    state = np.zeros(o_ws + step_workspace_size(n, m, r))
+    state[:HEADER] = (n, m, r, float(h_diag), o_geo, o_const, o_out, o_ws)
+    state[HEADER : HEADER + n] = revolute
+    state[HEADER + n : o_geo] = rows
+    state[o_geo:o_const] = geo
+    state[o_const:o_out] = const
+    return state, o_out
 
 
 @njit(cache=True)
-def _unpack(fbuf, n, m, r, o):  # noqa: ANN001, ANN201
-    """The criterion, limits, rows and scalars from ``fbuf`` starting at offset ``o``."""
-    limits = fbuf[o : o + 6 * n].reshape((6, n))
+def _unpack(state, n, m, r, o):  # noqa: ANN001, ANN201
+    """The constants (limits, criterion, rows, scalars) from ``state`` at offset ``o``."""
+    limits = matrix(state, o, 6, n)
     o += 6 * n
-    H = fbuf[o : o + n * n].reshape((n, n))
+    H = matrix(state, o, n, n)
     o += n * n
-    f_ref = fbuf[o : o + 2 * n].reshape((2, n))
+    f_ref = matrix(state, o, 2, n)
     o += 2 * n
-    Lam = fbuf[o : o + n * n].reshape((n, n))
+    Lam = matrix(state, o, n, n)
     o += n * n
-    lam_bounds = fbuf[o : o + 2 * m].reshape((2, m))
+    lam_bounds = matrix(state, o, 2, m)
     o += 2 * m
-    G = fbuf[o : o + r * n].reshape((r, n))
+    G = matrix(state, o, r, n)
     o += r * n
-    h = fbuf[o : o + r]
+    h = state[o : o + r]
     o += r
-    return limits, H, f_ref, Lam, lam_bounds, G, h, fbuf[o : o + 4]
+    return limits, H, f_ref, Lam, lam_bounds, G, h, state[o : o + 3]
 
 
 @njit(cache=True)
-def _finish(q0, J, dw, limits, H, h_diag, f_ref, Lam, lam_bounds, G, h, scalars, q_prev, out,  # noqa: ANN001, ANN201, PLR0913
-            ws):  # fmt: skip
-    """Limits and LP2, then ``q = q0 + dq``, the outcome and the residual into ``out``."""
-    n = q0.shape[0]
-    m = J.shape[0]
-    r = G.shape[0]
+def _finite_joints(q0, q_prev, n):  # noqa: ANN001, ANN201
+    """True when ``q0`` and ``q_prev`` both have ``n`` finite entries."""
+    if q0.shape[0] != n or q_prev.shape[0] != n:
+        return False
+    for i in range(n):
+        if not (math.isfinite(q0[i]) and math.isfinite(q_prev[i])):
+            return False
+    return True
+
+
+@njit(cache=True)
+def target_pose(target, T):  # noqa: ANN001, ANN201
+    """The commanded pose ``T`` (4, 4) from xyz (3,), a rotation (3, 3) or a pose (4, 4).
+
+    Returns False for any other shape or a value that is not finite.
+    """
+    shape = target.shape
+    flat = np.lib.stride_tricks.as_strided(target, shape=(target.size,), strides=(8,))
+    for k in range(flat.size):
+        if not math.isfinite(flat[k]):
+            return False
+    for a in range(4):
+        for b in range(4):
+            T[a, b] = 1.0 if a == b else 0.0
+    if shape == (3,):
+        for a in range(3):
+            T[a, 3] = flat[a]
+    elif shape == (3, 3):
+        for a in range(3):
+            for b in range(3):
+                T[a, b] = flat[3 * a + b]
+    elif shape == (4, 4):
+        for a in range(4):
+            for b in range(4):
+                T[a, b] = flat[4 * a + b]
+    else:
+        return False
+    return True
+
+
+@njit(cache=True)
+def _finish(state, q0, q_prev, J, dw, out, ws):  # noqa: ANN001, ANN201
+    """Limits and LP2, then ``q = q0 + dq``, ``p``, the binding label and the residual."""
+    n, m, r = q0.shape[0], J.shape[0], int(state[2])
+    limits, H, f_ref, Lam, lam_bounds, G, h, scalars = _unpack(state, n, m, r, int(state[5]))
     code, p, binding = limit_and_solve(
-        J, dw, limits, H, h_diag, f_ref, Lam, lam_bounds, G, h, scalars[0], scalars[3] > 0.5,
-        q0, q_prev, out[n : 2 * n], out[2 * n : 2 * n + m], ws,
+        J, dw, limits, H, state[3] != 0.0, f_ref, Lam, lam_bounds, G, h, scalars[0], q0, q_prev,
+        out[n : 2 * n], out[2 * n : 2 * n + m], ws,
     )  # fmt: skip
     for i in range(n):
         out[i] = q0[i] + out[n + i]
     k = out.shape[0] - OUT_TAIL
-    out[k] = code
-    out[k + 1] = p
-    out[k + 2] = binding
-    out[k + 3] = ws[3 * n + r]  # lp2_core leaves max |J dq - p dw| in its ws[0]
+    out[k] = p
+    out[k + 1] = (
+        -1 if binding == -1 else binding_label_index(binding, q0, q_prev, limits, scalars[0], m + r)
+    )
+    out[k + 2] = ws[3 * n + r]  # lp2_core leaves max |J dq - p dw| in its ws[0]
+    return code
 
 
-@njit(cache=True)
-def chain_step(fbuf, ibuf, q0, q_prev, target, out, ws):  # noqa: ANN001, ANN201
+_CHAIN_SIGNATURES = [
+    "int64(float64[::1], float64[::1], float64[::1], float64[::1])",
+    "int64(float64[::1], float64[::1], float64[::1], float64[:, ::1])",
+]
+
+
+@njit(_CHAIN_SIGNATURES, cache=True)
+def chain_step(state, q0, q_prev, target):  # noqa: ANN001, ANN201
     """One fused LP2 control step of a serial chain: FK, Jacobian, command, limits, LP2.
 
+    Compiled for C-contiguous float64 arrays only: other arguments raise a
+    ``TypeError`` (the caller converts them), so a step never compiles anew.
+
     Args:
-        fbuf: The constants, packed by :func:`pack_constants`: joint origins (n, 4, 4),
-            axes (n, 3), tip (4, 4), limits (6, n: q_min, q_max, qd_min, qd_max,
-            qdd_min, qdd_max, inf when none), ``H = M + Lambda`` (n, n), ``f`` and
-            ``q_ref`` (2, n; NaN: q_ref = q0 there), ``Lambda`` (n, n), multiplier
-            bounds (2, m), rows ``G`` (r, n) and ``h`` (r,), ``[dt, v_max, w_max, has_prev]``.
-        ibuf: ``[n, m, r, h_diag, revolute (n), task rows (m) among x, y, z, rx, ry, rz]``.
+        state: The controller's buffer (:func:`pack_state`); the step writes its
+            ``out`` and workspace blocks.
         q0: Joint coordinates now, (n,).
-        q_prev: Joint coordinates one period ago, (n,).
-        target: Commanded pose (4, 4).
-        out: Output buffer, see :data:`OUT_TAIL` for the layout.
-        ws: Float workspace of :func:`step_workspace_size` entries.
+        q_prev: Joint coordinates one period ago, (n,); ``q0`` for a robot at rest.
+        target: Commanded xyz (3,), rotation (3, 3) or pose (4, 4).
+
+    Returns:
+        The outcome code of :mod:`lpik.fast.kernels`, or :data:`BAD_INPUT`.
     """
-    n, m, r = ibuf[0], ibuf[1], ibuf[2]
-    h_diag = ibuf[3] != 0
-    revolute = ibuf[4 : 4 + n]
-    rows = ibuf[4 + n : 4 + n + m]
-    origins = fbuf[0 : 16 * n].reshape((n, 4, 4))
-    axes = fbuf[16 * n : 19 * n].reshape((n, 3))
-    tip = fbuf[19 * n : 19 * n + 16].reshape((4, 4))
-    limits, H, f_ref, Lam, lam_bounds, G, h, scalars = _unpack(fbuf, n, m, r, 19 * n + 16)
-    o = 0
-    T = ws[o : o + 16].reshape((4, 4))
+    n, m = int(state[0]), int(state[1])
+    revolute = state[HEADER : HEADER + n]
+    rows = state[HEADER + n : HEADER + n + m]
+    o = int(state[4])
+    origins = np.lib.stride_tricks.as_strided(state[o:], shape=(n, 4, 4), strides=(128, 32, 8))
+    axes = matrix(state, o + 16 * n, n, 3)
+    tip = matrix(state, o + 19 * n, 4, 4)
+    scalars = state[int(state[6]) - 3 : int(state[6])]
+    out = state[int(state[6]) : int(state[7])]
+    ws = state[int(state[7]) :]
+    goal = matrix(ws, 0, 4, 4)
+    if not (_finite_joints(q0, q_prev, n) and target_pose(target, goal)):
+        return BAD_INPUT
+    o = 16
+    T = matrix(ws, o, 4, 4)
     o += 16
-    J6 = ws[o : o + 6 * n].reshape((6, n))
+    J6 = matrix(ws, o, 6, n)
     o += 6 * n
     e6 = ws[o : o + 6]
     o += 6
-    J = ws[o : o + m * n].reshape((m, n))
+    J = matrix(ws, o, m, n)
     o += m * n
     chain_fk_jacobian(origins, axes, revolute, tip, q0, T, J6, ws[o:])
     o += fk_scratch_size(n)
-    pose_error(T, target, e6, ws[o:])
+    pose_error(T, goal, e6, ws[o:])
     o += 12
     dw = out[2 * n + m + 3 : 2 * n + 2 * m + 3]
     for k in range(m):
-        dw[k] = e6[rows[k]]
+        row = int(rows[k])
+        dw[k] = e6[row]
         for i in range(n):
-            J[k, i] = J6[rows[k], i]
+            J[k, i] = J6[row, i]
     clamp_command(dw, rows, scalars[1], scalars[2], scalars[0])
     for a in range(3):
         out[2 * n + m + a] = T[a, 3]
-    _finish(q0, J, dw, limits, H, h_diag, f_ref, Lam, lam_bounds, G, h, scalars, q_prev, out,
-            ws[o:])  # fmt: skip
+    return _finish(state, q0, q_prev, J, dw, out, ws[o:])
 
 
-@njit(cache=True)
-def planar_step(fbuf, ibuf, q0, q_prev, target, out, ws):  # noqa: ANN001, ANN201
+@njit("int64(float64[::1], float64[::1], float64[::1], float64[::1])", cache=True)
+def planar_step(state, q0, q_prev, target):  # noqa: ANN001, ANN201
     """One fused LP2 control step of the planar arm (see :func:`chain_step`).
 
-    ``fbuf`` starts with the link lengths (n,) instead of the chain, then as
-    :func:`chain_step`; ``ibuf = [n, m, r, h_diag, task rows (m)]`` with rows
-    ``[0, 1]`` or ``[0, 1, 3]`` (the tool angle counts as angular); ``target``
-    is (x, y[, angle]).
+    The geometry is the link lengths (n,); the task rows are ``[0, 1]`` or
+    ``[0, 1, 3]`` (the tool angle counts as angular); ``target`` is (x, y[, angle]).
     """
-    n, m, r = ibuf[0], ibuf[1], ibuf[2]
-    h_diag = ibuf[3] != 0
-    rows = ibuf[4 : 4 + m]
-    lengths = fbuf[0:n]
-    limits, H, f_ref, Lam, lam_bounds, G, h, scalars = _unpack(fbuf, n, m, r, n)
-    o = 0
-    w = ws[o : o + m]
-    o += m
-    J = ws[o : o + m * n].reshape((m, n))
+    n, m = int(state[0]), int(state[1])
+    rows = state[HEADER + n : HEADER + n + m]
+    o = int(state[4])
+    lengths = state[o : o + n]
+    scalars = state[int(state[6]) - 3 : int(state[6])]
+    out = state[int(state[6]) : int(state[7])]
+    ws = state[int(state[7]) :]
+    if not _finite_joints(q0, q_prev, n) or target.shape[0] != m:
+        return BAD_INPUT
+    for k in range(m):
+        if not math.isfinite(target[k]):
+            return BAD_INPUT
+    w = ws[0:m]
+    o = m
+    J = matrix(ws, o, m, n)
     o += m * n
     planar_fk_jacobian(lengths, m == 3, q0, w, J, ws[o:])
     o += 2 * n
@@ -389,5 +522,4 @@ def planar_step(fbuf, ibuf, q0, q_prev, target, out, ws):  # noqa: ANN001, ANN20
         dw[2] = -((-dw[2] + math.pi) % (2 * math.pi) - math.pi)
     clamp_command(dw, rows, scalars[1], scalars[2], scalars[0])
     out[2 * n + m], out[2 * n + m + 1], out[2 * n + m + 2] = w[0], w[1], 0.0
-    _finish(q0, J, dw, limits, H, h_diag, f_ref, Lam, lam_bounds, G, h, scalars, q_prev, out,
-            ws[o:])  # fmt: skip
+    return _finish(state, q0, q_prev, J, dw, out, ws[o:])

@@ -12,7 +12,7 @@ cannot take (singular KKT matrix) go to the HiGHS path.
 
 from __future__ import annotations
 
-import time
+from time import perf_counter
 from typing import Any
 
 import numpy as np
@@ -28,6 +28,8 @@ from lpik.problem import Problem
 from lpik.result import Result
 from lpik.robots.base import FloatArray, TaskModel
 from lpik.robots.planar import PlanarArm
+
+_new = object.__new__
 
 ROW_INDEX = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
 
@@ -110,32 +112,33 @@ class Lp2Controller:
             np.full(n, np.inf)  # fmt: skip
         qdd = np.full(n, np.inf) if qdd_max is None else np.broadcast_to(
             np.asarray(qdd_max, float), (n,))  # fmt: skip
-        #: (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max (for the binding labels too).
-        self._limits = np.vstack([template.q_min, template.q_max, -qd, qd, -qdd, qdd])
-        constants = (self._limits, H, np.vstack([template.f, ref]), template.Lambda,
+        # (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max.
+        bounds = np.vstack([template.q_min, template.q_max, -qd, qd, -qdd, qdd])
+        constants = (bounds, H, np.vstack([template.f, ref]), template.Lambda,
                      np.vstack([template.lam_min, template.lam_max]), template.G, template.h,
-                     np.array([self.dt, self.v_max, self.w_max, 0.0]))  # fmt: skip
-        r = template.G.shape[0]
-        h_diag = int(is_diagonal(H))
+                     np.array([self.dt, self.v_max, self.w_max]))  # fmt: skip
         if self._kind == "planar":
-            self._fbuf = CK.pack_constants(geometry[0], np.zeros(0), np.zeros(0), *constants)
-            self._ibuf = np.array([n, m, r, h_diag, *rows], dtype=np.int64)
+            revolute = np.ones(n)
             self._kernel = CK.planar_step
         else:
             origins, axes, revolute, tip = geometry
-            self._fbuf = CK.pack_constants(origins, axes, tip, *constants)
-            self._ibuf = np.array([n, m, r, h_diag, *revolute.astype(int), *rows],
-                                  dtype=np.int64)  # fmt: skip
+            geometry = (origins, axes, tip)
             self._kernel = CK.chain_step
-        self._has_prev = self._fbuf.size - 1  # index of the has_prev flag in fbuf
-        self._buf = np.empty(2 * n + 2 * m + 3 + CK.OUT_TAIL)
-        self._ws = np.empty(CK.step_workspace_size(n, m, r))
+        self._state, o_out = CK.pack_state(revolute, rows, is_diagonal(H), geometry, constants)
+        size = CK.out_size(n, m)
+        self._out = self._state[o_out : o_out + size]  # the kernel writes here
+        self._p, self._label_at, self._residual = size - 3, size - 2, size - 1
         self._n, self._m = n, m
-        self._names = tuple(model.joint_names)
-        self._rows_labels = tuple(template.row_labels)
+        self._q_slice, self._dq_slice, self._lam_slice = slice(0, n), slice(n, 2 * n), \
+            slice(2 * n, 2 * n + m)  # fmt: skip
+        self._labels = _label_table(model.joint_names, m, template.row_labels)
 
     def step(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Result:
         """One LP2 step from ``q0`` towards ``target`` (eqs. 15-18, compiled).
+
+        The fastest call passes C-contiguous, writable float64 arrays; anything
+        else (lists, other dtypes, strided or read-only arrays) is converted first.
+        A controller is not re-entrant: give each thread its own.
 
         Args:
             q0: Joint coordinates now, (n,) [rad or m].
@@ -148,40 +151,46 @@ class Lp2Controller:
 
         Raises:
             ValueError: For a ``q0``, ``q_prev`` or ``target`` of the wrong shape, or
-                non-finite values (reported by the problem's validation).
+                non-finite values.
         """
-        start = time.perf_counter()
-        q0 = np.asarray(q0, dtype=np.float64)
-        n, m = self._n, self._m
-        if q0.shape != (n,):
-            raise ValueError(f"q0: must have length {n}, got shape {q0.shape}")
-        if q_prev is None:
-            prev = q0
-            self._fbuf[self._has_prev] = 0.0
-        else:
-            prev = np.asarray(q_prev, dtype=np.float64)
-            if prev.shape != (n,):
-                raise ValueError(f"q_prev: must have length {n}, got shape {prev.shape}")
-            self._fbuf[self._has_prev] = 1.0
-        goal = _planar_target(target, m) if self._kind == "planar" else _pose_target(target)
-        buf = self._buf
-        self._kernel(self._fbuf, self._ibuf, q0, prev, goal, buf, self._ws)
-        code, p, binding = int(buf[-4]), float(buf[-3]), int(buf[-2])
+        start = perf_counter()
+        prev = q0 if q_prev is None else q_prev
+        try:
+            code = self._kernel(self._state, q0, prev, target)
+        except TypeError:  # not C-contiguous writable float64 arrays: convert them
+            q0, target, prev = self._converted(q0, target, q_prev)
+            code = self._kernel(self._state, q0, prev, target)
         if code == K.OK:
-            out = buf.copy()
-            label = None if binding < 0 else self._label(binding, q0, prev, q_prev)
-            return Result.trusted(
-                q=out[:n], dq=out[n : 2 * n], p=p, lam=out[2 * n : 2 * n + m],
-                status=st.OPTIMAL, binding=label, method="lp2",
-                solve_time=time.perf_counter() - start, residual=float(out[-1]), path="compiled",
+            out = self._out.copy()
+            label = out.item(self._label_at)
+            result = _new(Result)
+            result.__dict__.update(
+                q=out[self._q_slice], dq=out[self._dq_slice], p=out.item(self._p),
+                lam=out[self._lam_slice], status=st.OPTIMAL,
+                binding=None if label < 0 else self._labels[int(label)], method="lp2",
+                solve_time=perf_counter() - start, residual=out.item(self._residual),
+                path="compiled",
             )  # fmt: skip
+            return result
         if code == K.INFEASIBLE:
+            label = self._out.item(self._label_at)
             return Result.trusted(
-                q=q0.copy(), dq=np.zeros(n), p=0.0, lam=None, status=st.INFEASIBLE,
-                binding=self._label(binding, q0, prev, q_prev), method="lp2",
-                solve_time=time.perf_counter() - start, residual=0.0, path="compiled",
+                q=np.array(q0, dtype=np.float64), dq=np.zeros(self._n), p=0.0, lam=None,
+                status=st.INFEASIBLE, binding=self._labels[int(label)], method="lp2",
+                solve_time=perf_counter() - start, residual=0.0, path="compiled",
             )  # fmt: skip
+        if code == CK.BAD_INPUT:
+            self._converted(q0, target, q_prev, check_finite=True)  # raises, naming the input
         return lp2(self.problem(q0, target, q_prev), path="highs")
+
+    def _converted(
+        self, q0: Any, target: Any, q_prev: Any, check_finite: bool = False
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``q0``, the target and ``q_prev`` as the kernel's arrays, or a ValueError naming them."""
+        q0 = _vector("q0", q0, self._n, check_finite)
+        prev = q0 if q_prev is None else _vector("q_prev", q_prev, self._n, check_finite)
+        goal = _target(target, self._m if self._kind == "planar" else None, check_finite)
+        return q0, goal, prev
 
     def _problem(
         self, J: FloatArray, dw: FloatArray, q0: FloatArray, q_prev: FloatArray | None
@@ -211,26 +220,6 @@ class Lp2Controller:
             None if q_prev is None else np.asarray(q_prev, float),
         )
 
-    def _label(self, code: int, q0: FloatArray, prev: FloatArray, q_prev: Any) -> str:
-        """The label :meth:`Problem.step_bounds` would give the constraint ``code``."""
-        k, upper = divmod(code, 2)
-        n, m = q0.size, self._rows.size
-        if k >= n + m:
-            return self._rows_labels[k - n - m]
-        if k >= n:
-            return f"multiplier {k - n + 1} {'upper' if upper else 'lower'} bound"
-        lim, dt = self._limits, self.dt
-        last = 0.0 if q_prev is None else q0[k] - prev[k]
-        if upper:
-            stop, vel, acc = lim[1, k] - q0[k], lim[3, k] * dt, last + lim[5, k] * dt * dt
-            kind = "acceleration limit" if acc < vel else "velocity limit"
-            kind = "end-stop" if stop <= min(vel, acc) else kind
-        else:
-            stop, vel, acc = lim[0, k] - q0[k], lim[2, k] * dt, last + lim[4, k] * dt * dt
-            kind = "acceleration limit" if acc > vel else "velocity limit"
-            kind = "end-stop" if stop >= max(vel, acc) else kind
-        return f"{self._names[k]} {'upper' if upper else 'lower'} {kind}"
-
 
 def _geometry(model: TaskModel) -> tuple[str, tuple, tuple[int, ...]]:
     """Arrays of the compiled kinematics and the kept task rows, or a ValueError."""
@@ -252,25 +241,55 @@ def _geometry(model: TaskModel) -> tuple[str, tuple, tuple[int, ...]]:
     return "chain", (origins, axes, revolute, tip), tuple(ROW_INDEX[r] for r in row_names)
 
 
-def _planar_target(target: Any, m: int) -> FloatArray:
-    t = np.asarray(target, dtype=np.float64)
-    if t.shape != (m,):
+def _vector(name: str, value: Any, n: int, check_finite: bool) -> FloatArray:
+    """A writable C-contiguous float64 copy of a joint vector of length ``n``."""
+    try:
+        v = np.array(value, dtype=np.float64, order="C")
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be {n} numbers, got {type(value).__name__}") from None
+    if v.shape != (n,):
+        raise ValueError(f"{name}: must have length {n}, got shape {v.shape}")
+    if check_finite and not np.isfinite(v).all():
+        raise ValueError(f"{name}: contains NaN or inf")
+    return v
+
+
+def _target(target: Any, m: int | None, check_finite: bool) -> FloatArray:
+    """A writable C-contiguous float64 copy of the target.
+
+    (m,) for the planar arm (``m`` given), else xyz (3,), a rotation (3, 3) or a pose (4, 4).
+    """
+    try:
+        t = np.array(target, dtype=np.float64, order="C")
+    except (TypeError, ValueError):
+        raise ValueError(f"target: must be numbers, got {type(target).__name__}") from None
+    if m is not None and t.shape != (m,):
         raise ValueError(f"target: must have length {m}, got shape {t.shape}")
-    return t
-
-
-def _pose_target(target: Any) -> FloatArray:
-    """A (4, 4) target from xyz (3,), a rotation (3, 3) or a pose (4, 4)."""
-    t = np.asarray(target, dtype=np.float64)
-    if t.shape == (4, 4):
-        return t if t.flags.c_contiguous else np.ascontiguousarray(t)
-    out = np.eye(4)
-    if t.shape == (3,):
-        out[:3, 3] = t
-    elif t.shape == (3, 3):
-        out[:3, :3] = t
-    else:
+    if m is None and t.shape not in ((3,), (3, 3), (4, 4)):
         raise ValueError(
             f"target: must be xyz (3,), a rotation (3, 3) or a pose (4, 4), got {t.shape}"
         )
-    return out
+    if check_finite and not np.isfinite(t).all():
+        raise ValueError("target: contains NaN or inf")
+    return t
+
+
+def _label_table(
+    joint_names: tuple[str, ...] | list[str], m: int, row_labels: tuple[str, ...]
+) -> tuple[str, ...]:
+    """Every binding label a step can report.
+
+    In the order of :func:`lpik.fast.chain_kernels.binding_label_index`.
+    """
+    kinds = ("end-stop", "velocity limit", "acceleration limit")
+    labels = []
+    for name in joint_names:
+        for side in ("lower", "upper"):
+            labels += [f"{name} {side} {kind}" for kind in kinds]
+    for k in range(m):
+        labels += [f"multiplier {k + 1} lower bound", f"multiplier {k + 1} upper bound"]
+    for label in row_labels:
+        labels += [label, label]
+    for name in joint_names:
+        labels += [f"{name} lower {low} / {name} upper {high}" for low in kinds for high in kinds]
+    return tuple(labels)
