@@ -6,6 +6,11 @@ The kinematics follow :class:`lpik.robots.chain.SerialChain`: frame
 frame is ``T_n @ tip``. The Jacobian is world-aligned at the task point:
 rows ``[v; omega]``. The orientation error is ``log(R_target R^T)`` in the
 base frame, as in :mod:`lpik.robots.tasks`.
+
+The fused steps (:func:`chain_step`, :func:`planar_step`) are compiled for
+their explicit signatures when this module is imported (or loaded from the
+disk cache), and for those only: a call with other types raises ``TypeError``
+instead of compiling a new specialisation in the middle of a control loop.
 """
 
 from __future__ import annotations
@@ -19,79 +24,93 @@ from lpik.fast.kernels import INFEASIBLE, lp2_core, matrix, workspace_size
 
 
 @njit(cache=True)
-def _axis_rotation(axis, angle, R):  # noqa: ANN001, ANN201
-    """Rodrigues: rotation by ``angle`` about unit ``axis`` into ``R`` (3, 3)."""
-    x, y, z = axis[0], axis[1], axis[2]
-    c, s = math.cos(angle), math.sin(angle)
-    t = 1.0 - c
-    R[0, 0] = c + x * x * t
-    R[0, 1] = x * y * t - z * s
-    R[0, 2] = x * z * t + y * s
-    R[1, 0] = y * x * t + z * s
-    R[1, 1] = c + y * y * t
-    R[1, 2] = y * z * t - x * s
-    R[2, 0] = z * x * t - y * s
-    R[2, 1] = z * y * t + x * s
-    R[2, 2] = c + z * z * t
+def _mul33(a, b):  # noqa: ANN001, ANN201
+    """``a @ b`` for 3x3 matrices held row-major in 9-tuples (kept in registers)."""
+    return (
+        a[0] * b[0] + a[1] * b[3] + a[2] * b[6],
+        a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
+        a[0] * b[2] + a[1] * b[5] + a[2] * b[8],
+        a[3] * b[0] + a[4] * b[3] + a[5] * b[6],
+        a[3] * b[1] + a[4] * b[4] + a[5] * b[7],
+        a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
+        a[6] * b[0] + a[7] * b[3] + a[8] * b[6],
+        a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
+        a[6] * b[2] + a[7] * b[5] + a[8] * b[8],
+    )
 
 
 @njit(cache=True)
-def _top_product(A, B, inner, cols, tmp, out):  # noqa: ANN001, ANN201
-    """``out[:3, :cols] = A[:3, :inner] @ B[:inner, :cols]``; ``out`` may be ``A`` (via ``tmp``)."""
-    for a in range(3):
-        for b in range(cols):
-            s = 0.0
-            for k in range(inner):
-                s += A[a, k] * B[k, b]
-            tmp[a, b] = s
-    for a in range(3):
-        for b in range(cols):
-            out[a, b] = tmp[a, b]
+def _mul3(a, x, y, z):  # noqa: ANN001, ANN201
+    """``a @ (x, y, z)`` for a 3x3 matrix held row-major in a 9-tuple."""
+    return (
+        a[0] * x + a[1] * y + a[2] * z,
+        a[3] * x + a[4] * y + a[5] * z,
+        a[6] * x + a[7] * y + a[8] * z,
+    )
+
+
+@njit(cache=True)
+def _axis_rotation(axis, angle):  # noqa: ANN001, ANN201
+    """Rodrigues: the rotation by ``angle`` about unit ``axis``, row-major in a 9-tuple."""
+    x, y, z = axis[0], axis[1], axis[2]
+    c, s = math.cos(angle), math.sin(angle)
+    t = 1.0 - c
+    return (
+        c + x * x * t, x * y * t - z * s, x * z * t + y * s,
+        y * x * t + z * s, c + y * y * t, y * z * t - x * s,
+        z * x * t - y * s, z * y * t + x * s, c + z * z * t,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _rotation(A):  # noqa: ANN001, ANN201
+    """The top-left 3x3 block of ``A``, row-major in a 9-tuple."""
+    return (A[0, 0], A[0, 1], A[0, 2], A[1, 0], A[1, 1], A[1, 2], A[2, 0], A[2, 1], A[2, 2])
 
 
 @njit(cache=True)
 def fk_scratch_size(n):  # noqa: ANN001, ANN201
     """Length of the scratch array :func:`chain_fk_jacobian` needs for ``n`` joints."""
-    return 41 + 6 * n
+    return 6 * n
 
 
 @njit(cache=True)
 def chain_fk_jacobian(origins, axes, revolute, tip, q, T, J6, scratch):  # noqa: ANN001, ANN201
     """Task-frame pose ``T`` (4, 4) and world-aligned Jacobian ``J6`` (6, n) at ``q``.
 
-    ``scratch`` is a float array of at least :func:`fk_scratch_size` entries.
+    The running frame lives in registers (a rotation 9-tuple and a position);
+    ``scratch`` (at least :func:`fk_scratch_size` floats) keeps each joint's
+    position and world axis for the Jacobian.
     """
     n = q.shape[0]
-    cur = matrix(scratch, 0, 4, 4)
-    tmp = matrix(scratch, 16, 4, 4)
-    R = matrix(scratch, 32, 3, 3)
-    joint_pos = matrix(scratch, 41, n, 3)
-    joint_axis = matrix(scratch, 41 + 3 * n, n, 3)
-    for a in range(4):
-        for b in range(4):
-            cur[a, b] = 1.0 if a == b else 0.0
+    joint_pos = matrix(scratch, 0, n, 3)
+    joint_axis = matrix(scratch, 3 * n, n, 3)
+    R = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    px, py, pz = 0.0, 0.0, 0.0
     for i in range(n):
-        _top_product(cur, origins[i], 4, 4, tmp, cur)  # cur = cur @ origin_i
-        for a in range(3):
-            joint_pos[i, a] = cur[a, 3]
-            s = 0.0
-            for k in range(3):
-                s += cur[a, k] * axes[i, k]
-            joint_axis[i, a] = s
-        if revolute[i]:
-            _axis_rotation(axes[i], q[i], R)
-            _top_product(cur, R, 3, 3, tmp, cur)  # turn about the joint axis
-        else:
-            for a in range(3):
-                cur[a, 3] += joint_axis[i, a] * q[i]
-    _top_product(cur, tip, 4, 4, tmp, T)
+        origin = origins[i]  # frame = frame @ origin_i
+        dx, dy, dz = _mul3(R, origin[0, 3], origin[1, 3], origin[2, 3])
+        px, py, pz = px + dx, py + dy, pz + dz
+        R = _mul33(R, _rotation(origin))
+        ax, ay, az = _mul3(R, axes[i, 0], axes[i, 1], axes[i, 2])
+        joint_pos[i, 0], joint_pos[i, 1], joint_pos[i, 2] = px, py, pz
+        joint_axis[i, 0], joint_axis[i, 1], joint_axis[i, 2] = ax, ay, az
+        if revolute[i]:  # turn about the joint axis
+            R = _mul33(R, _axis_rotation(axes[i], q[i]))
+        else:  # slide along it
+            px, py, pz = px + ax * q[i], py + ay * q[i], pz + az * q[i]
+    dx, dy, dz = _mul3(R, tip[0, 3], tip[1, 3], tip[2, 3])
+    px, py, pz = px + dx, py + dy, pz + dz
+    R = _mul33(R, _rotation(tip))
+    for a in range(3):
+        for b in range(3):
+            T[a, b] = R[3 * a + b]
+    T[0, 3], T[1, 3], T[2, 3] = px, py, pz
     T[3, 0], T[3, 1], T[3, 2], T[3, 3] = 0.0, 0.0, 0.0, 1.0
     for i in range(n):
         zx, zy, zz = joint_axis[i, 0], joint_axis[i, 1], joint_axis[i, 2]
         if revolute[i]:
-            rx = T[0, 3] - joint_pos[i, 0]
-            ry = T[1, 3] - joint_pos[i, 1]
-            rz = T[2, 3] - joint_pos[i, 2]
+            rx, ry, rz = px - joint_pos[i, 0], py - joint_pos[i, 1], pz - joint_pos[i, 2]
             J6[0, i] = zy * rz - zz * ry
             J6[1, i] = zz * rx - zx * rz
             J6[2, i] = zx * ry - zy * rx

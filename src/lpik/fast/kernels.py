@@ -88,9 +88,29 @@ def cho_solve(L, b, x):  # noqa: ANN001, ANN201
 
 
 @njit(cache=True)
+def cho_solve2(L, b, c, x, y):  # noqa: ANN001, ANN201
+    """Solve ``L L^T x = b`` and ``L L^T y = c`` in one sweep (two independent chains)."""
+    n = L.shape[0]
+    for i in range(n):
+        s, t = b[i], c[i]
+        for k in range(i):
+            s -= L[i, k] * x[k]
+            t -= L[i, k] * y[k]
+        d = L[i, i]
+        x[i], y[i] = s / d, t / d
+    for i in range(n - 1, -1, -1):
+        s, t = x[i], y[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * x[k]
+            t -= L[k, i] * y[k]
+        d = L[i, i]
+        x[i], y[i] = s / d, t / d
+
+
+@njit(cache=True)
 def workspace_size(n, m, r):  # noqa: ANN001, ANN201
     """Length of the float workspace :func:`lp2_core` needs."""
-    return n * m + n * n + 5 * n + 2 * m * m + 3 * m + 4 * (n + m + r)
+    return n * m + n * n + 5 * n + 2 * m * m + 4 * m + 4 * (n + m + r)
 
 
 @njit(cache=True)
@@ -143,7 +163,8 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
     LS = matrix(ws, o, m, m)
     o += m * m
     rhs, a_l, b_l = ws[o : o + m], ws[o + m : o + 2 * m], ws[o + 2 * m : o + 3 * m]
-    o += 3 * m
+    rhs2 = ws[o + 3 * m : o + 4 * m]
+    o += 4 * m
     av, bv, lo, hi = (
         ws[o : o + total],
         ws[o + total : o + 2 * total],
@@ -188,10 +209,9 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
         for i in range(n):
             s += J[a, i] * Hinvc[i]
         rhs[a] = s
-    cho_solve(LS, rhs, a_l)
     for a in range(m):
-        rhs[a] = -dw[a]
-    cho_solve(LS, rhs, b_l)
+        rhs2[a] = -dw[a]
+    cho_solve2(LS, rhs, rhs2, a_l, b_l)
     for i in range(n):
         sa, sb = Hinvc[i], 0.0
         for k in range(m):
