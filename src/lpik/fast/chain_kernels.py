@@ -7,9 +7,9 @@ frame is ``T_n @ tip``. The Jacobian is world-aligned at the task point:
 rows ``[v; omega]``. The orientation error is ``log(R_target R^T)`` in the
 base frame, as in :mod:`lpik.robots.tasks`.
 
-The fused steps (:func:`chain_step`, :func:`planar_step`) are compiled for
-their explicit signatures when this module is imported (or loaded from the
-disk cache), and for those only: a call with other types raises ``TypeError``
+The fused steps (:func:`chain_step`, :func:`planar_step`) are compiled by
+:func:`step_kernel` on first use (or loaded from the disk cache) for their
+explicit signatures only: a call with other types raises ``TypeError``
 instead of compiling a new specialisation in the middle of a control loop.
 """
 
@@ -448,18 +448,12 @@ def _finish(state, q0, q_prev, J, dw, out, ws):  # noqa: ANN001, ANN201
     return code
 
 
-_CHAIN_SIGNATURES = [
-    "int64(float64[::1], float64[::1], float64[::1], float64[::1])",
-    "int64(float64[::1], float64[::1], float64[::1], float64[:, ::1])",
-]
-
-
-@njit(_CHAIN_SIGNATURES, cache=True)
 def chain_step(state, q0, q_prev, target):  # noqa: ANN001, ANN201
     """One fused LP2 control step of a serial chain: FK, Jacobian, command, limits, LP2.
 
-    Compiled for C-contiguous float64 arrays only: other arguments raise a
-    ``TypeError`` (the caller converts them), so a step never compiles anew.
+    Call it compiled, through :func:`step_kernel`: for C-contiguous float64 arrays
+    only; other arguments raise a ``TypeError`` (the caller converts them), so a
+    step never compiles anew.
 
     Args:
         state: The controller's buffer (:func:`pack_state`); the step writes its
@@ -509,7 +503,6 @@ def chain_step(state, q0, q_prev, target):  # noqa: ANN001, ANN201
     return _finish(state, q0, q_prev, J, dw, out, ws[o:])
 
 
-@njit("int64(float64[::1], float64[::1], float64[::1], float64[::1])", cache=True)
 def planar_step(state, q0, q_prev, target):  # noqa: ANN001, ANN201
     """One fused LP2 control step of the planar arm (see :func:`chain_step`).
 
@@ -542,3 +535,30 @@ def planar_step(state, q0, q_prev, target):  # noqa: ANN001, ANN201
     clamp_command(dw, rows, scalars[1], scalars[2], scalars[0])
     out[2 * n + m], out[2 * n + m + 1], out[2 * n + m + 2] = w[0], w[1], 0.0
     return _finish(state, q0, q_prev, J, dw, out, ws[o:])
+
+
+#: The fused steps and the only argument types they are compiled for.
+_STEPS = {
+    "chain": (
+        chain_step,
+        [
+            "int64(float64[::1], float64[::1], float64[::1], float64[::1])",
+            "int64(float64[::1], float64[::1], float64[::1], float64[:, ::1])",
+        ],
+    ),
+    "planar": (planar_step, ["int64(float64[::1], float64[::1], float64[::1], float64[::1])"]),
+}
+_compiled_steps: dict = {}
+
+
+def step_kernel(kind: str):  # noqa: ANN201 - a numba dispatcher
+    """The compiled fused step of ``kind`` (``"chain"`` or ``"planar"``).
+
+    Compiled on first use (or loaded from numba's disk cache), for the
+    explicit signatures of :data:`_STEPS` only, so that a call with other
+    types raises ``TypeError`` instead of compiling in the middle of a loop.
+    """
+    if kind not in _compiled_steps:
+        func, signatures = _STEPS[kind]
+        _compiled_steps[kind] = njit(signatures, cache=True)(func)
+    return _compiled_steps[kind]

@@ -124,11 +124,11 @@ class Lp2Controller:
                      np.array([self.dt, self.v_max, self.w_max]))  # fmt: skip
         if self._kind == "planar":
             revolute = np.ones(n)
-            self._kernel = CK.planar_step
+            self._kernel = CK.step_kernel("planar")
         else:
             origins, axes, revolute, tip = geometry
             geometry = (origins, axes, tip)
-            self._kernel = CK.chain_step
+            self._kernel = CK.step_kernel("chain")
         self._state, o_out = CK.pack_state(revolute, rows, is_diagonal(H), geometry, constants)
         size = CK.out_size(n, m)
         self._out = self._state[o_out : o_out + size]  # the kernel writes here
