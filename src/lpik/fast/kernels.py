@@ -316,6 +316,12 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
     return OK, p, binding
 
 
+#: :func:`lp2_core` inlined at numba's IR level, for the batch loop: a call with 14
+#: array arguments spends about a fifth of a solve on reference counting, which
+#: inlining removes (about 1.2x more batch steps per second, for ~8 s more compile).
+_lp2_core_inlined = njit(inline="always")(lp2_core.py_func)
+
+
 @njit(cache=True, parallel=True)
 def lp2_batch_kernel(
     J,
@@ -347,7 +353,7 @@ def lp2_batch_kernel(
     for chunk in prange(chunks):
         ws = np.empty(size)
         for b in range(chunk * B // chunks, (chunk + 1) * B // chunks):
-            code, p, binding = lp2_core(
+            code, p, binding = _lp2_core_inlined(
                 J[b],
                 dw[b],
                 H[b],
