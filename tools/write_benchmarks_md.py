@@ -39,7 +39,13 @@ METHOD = """## How it is measured
 - **What a step is.** `full step`: from (q, target pose) to the joint step,
   forward kinematics, Jacobian, limits, solve and result included; `solve`:
   the method alone on a prepared problem; `batch of B`: `lpik.fast.lp2_batch`
-  on prepared arrays, per step; `FK + J`: kinematics alone.
+  on prepared arrays, per step; `FK + J`: kinematics alone; `machine
+  reference`: a bare 13x13 `numpy.linalg.solve` (the size of LP2's KKT system
+  here), to tell a run on a slow or busy machine from a slow library (the
+  issue measured about 8 us on this machine).
+- **Machine.** This is a shared 2-core virtual machine whose speed drifts
+  between runs (at times by 1.5x, for every library alike); the interleaving
+  keeps the ratios fair within a run, and the reference row shows the drift.
 - **Timing.** Interleaved: each of {rounds} rounds visits every case once in
   a seeded random order and times each call with `time.perf_counter_ns`
   (up to 20 calls per case and round, at least 2, fewer than 20 for slow
@@ -51,7 +57,8 @@ METHOD = """## How it is measured
   full step by the case's median; `n` counts the steady-state calls.
 - **First calls** are timed in fresh processes (OS file cache warm): lpik
   loading its compiled kernels from the disk cache, and compiling them from an
-  empty `NUMBA_CACHE_DIR` (cold).
+  empty `NUMBA_CACHE_DIR` (cold). The fused step's kernel compiles (or loads)
+  when the first controller is built, so it counts in `setup`.
 """
 
 

@@ -38,6 +38,7 @@ FULL_STEP_ACC = "full step +acc"
 PLANAR_STEP = "full step, planar 4-link"
 SOLVE = "solve"
 FK_J = "FK + J"
+REFERENCE = "machine reference"
 
 #: The paper's 4-link arm and pull-in scenario (DESIGN.md), with acceleration limits.
 PLANAR_LINKS = (1.0, 1.0, 1.0, 1.0)
@@ -310,6 +311,22 @@ def batch_case(problems: list[Problem], size: int) -> Case:
         per_call=size,
         note=f"prepared BatchArrays, {numba.get_num_threads()} numba threads",
     )
+
+
+def reference_case(seed: int = 0) -> Case:
+    """A bare ``numpy.linalg.solve`` of a 13x13 system: a yardstick of the machine's speed.
+
+    The size of LP2's KKT system for the Panda's 6-D task (n + m = 13). Its time
+    tells runs on a slow or busy machine apart (the issue measured about 8 us).
+    """
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((13, 13)) + 13.0 * np.eye(13)
+    b = rng.standard_normal(13)
+
+    def run(i: int) -> object:
+        return np.linalg.solve(A, b)
+
+    return Case("numpy", "linalg.solve 13x13", REFERENCE, run, note="the machine's yardstick")
 
 
 def peer_cases(peers, workload: Workload) -> list[Case]:  # noqa: ANN001 - list[PeerStep]

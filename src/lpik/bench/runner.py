@@ -346,6 +346,7 @@ def run_benchmark(
         *C.fk_cases(workload),
         *C.solve_cases(workload, problems),
         C.batch_case(problems, settings["batch"]),
+        C.reference_case(),
     ]
     _say(f"lpik bench: agreement checks ({len(peer_set.steps)} peer steps) ...", quiet)
     checks = agreement_checks(workload, problems, peer_set, C.batch_arrays(problems, len(problems)))
