@@ -184,10 +184,14 @@ def test_targets_table_on_synthetic_records() -> None:
         timing("lpik", "lp2_batch (compiled)", "batch of 10", 0.5, steps_per_s=2e6),
         timing("lpik", "lp1", "solve", 400.0),
         timing("lpik", "lp1", "solve, HiGHS reused", 200.0),
+        timing("rtb", "DLS (jacob0)", "full step", 100.0),
+        timing("numpy", "linalg.solve 13x13", "machine reference", 8.0),
     ]
     rows = {r[0]: r for r in T.targets(records)}
     met = [r[2] for r in rows.values()]
     assert met.count("yes") == 5 and met.count("n/a") == 1
+    # The fastest peer is the fastest other library's full step, never the yardstick.
+    assert any("fastest peer (rtb DLS (jacob0))" in name for name in rows), list(rows)
     assert "2.00x" in rows["lp1: HiGHS model reused across steps vs built anew"][1]
     assert T.speedup(0.08) == "12.5x faster" and T.speedup(2.0) == "2.0x slower"
 
