@@ -326,3 +326,22 @@ def test_controller_labels_every_kind_of_binding_limit_as_the_numpy_layers() -> 
                 kinds[kind] = kinds.get(kind, 0) + 1
     # " / ": a joint's lower bound above its upper one (infeasible even at p = 0).
     assert {"end-stop", "velocity", "acceleration", "multiplier", "row", " / "} <= set(kinds), kinds
+
+
+def test_controller_reports_a_last_step_beyond_reach_as_infeasible() -> None:
+    """A last step twice the velocity limit that the acceleration limits cannot undo in
+    one period: the numpy layers reject the crossed bounds as a Problem, while the
+    fused step returns the safe step naming both limits."""
+    from lpik.fast.controller import Lp2Controller
+    from lpik.robots.planar import PlanarArm
+
+    arm = PlanarArm([1.0, 1.0, 1.0], qd_max=1.0)
+    controller = Lp2Controller(arm, dt=0.01, qdd_max=10.0)
+    q = np.array([0.3, 0.4, 0.5])
+    prev = q - np.array([0.02, 0.0, 0.0])  # 2 rad/s against a limit of 1 rad/s
+    result = controller.step(q, np.array([1.5, 1.5]), prev)
+    assert result.status == st.INFEASIBLE and result.p == 0.0
+    assert result.binding == "joint 1 lower acceleration limit / joint 1 upper velocity limit"
+    np.testing.assert_array_equal(result.q, q)
+    with pytest.raises(ValueError, match="dq_min"):
+        controller.problem(q, np.array([1.5, 1.5]), prev)

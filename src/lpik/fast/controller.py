@@ -153,6 +153,10 @@ class Lp2Controller:
 
         Returns:
             The same :class:`~lpik.result.Result` as ``lp2(self.problem(q0, target, q_prev))``.
+            One case differs: when ``q_prev`` implies a last step the acceleration
+            limits cannot bring back within the velocity limits in one period,
+            :meth:`problem` rejects the crossed bounds (``ValueError``) while this
+            returns the infeasible safe step naming both limits.
 
         Raises:
             ValueError: For a ``q0``, ``q_prev`` or ``target`` of the wrong shape, or
