@@ -235,6 +235,13 @@ def targets(records: Sequence[Rec]) -> list[list[str]]:
             f"{rate:,.0f} steps/s ({batch['what']})",
             rate >= TARGET_BATCH_PER_S,
         )
+    reference = next((r for r in _of(records, "timing") if r["what"] == "machine reference"), None)
+    if reference is not None:
+        row(
+            "machine speed: a 13x13 numpy solve in this run (the issue measured about 8 us)",
+            f"{reference['median_us']:.2f} us",
+            None,
+        )
     for method in ("lp1", "l1", "lp2 highs"):
         new = _find(records, method, "solve")
         reused = _find(records, method, "solve, HiGHS reused")
