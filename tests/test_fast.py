@@ -345,3 +345,36 @@ def test_controller_reports_a_last_step_beyond_reach_as_infeasible() -> None:
     np.testing.assert_array_equal(result.q, q)
     with pytest.raises(ValueError, match="dq_min"):
         controller.problem(q, np.array([1.5, 1.5]), prev)
+
+
+def test_step_into_gives_the_steps_answers_without_a_result() -> None:
+    from lpik.fast.controller import Lp2Controller
+    from lpik.robots.registry import home_configuration
+
+    model = _panda("pose")
+    controller = Lp2Controller(model, dt=0.001, qdd_max=10.0)
+    twin = Lp2Controller(model, dt=0.001, qdd_max=10.0)
+    q = home_configuration("panda")
+    target = model.pose(q)
+    target[:3, 3] += [0.3, -0.2, -0.2]
+    out = np.empty(7)
+    assert twin.last_status is None and twin.last_binding is None
+    prev = None
+    seen = set()
+    for _ in range(300):
+        ref = controller.step(q, target, prev)
+        p = twin.step_into(q, target, prev, out=out)
+        np.testing.assert_array_equal(out, ref.q)
+        assert (p, twin.last_status, twin.last_binding) == (ref.p, ref.status, ref.binding)
+        seen.add(ref.status)
+        prev, q = q, out.copy()
+    assert st.OPTIMAL in seen
+    # The safe step of an infeasible state writes q0 and says why.
+    far = np.array([0.3, 0.4, 0.5, -1.0, 0.1, 1.0, 0.2])
+    beyond = far - np.array([0.01, 0, 0, 0, 0, 0, 0])  # 10 rad/s: beyond reach in one step
+    assert twin.step_into(far, target, beyond, out=out) == 0.0
+    np.testing.assert_array_equal(out, far)
+    assert twin.last_status == st.INFEASIBLE and " / " in twin.last_binding
+    for bad in (np.empty(6), np.empty((2, 7)), np.empty(7, dtype=np.float32), [0.0] * 7):
+        with pytest.raises(ValueError, match="out: must be a float64 array of shape"):
+            twin.step_into(q, target, out=bad)

@@ -205,6 +205,12 @@ def step_cases(workload: Workload, planar: PlanarWorkload) -> list[Case]:
         k = i % P
         return pc.step(pq[k], ptarget, pprev[k])
 
+    q_next = np.empty(workload.n)
+
+    def fused_into(i: int) -> object:
+        k = i % N
+        return acc.step_into(q[k], targets[k], prev[k], out=q_next)
+
     def numpy_layers(i: int) -> object:
         k = i % N
         return lp2(plain.problem(q[k], targets[k]))
@@ -220,6 +226,13 @@ def step_cases(workload: Workload, planar: PlanarWorkload) -> list[Case]:
             PLANAR_STEP,
             fused_planar,
             note=planar_note,
+        ),
+        Case(
+            "lpik",
+            "lp2 fused step_into (compiled)",
+            FULL_STEP_ACC,
+            fused_into,
+            note="Lp2Controller.step_into: q into a preallocated array, p returned, no Result",
         ),
         Case(
             "lpik",

@@ -219,6 +219,13 @@ def targets(records: Sequence[Rec]) -> list[list[str]]:
                 speedup(med / best["median_us"]),
                 med / best["median_us"] <= TARGET_RATIO,
             )
+        into = _find(records, "lp2 fused step_into (compiled)", "full step +acc")
+        if into is not None:
+            row(
+                "fused step_into +acc (q into a preallocated array, no Result): median, p99",
+                f"{into['median_us']:.2f} us, {into['p99_us']:.2f} us",
+                None,
+            )
         planar = _find(records, "lp2 fused (compiled)", "full step, planar", prefix=True)
         if planar is not None:
             row(

@@ -137,6 +137,10 @@ class Lp2Controller:
         self._q_slice, self._dq_slice, self._lam_slice = slice(0, n), slice(n, 2 * n), \
             slice(2 * n, 2 * n + m)  # fmt: skip
         self._labels = _label_table(model.joint_names, m, template.row_labels)
+        self._q_view = self._out[:n]  # the kernel's q, for step_into
+        self._vector_shape = (n,)
+        self._last: Result | None = None  # step_into's last outcome when not optimal
+        self._last_code: int | None = None  # step_into's last kernel outcome
 
     def step(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Result:
         """One LP2 step from ``q0`` towards ``target`` (eqs. 15-18, compiled).
@@ -183,6 +187,70 @@ class Lp2Controller:
             result = _new(Result)
             _set_dict(result, "__dict__", fields)
             return result
+        return self._not_optimal(code, q0, target, q_prev, start)
+
+    def step_into(
+        self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, out: FloatArray
+    ) -> float:
+        """:meth:`step` without building a :class:`~lpik.result.Result`: no allocation.
+
+        For the tightest loops: the next joint coordinates go into ``out`` and the
+        step's ``p`` is returned; :attr:`last_status` and :attr:`last_binding`
+        tell the step's status and binding limit until the next step. The
+        answers are those of :meth:`step`.
+
+        Args:
+            q0: Joint coordinates now, as for :meth:`step`.
+            target: Commanded task value, as for :meth:`step`.
+            q_prev: Joint coordinates one period ago, as for :meth:`step`.
+            out: A float64 array of shape (n,) that receives ``q`` (``q0`` itself
+                when no step is possible).
+
+        Returns:
+            The affine dexterity ``p`` of the step (0 for the safe step).
+
+        Raises:
+            ValueError: For a bad ``out``, and as :meth:`step`.
+        """
+        if getattr(out, "shape", None) != self._vector_shape or out.dtype != np.float64:
+            raise ValueError(
+                f"out: must be a float64 array of shape ({self._n},), got "
+                f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
+            )
+        prev = q0 if q_prev is None else q_prev
+        try:
+            code = self._kernel(self._state, q0, prev, target)
+        except TypeError:  # not C-contiguous writable float64 arrays: convert them
+            q0, target, prev = self._converted(q0, target, q_prev)
+            code = self._kernel(self._state, q0, prev, target)
+        if code == K.OK:
+            self._last_code = code
+            out[...] = self._q_view
+            return self._out.item(self._p)
+        result = self._not_optimal(code, q0, target, q_prev, perf_counter())
+        self._last, self._last_code = result, code
+        out[...] = result.q
+        return result.p
+
+    @property
+    def last_status(self) -> str | None:
+        """Status of the last :meth:`step_into` (``None`` before the first)."""
+        if self._last_code is None:
+            return None
+        return st.OPTIMAL if self._last_code == K.OK else self._last.status
+
+    @property
+    def last_binding(self) -> str | None:
+        """The limit that bound the last :meth:`step_into` (``None``: none, or no step yet)."""
+        if self._last_code is None:
+            return None
+        if self._last_code != K.OK:
+            return self._last.binding
+        label = self._out.item(self._label_at)
+        return None if label < 0 else self._labels[int(label)]
+
+    def _not_optimal(self, code: int, q0: Any, target: Any, q_prev: Any, start: float) -> Result:
+        """The Result of a kernel outcome other than OK: infeasible, bad input or the HiGHS path."""
         if code == K.INFEASIBLE:
             label = self._out.item(self._label_at)
             return Result.trusted(
