@@ -11,6 +11,7 @@ pytest.importorskip("numba")
 
 from lpik import result as st  # noqa: E402
 from lpik.fast import BatchArrays, lp2_batch, lp2_compiled  # noqa: E402
+from lpik.fast import batch as lpik_fast_batch  # noqa: E402
 from lpik.fast import kernels as K  # noqa: E402
 from lpik.lp import HighsSolver  # noqa: E402
 from lpik.methods.lp2 import affine_solution, lp2  # noqa: E402
@@ -173,6 +174,147 @@ def test_batch_rejects_mixed_shapes() -> None:
         lp2_batch([degenerate_problem(rng, 3, 2), degenerate_problem(rng, 4, 2)])
     with pytest.raises(ValueError, match="empty"):
         lp2_batch([])
+
+
+def _raw_batch(**changes: object) -> dict:
+    """The fields of a valid raw BatchArrays (B = 4, m = 2, n = 3, one row), with ``changes``."""
+    rng = np.random.default_rng(7)
+    B, m, n = 4, 2, 3
+    fields = {
+        "J": rng.normal(size=(B, m, n)),
+        "dw": rng.normal(size=(B, m)) * 1e-2,
+        "H": np.stack([np.diag([1.0, 2.0, 3.0])] * B),
+        "c": rng.normal(size=(B, n)) * 1e-3,
+        "lower": -np.ones((B, n)),
+        "upper": np.ones((B, n)),
+        "lam_min": np.full((B, m), -np.inf),
+        "lam_max": np.full((B, m), np.inf),
+        "G": rng.normal(size=(B, 1, n)),
+        "g": np.ones((B, 1)),
+        "q0": rng.normal(size=(B, n)),
+    }
+    fields.update(changes)
+    return fields
+
+
+def test_raw_batch_arrays_are_normalised_and_solved_like_problems() -> None:
+    fields = _raw_batch()
+    as_lists = BatchArrays(**{k: v.tolist() for k, v in fields.items()})  # lists, no h_diag
+    assert as_lists.h_diag is True
+    strided = BatchArrays(**{k: np.asfortranarray(v) for k, v in fields.items()}, h_diag=False)
+    for arrays in (as_lists, strided):
+        for name in ("J", "H", "q0", "G"):
+            value = getattr(arrays, name)
+            assert value.dtype == np.float64 and value.flags.c_contiguous
+    full_H = fields["H"] + 0.5 * (1 - np.eye(3))  # symmetric, positive definite, not diagonal
+    for arrays in (as_lists, strided, BatchArrays(**_raw_batch(H=full_H))):
+        batch = lp2_batch(arrays)
+        for i in range(4):
+            one = lp2(lpik_fast_batch._problem_at(arrays, i), path="highs")
+            assert (batch.status_of(i), batch.binding_of(i)) == (one.status, one.binding)
+            np.testing.assert_allclose(batch.q[i], one.q, atol=1e-9, rtol=0)
+    assert BatchArrays(**_raw_batch(H=full_H)).h_diag is False
+
+
+#: Bad raw batch fields and the start of the error each must raise.
+BAD_RAW_BATCHES = [
+    (
+        {"J": np.zeros((4, 2))},
+        r"BatchArrays\.J: must have shape \(B, m, n\)",
+    ),
+    (
+        {"J": np.zeros((0, 2, 3))},
+        r"BatchArrays\.J: .*B, m, n >= 1",
+    ),
+    (
+        {"dw": np.zeros((4, 3))},
+        r"BatchArrays\.dw: must have shape \(B, m\) = \(4, 2\), got \(4, 3\)",
+    ),
+    (
+        {"H": np.zeros((4, 2, 2))},
+        r"BatchArrays\.H: must have shape \(B, n, n\) = \(4, 3, 3\)",
+    ),
+    (
+        {"q0": np.zeros((3, 3))},
+        r"BatchArrays\.q0: must have shape",
+    ),
+    (
+        {"G": np.zeros((4, 3))},
+        r"BatchArrays\.G: must have shape \(B, r, n\)",
+    ),
+    (
+        {"g": np.zeros((4, 2))},
+        r"BatchArrays\.g: must have shape \(B, r\) = \(4, 1\)",
+    ),
+    (
+        {"c": [["a"] * 3] * 4},
+        r"BatchArrays\.c: must be an array of numbers",
+    ),
+    (
+        {"J": np.full((4, 2, 3), np.nan)},
+        r"BatchArrays\.J: must be finite; item 0 has nan at \[0, 0\]",
+    ),
+    (
+        {"dw": np.array([[0, 0]] * 3 + [[0, np.inf]])},
+        r"BatchArrays\.dw: must be finite; item 3 has inf at \[1\]",
+    ),
+    (
+        {"lower": np.full((4, 3), np.inf)},
+        r"BatchArrays\.lower: must be finite or -inf; item 0",
+    ),
+    (
+        {"upper": np.full((4, 3), -np.inf)},
+        r"BatchArrays\.upper: must be finite or \+inf; item 0",
+    ),
+    (
+        {"lam_max": np.full((4, 2), np.nan)},
+        r"BatchArrays\.lam_max: must be finite or \+inf",
+    ),
+    (
+        {"upper": np.full((4, 3), -2.0)},
+        r"BatchArrays\.lower: item 0: lower\[0\] = -1 exceeds upper\[0\] = -2",
+    ),
+    (
+        {"lam_min": np.ones((4, 2)), "lam_max": np.zeros((4, 2))},
+        r"BatchArrays\.lam_min: item 0",
+    ),
+    (
+        {"H": np.stack([np.eye(3)] * 3 + [np.triu(np.ones((3, 3)))])},
+        r"BatchArrays\.H: must be symmetric; item 3",
+    ),
+    (
+        {"H": np.stack([np.eye(3) + 0.1] * 4), "h_diag": True},
+        r"BatchArrays\.h_diag: is True but H of item 0",
+    ),
+    (
+        {"h_diag": "yes"},
+        r"BatchArrays\.h_diag: must be True, False or None",
+    ),
+]
+
+
+@pytest.mark.parametrize(("changes", "message"), BAD_RAW_BATCHES)
+def test_raw_batch_arrays_reject_bad_input(changes: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        BatchArrays(**_raw_batch(**changes))
+
+
+def test_raw_batch_with_an_indefinite_H_names_the_item() -> None:
+    H = np.stack([np.diag([1.0, 2.0, 3.0])] * 2 + [np.diag([1.0, -2.0, 3.0])] * 2)
+    for h_diag in (True, False):
+        arrays = BatchArrays(**_raw_batch(H=H, h_diag=h_diag))
+        with pytest.raises(ValueError, match=r"BatchArrays\.H: item 2: must be positive definite"):
+            lp2_batch(arrays)
+
+
+def test_batch_rejects_what_is_not_a_problem() -> None:
+    rng = np.random.default_rng(2)
+    with pytest.raises(ValueError, match=r"problems: item 1 is a dict, not a Problem"):
+        lp2_batch([degenerate_problem(rng, 3, 2), {}])
+    with pytest.raises(ValueError, match=r"problems: must be a sequence of Problems or a Batch"):
+        lp2_batch(3)
+    problem = degenerate_problem(rng, 3, 2)
+    assert len(lp2_batch(problem for _ in range(3))) == 3  # any iterable of Problems
 
 
 def _closed_loop_matches(controller, q, target, steps: int) -> dict[str, int]:
