@@ -8,8 +8,9 @@ import pytest
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 
-def test_readme_python_blocks_run() -> None:
+def test_readme_python_blocks_run(tmp_path, monkeypatch) -> None:
     pytest.importorskip("numba")
+    monkeypatch.chdir(tmp_path)  # the blocks write files (e.g. a CSV log): not into the checkout
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), re.S)
     assert len(blocks) >= 4
     namespace: dict = {}
@@ -17,6 +18,7 @@ def test_readme_python_blocks_run() -> None:
         exec(compile(block, str(README), "exec"), namespace)  # noqa: S102
     assert 0.0 <= namespace["result"].p <= 1.0
     assert namespace["log"].binding[-1] == "joint 1 upper end-stop"
+    assert (tmp_path / "pull-in-lp2.csv").is_file()
 
 
 def test_readme_two_commands_match_ci() -> None:
