@@ -520,3 +520,91 @@ def test_step_into_gives_the_steps_answers_without_a_result() -> None:
     for bad in (np.empty(6), np.empty((2, 7)), np.empty(7, dtype=np.float32), [0.0] * 7):
         with pytest.raises(ValueError, match="out: must be a float64 array of shape"):
             twin.step_into(q, target, out=bad)
+
+
+def _assert_rows_equal_steps(controller, batch, q0, targets, q_prev) -> None:
+    """Every row of ``batch`` equals the controller's single step on that row."""
+    for b in range(len(batch)):
+        ref = controller.step(q0[b], targets[b], None if q_prev is None else q_prev[b])
+        assert (batch.status_of(b), batch.binding_of(b)) == (ref.status, ref.binding), b
+        assert abs(batch.p[b] - ref.p) <= 1e-12
+        np.testing.assert_allclose(batch.q[b], ref.q, atol=1e-12, rtol=0)
+        np.testing.assert_allclose(batch.dq[b], ref.dq, atol=1e-12, rtol=0)
+        if ref.lam is None:
+            assert np.isnan(batch.lam[b]).all()
+        else:
+            np.testing.assert_allclose(batch.lam[b], ref.lam, atol=1e-10, rtol=1e-10)
+        item = batch[b]
+        assert (item.status, item.binding, item.p) == (ref.status, ref.binding, batch.p[b])
+
+
+def test_step_batch_equals_steps_panda() -> None:
+    from lpik.fast.controller import Lp2Controller
+
+    model = _panda("pose")
+    controller = Lp2Controller(model, dt=0.001, qdd_max=10.0, lambda_bound=2.0,
+                               Lambda=np.full(7, 1e-4))  # fmt: skip
+    rng = np.random.default_rng(11)
+    B = 400
+    span = model.q_max - model.q_min
+    q0 = model.q_min + span * rng.uniform(0.02, 0.98, size=(B, 7))
+    # at rest, moving within reach, and moving too fast to stop (infeasible)
+    speed = rng.choice([0.0, 1e-5, 1e-4, 1e-3], size=(B, 1))
+    q_prev = q0 - speed * rng.normal(size=(B, 7))
+    poses = np.stack([model.pose(q) for q in q0])
+    poses[:, :3, 3] += rng.normal(size=(B, 3)) * rng.choice([0.0, 1e-4, 1e-2], size=(B, 1))
+    batch = controller.step_batch(q0, poses, q_prev)
+    _assert_rows_equal_steps(controller, batch, q0, poses, q_prev)
+    statuses = set(batch.status)
+    assert statuses == {st.OPTIMAL, st.INFEASIBLE}
+    assert (batch.p == 1).any() and ((batch.p > 0) & (batch.p < 1)).any()
+    # xyz targets, at rest (q_prev None), lists in
+    xyz = poses[:50, :3, 3]
+    at_rest = controller.step_batch(q0[:50].tolist(), xyz.tolist())
+    _assert_rows_equal_steps(controller, at_rest, q0[:50], xyz, None)
+
+
+def test_step_batch_equals_steps_planar_with_the_highs_path() -> None:
+    from lpik.fast.controller import Lp2Controller
+    from lpik.robots.planar import PlanarArm
+
+    arm = PlanarArm([1, 1, 1, 1], q_min=np.deg2rad([-180, -180, -180, -180]),
+                    q_max=np.deg2rad([95, 180, 180, 180]), qd_max=1.0)  # fmt: skip
+    controller = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5)
+    rng = np.random.default_rng(5)
+    B = 300
+    q0 = rng.uniform(-1.5, 1.5, size=(B, 4))
+    q0[:5] = 0.0  # stretched out: J is singular, the HiGHS path takes these rows
+    q_prev = q0 - rng.normal(size=(B, 4)) * rng.choice([0.0, 1e-3, 1e-1], size=(B, 1))
+    q_prev[:5] = 0.0  # at rest there
+    targets = rng.uniform(-2.0, 2.0, size=(B, 2))
+    batch = controller.step_batch(q0, targets, q_prev)
+    _assert_rows_equal_steps(controller, batch, q0, targets, q_prev)
+    assert set(batch.path[:5]) == {"highs"} and set(batch.path[5:]) == {"compiled"}
+    assert {st.OPTIMAL, st.INFEASIBLE} <= set(batch.status)
+
+
+def test_step_batch_rejects_bad_input() -> None:
+    from lpik.fast.controller import Lp2Controller
+    from lpik.robots.planar import PlanarArm
+
+    controller = Lp2Controller(PlanarArm([1, 1, 1]), dt=0.01)
+    q, goal = np.full((4, 3), 0.2), np.ones((4, 2))
+    nan_row = q.copy()
+    nan_row[2, 1] = np.nan
+    bad = [
+        ((np.zeros(3), goal), r"q0: must have shape \(B, 3\) with B >= 1, got \(3,\)"),
+        ((np.zeros((0, 3)), goal[:0]), r"q0: must have shape \(B, 3\) with B >= 1"),
+        ((q, goal[:3]), r"targets: must have 4 rows \(one per row of q0\), got 3"),
+        ((q, np.ones((4, 3))), r"targets: must have shape \(B, 2\)"),
+        ((q, goal, np.zeros((4, 2))), r"q_prev: must have shape \(B, 3\)"),
+        ((nan_row, goal), r"q0: row 2 contains NaN or inf"),
+        ((q, goal, nan_row), r"q_prev: row 2 contains NaN or inf"),
+        ((q, [["a", "b"]] * 4), r"targets: must be numbers"),
+    ]
+    for args, message in bad:
+        with pytest.raises(ValueError, match=message):
+            controller.step_batch(*args)
+    chain = Lp2Controller(_panda("pose"), dt=0.001)
+    with pytest.raises(ValueError, match=r"targets: must have shape \(B, 3\) or \(B, 3, 3\) or"):
+        chain.step_batch(np.zeros((2, 7)), np.zeros((2, 4)))

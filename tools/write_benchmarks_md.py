@@ -39,7 +39,9 @@ METHOD = """## How it is measured
 - **What a step is.** `full step`: from (q, target pose) to the joint step,
   forward kinematics, Jacobian, limits, solve and result included; `solve`:
   the method alone on a prepared problem; `batch of B`: `lpik.fast.lp2_batch`
-  on prepared arrays, per step; `FK + J`: kinematics alone; `machine
+  on prepared arrays, per step; `batch of B full steps +acc`:
+  `Lp2Controller.step_batch` over all the workload's (q, target, previous q)
+  at once, per step; `FK + J`: kinematics alone; `machine
   reference`: a bare 13x13 `numpy.linalg.solve` (the size of LP2's KKT system
   here), to tell a run on a slow or busy machine from a slow library (the
   issue measured about 8 us on this machine).
@@ -61,7 +63,8 @@ METHOD = """## How it is measured
 - **First calls** are timed in fresh processes (OS file cache warm): lpik
   loading its compiled kernels from the disk cache, and compiling them from an
   empty `NUMBA_CACHE_DIR` (cold). The fused step's kernel compiles (or loads)
-  when the first controller is built, so it counts in `setup`.
+  when the first controller is built, so it counts in `setup`; the batch
+  kernels at their first call.
 """
 
 

@@ -14,6 +14,8 @@ call solves (the batch size), so that times can be reported per step.
   velocity and acceleration limits;
 - ``solve``: the method alone on a prepared :class:`~lpik.problem.Problem`;
 - ``batch of B``: :func:`lpik.fast.lp2_batch` on prepared arrays, per step;
+- ``batch of B full steps +acc``: :meth:`Lp2Controller.step_batch
+  <lpik.fast.controller.Lp2Controller.step_batch>` over the workload's states, per step;
 - ``FK + J``: forward kinematics and Jacobian alone.
 """
 
@@ -183,7 +185,9 @@ def fk_cases(workload: Workload) -> list[Case]:
 
 
 def step_cases(workload: Workload, planar: PlanarWorkload) -> list[Case]:
-    """Full steps: fused (with and without acceleration limits, planar) and numpy layers."""
+    """Full steps: fused (with and without acceleration limits, planar, batched), numpy layers."""
+    import numba
+
     plain, acc = controllers(workload)
     q, prev, targets = workload.q, workload.q_prev, workload.targets
     N = len(workload)
@@ -211,6 +215,9 @@ def step_cases(workload: Workload, planar: PlanarWorkload) -> list[Case]:
         k = i % N
         return acc.step_into(q[k], targets[k], prev[k], out=q_next)
 
+    def fused_batch(i: int) -> object:
+        return acc.step_batch(q, targets, prev)
+
     def numpy_layers(i: int) -> object:
         k = i % N
         return lp2(plain.problem(q[k], targets[k]))
@@ -233,6 +240,15 @@ def step_cases(workload: Workload, planar: PlanarWorkload) -> list[Case]:
             FULL_STEP_ACC,
             fused_into,
             note="Lp2Controller.step_into: q into a preallocated array, p returned, no Result",
+        ),
+        Case(
+            "lpik",
+            "lp2 fused step_batch (compiled)",
+            f"batch of {N} full steps +acc",
+            fused_batch,
+            per_call=N,
+            note="Lp2Controller.step_batch over every (q, target, q_prev) of the workload, "
+            f"{numba.get_num_threads()} numba threads",
         ),
         Case(
             "lpik",

@@ -220,9 +220,11 @@ def first_call_records(robot: str, peers: Sequence[str], cold: bool) -> list[Rec
             method = "lp2 fused (compiled)"
             text = f"first call, {how} (import + setup + first step)"
             out.append(_first(what, method, text, total, phases))
-            out.append(
-                _first(what, "lp2_batch (compiled)", f"first call, {how}", None, phases, "batch")
-            )
+            for method, phase in (
+                ("lp2_batch (compiled)", "first_batch_s"),
+                ("lp2 fused step_batch (compiled)", "first_step_batch_s"),
+            ):
+                out.append(_first(what, method, f"first call, {how}", None, phases, phase))
         else:
             total = phases["setup_s"] + phases["first_step_s"]
             text = "first call (import + model load + first step; numpy, lpik loaded)"
@@ -233,9 +235,10 @@ def first_call_records(robot: str, peers: Sequence[str], cold: bool) -> list[Rec
 def _first(
     library: str, method: str, what: str, total: float | None, phases: dict, only: str = ""
 ) -> Record:
-    if only == "batch":
-        total = phases["first_batch_s"]
-        phases = {"first_batch_s": total}
+    """A first-call record; ``only``: the one phase it reports (its total), else all."""
+    if only:
+        total = phases[only]
+        phases = {only: total}
     us = None if total is None else total * 1e6
     extra = {"samples": 1, **{k: round(v, 6) for k, v in phases.items()}}
     return Record(library, method, what, us, us, kind="first call", extra=extra)

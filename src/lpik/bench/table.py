@@ -242,6 +242,13 @@ def targets(records: Sequence[Rec]) -> list[list[str]]:
             f"{rate:,.0f} steps/s ({batch['what']})",
             rate >= TARGET_BATCH_PER_S,
         )
+    full_batch = _find(records, "lp2 fused step_batch (compiled)", "batch of", prefix=True)
+    if full_batch is not None:
+        row(
+            "batched full steps +acc (FK, J, limits, LP2 per row; Lp2Controller.step_batch)",
+            f"{full_batch.get('steps_per_s') or 0.0:,.0f} steps/s ({full_batch['what']})",
+            None,
+        )
     reference = next((r for r in _of(records, "timing") if r["what"] == "machine reference"), None)
     if reference is not None:
         row(

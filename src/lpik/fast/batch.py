@@ -110,7 +110,8 @@ class BatchResult:
     Attributes:
         q: (B, n). dq: (B, n). p: (B,). lam: (B, m), NaN rows for safe steps.
         codes: (B,) kernel outcome per item (:mod:`lpik.fast.kernels` codes).
-        binding_codes: (B,) kernel binding codes (``-1``: none).
+        binding_codes: (B,) index of each item's binding limit in its table of
+            labels (``-1``: none); :meth:`binding_of` gives the label.
     """
 
     q: FloatArray

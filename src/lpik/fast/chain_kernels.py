@@ -11,6 +11,8 @@ The fused steps (:func:`chain_step`, :func:`planar_step`) are compiled by
 :func:`step_kernel` on first use (or loaded from the disk cache) for their
 explicit signatures only: a call with other types raises ``TypeError``
 instead of compiling a new specialisation in the middle of a control loop.
+:func:`step_batch_kernel` runs either over a batch of independent states, in
+parallel.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from lpik.fast.kernels import INFEASIBLE, lp2_core, matrix, workspace_size
 
@@ -562,3 +564,53 @@ def step_kernel(kind: str):  # noqa: ANN201 - a numba dispatcher
         func, signatures = _STEPS[kind]
         _compiled_steps[kind] = njit(signatures, cache=True)(func)
     return _compiled_steps[kind]
+
+
+# The same steps without explicit signatures, for the batch loops below. They
+# compile for the batch's argument types, which are those of _STEPS, so they
+# share their disk-cache entries with step_kernel's dispatchers.
+_chain_step_any = njit(cache=True)(chain_step)
+_planar_step_any = njit(cache=True)(planar_step)
+
+
+@njit(cache=True)
+def _copy_out(state, outs, b):  # noqa: ANN001, ANN201
+    """Row ``b`` of ``outs`` = the ``out`` block a step left in ``state``."""
+    o_out, o_ws = int(state[6]), int(state[7])
+    for k in range(o_ws - o_out):
+        outs[b, k] = state[o_out + k]
+
+
+@njit(cache=True, parallel=True)
+def chain_step_batch(state, q0, q_prev, targets, outs, codes, chunks):  # noqa: ANN001, ANN201
+    """:func:`chain_step` for every row of the batch, in parallel.
+
+    ``q0`` and ``q_prev`` are (B, n), ``targets`` (B, 3), (B, 3, 3) or (B, 4, 4).
+    The batch is cut into ``chunks`` parts; each works on its own copy of
+    ``state``. Row ``b`` of ``outs`` (B, out_size) receives the step's ``out``
+    block and ``codes[b]`` its outcome.
+    """
+    B = q0.shape[0]
+    chunks = max(1, min(B, chunks))
+    for chunk in prange(chunks):
+        local = state.copy()
+        for b in range(chunk * B // chunks, (chunk + 1) * B // chunks):
+            codes[b] = _chain_step_any(local, q0[b], q_prev[b], targets[b])
+            _copy_out(local, outs, b)
+
+
+@njit(cache=True, parallel=True)
+def planar_step_batch(state, q0, q_prev, targets, outs, codes, chunks):  # noqa: ANN001, ANN201
+    """:func:`planar_step` for every row, in parallel (see :func:`chain_step_batch`)."""
+    B = q0.shape[0]
+    chunks = max(1, min(B, chunks))
+    for chunk in prange(chunks):
+        local = state.copy()
+        for b in range(chunk * B // chunks, (chunk + 1) * B // chunks):
+            codes[b] = _planar_step_any(local, q0[b], q_prev[b], targets[b])
+            _copy_out(local, outs, b)
+
+
+def step_batch_kernel(kind: str):  # noqa: ANN201 - a numba dispatcher
+    """The parallel batch of fused steps of ``kind`` (``"chain"`` or ``"planar"``)."""
+    return {"chain": chain_step_batch, "planar": planar_step_batch}[kind]

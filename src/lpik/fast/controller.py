@@ -15,13 +15,14 @@ from __future__ import annotations
 from time import perf_counter
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik import result as st
 from lpik.fast import chain_kernels as CK
 from lpik.fast import kernels as K
-from lpik.fast.batch import is_diagonal
+from lpik.fast.batch import BatchResult, is_diagonal
 from lpik.limits import AccelerationLimits, LinearRows, build_problem, standard_limits
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
@@ -249,6 +250,62 @@ class Lp2Controller:
         label = self._out.item(self._label_at)
         return None if label < 0 else self._labels[int(label)]
 
+    def step_batch(
+        self, q0: ArrayLike, targets: ArrayLike, q_prev: ArrayLike | None = None
+    ) -> BatchResult:
+        """Many independent steps at once, one per row, in parallel (numba threads).
+
+        Row ``b`` of the answer equals ``step(q0[b], targets[b], q_prev[b])``
+        (tests hold them equal): for sweeps over configurations (how much of a
+        command the arm can follow across its workspace), many robots, or
+        sampled starts. Rows the ratio test cannot take go to the HiGHS path
+        one by one, as in :meth:`step`.
+
+        Args:
+            q0: Joint coordinates, (B, n).
+            targets: One commanded task value per row: (B, m) for the planar
+                arm; (B, 3) xyz, (B, 3, 3) rotations or (B, 4, 4) poses for the
+                3-D tasks.
+            q_prev: Joint coordinates one period earlier, (B, n); ``None``: at rest.
+
+        Returns:
+            A :class:`~lpik.fast.batch.BatchResult`: stacked ``q``, ``dq``, ``p``
+            and ``lam`` (NaN rows for safe steps), each row's status and binding
+            limit (``status_of``, ``binding_of``) and ``result[b]`` as a
+            :class:`~lpik.result.Result`.
+
+        Raises:
+            ValueError: For arrays of the wrong shape, rows that disagree in
+                number, or values that are not finite (naming the row).
+        """
+        n, m = self._n, self._m
+        Q0 = _rows("q0", q0, ((n,),))
+        B = Q0.shape[0]
+        Qp = Q0 if q_prev is None else _rows("q_prev", q_prev, ((n,),), B)
+        shapes = ((m,),) if self._kind == "planar" else ((3,), (3, 3), (4, 4))
+        T = _rows("targets", targets, shapes, B)
+        outs = np.empty((B, self._out.shape[0]))
+        codes = np.empty(B, dtype=np.int64)
+        CK.step_batch_kernel(self._kind)(
+            self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads()
+        )
+        if (codes == CK.BAD_INPUT).any():  # _rows checked every row: a bug if it happens
+            raise ValueError(f"row {int(np.argmax(codes == CK.BAD_INPUT))}: rejected by the step")
+        q, dq = outs[:, :n].copy(), outs[:, n : 2 * n].copy()
+        lam, p = outs[:, 2 * n : 2 * n + m].copy(), outs[:, self._p].copy()
+        labels = outs[:, self._label_at].astype(np.int64)
+        infeasible = codes == K.INFEASIBLE
+        q[infeasible], dq[infeasible], p[infeasible], lam[infeasible] = Q0[infeasible], 0, 0, np.nan
+        fallback: dict[int, Result] = {}
+        for b in np.nonzero((codes != K.OK) & ~infeasible)[0].tolist():
+            res = self.step(Q0[b], T[b], None if q_prev is None else Qp[b])
+            fallback[b] = res
+            q[b], dq[b], p[b] = res.q, res.dq, res.p
+            lam[b] = np.nan if res.lam is None else res.lam
+        table = self._labels
+        return BatchResult(q=q, dq=dq, p=p, lam=lam, codes=codes, binding_codes=labels,
+                           _labels=lambda b: table, _fallback=fallback)  # fmt: skip
+
     def _not_optimal(self, code: int, q0: Any, target: Any, q_prev: Any, start: float) -> Result:
         """The Result of a kernel outcome other than OK: infeasible, bad input or the HiGHS path."""
         if code == K.INFEASIBLE:
@@ -331,6 +388,28 @@ def _vector(name: str, value: Any, n: int, check_finite: bool) -> FloatArray:
     if check_finite and not np.isfinite(v).all():
         raise ValueError(f"{name}: contains NaN or inf")
     return v
+
+
+def _rows(
+    name: str, value: Any, shapes: tuple[tuple[int, ...], ...], count: int | None = None
+) -> FloatArray:
+    """A C-contiguous float64 stack (B, *shape) of finite rows, or a ValueError naming them.
+
+    ``shapes`` lists the accepted shapes of one row; ``count`` the required B.
+    """
+    try:
+        arr = np.ascontiguousarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be numbers, got {type(value).__name__}") from None
+    if arr.ndim == 0 or arr.shape[1:] not in shapes or arr.shape[0] == 0:
+        wanted = " or ".join(str(("B",) + s).replace("'", "") for s in shapes)
+        raise ValueError(f"{name}: must have shape {wanted} with B >= 1, got {arr.shape}")
+    if count is not None and arr.shape[0] != count:
+        raise ValueError(f"{name}: must have {count} rows (one per row of q0), got {arr.shape[0]}")
+    finite = np.isfinite(arr).reshape(arr.shape[0], -1).all(axis=1)
+    if not finite.all():
+        raise ValueError(f"{name}: row {int(np.argmin(finite))} contains NaN or inf")
+    return arr
 
 
 def _target(target: Any, m: int | None, check_finite: bool) -> FloatArray:
