@@ -68,6 +68,8 @@ def test_quick_run_covers_every_lpik_case(quick_records: list[dict]) -> None:
         assert ("lp2 fused (compiled)", what) in lpik
     assert ("chain_fk_jacobian (compiled)", "FK + J") in lpik
     assert any(m == "lp2_batch (compiled)" and w.startswith("batch of") for m, w in lpik)
+    assert any(m == "lp2 fused step_batch (compiled)" and w.endswith("full steps +acc")
+               for m, w in lpik)  # fmt: skip
     for method in ("lp1", "l1", "lp2 highs"):
         assert (method, "solve, HiGHS reused") in lpik
     firsts = [r for r in quick_records if r["kind"] == "first call"]
@@ -76,7 +78,7 @@ def test_quick_run_covers_every_lpik_case(quick_records: list[dict]) -> None:
 
 def test_quick_run_lpik_agreement_passes(quick_records: list[dict]) -> None:
     checks = [r for r in quick_records if r["kind"] == "agreement" and r["library"] == "lpik"]
-    assert len(checks) == 4
+    assert len(checks) == 5
     assert all(r["passed"] for r in checks), checks
 
 

@@ -154,7 +154,8 @@ def agreement_checks(
       the same binding label;
     - LP2's ratio test equals the general HiGHS LP (relative ``|dq|``, 1e-7);
     - :func:`lpik.fast.lp2_batch` equals :func:`lpik.fast.lp2_compiled` one by one
-      (``max |dq|`` [rad] <= 1e-12);
+      (``max |dq|`` [rad] <= 1e-12), and ``Lp2Controller.step_batch`` equals
+      ``step`` row by row (with acceleration limits; the same binding label);
     - each peer against LP2 with ``M = I`` on the steps where LP2 reaches
       ``p = 1`` (no limit binds), relative 2-norm error of ``dq``. There the
       answer is the least-norm step ``J^+ dw``: Drake's program attains
@@ -197,6 +198,23 @@ def agreement_checks(
                 TOL_SAME_ALGORITHM,
             )
         )
+    rows = acc.step_batch(workload.q, workload.targets, workload.q_prev)
+    err = np.empty(N)
+    for i in range(N):
+        one = acc.step(workload.q[i], workload.targets[i], workload.q_prev[i])
+        same = (rows.status_of(i), rows.binding_of(i)) == (one.status, one.binding)
+        err[i] = np.abs(rows.dq[i] - one.dq).max() if same else np.inf
+    out.append(
+        check_agreement(
+            "lpik",
+            "lp2 fused step_batch (compiled)",
+            "max |dq_batch - dq_step| [rad] vs Lp2Controller.step row by row (+ acceleration); "
+            "a different status or binding label counts as inf",
+            err,
+            np.ones(N, bool),
+            TOL_SAME_ALGORITHM,
+        )
+    )
     ratio = [lp2(p) for p in problems]
     highs = [lp2(p, path="highs") for p in problems]
     err = relative_errors([r.dq for r in ratio], [h.dq for h in highs])
