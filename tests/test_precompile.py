@@ -1,0 +1,42 @@
+"""`lpik compile` and compile_kernels: every kernel of lpik.fast readied and reported."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+pytest.importorskip("numba")
+
+from lpik.cli.main import main  # noqa: E402
+from lpik.fast.precompile import compile_kernels  # noqa: E402
+
+NAMES = [
+    "fused step, serial chain",
+    "fused step, planar arm",
+    "fused step batch, serial chain",
+    "fused step batch, planar arm",
+    "LP2 ratio test (lp2_compiled)",
+    "LP2 batch (lp2_batch)",
+]
+
+
+def test_compile_json_lists_every_kernel(capsys) -> None:
+    assert main(["compile", "--json"]) == 0
+    loads = json.loads(capsys.readouterr().out)
+    assert [load["name"] for load in loads] == NAMES
+    for load in loads:
+        assert set(load) == {"name", "source", "seconds", "cache_path"}
+        assert load["source"] in {"compiled", "disk cache", "in memory"}
+        assert load["seconds"] >= 0 and load["cache_path"]
+
+
+def test_a_second_call_finds_every_kernel_in_memory(capsys) -> None:
+    compile_kernels()
+    again = compile_kernels()
+    assert [k.source for k in again] == ["in memory"] * len(NAMES)
+    assert main(["compile"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split("  ")[0] for line in lines[: len(NAMES)]] == NAMES
+    assert all("in memory" in line for line in lines[: len(NAMES)])
+    assert lines[-1].startswith("numba cache: ")
