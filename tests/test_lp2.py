@@ -402,3 +402,33 @@ def test_ratio_test_on_plain_numbers() -> None:
     )
     assert not res.feasible
     assert res.binding in {"a lo", "b hi"}
+
+
+def test_highs_names_the_limit_in_conflict_when_no_step_is_feasible() -> None:
+    """The elastic program behind an infeasible HiGHS answer names what the ratio test names."""
+    cases = [
+        (Problem(J=[[1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0], lam_min=[-0.6], lam_max=[-0.55]),
+         "multiplier 1 upper bound"),
+        (Problem(J=[[1.0, 1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0, 0.0], q_max=[0.0, 1.0, 1.0],
+                 Lambda=[1.0, 1.0, 1.0], q_ref=[1.0, 0.0, -1.0]), "joint 1 upper end-stop"),
+        (Problem(J=[[1.0, 1.0]], dw=[0.0], q0=[0.0, 0.0], G=[[1.0, 1.0]], h=[-1e-3],
+                 row_labels=["wall"]), "wall"),
+    ]  # fmt: skip
+    for problem, label in cases:
+        for res in both_paths(problem):
+            assert (res.status, res.binding) == (st.INFEASIBLE, label), res.path
+    assert (lp1(cases[2][0]).status, lp1(cases[2][0]).binding) == (st.INFEASIBLE, "wall")
+
+
+def test_a_singular_step_that_cannot_stop_in_time_names_the_acceleration_limit() -> None:
+    from lpik.limits import AccelerationLimits, build_problem, standard_limits
+
+    arm = PlanarArm([1.0, 1.0, 1.0], qd_max=1.0)
+    q0 = np.zeros(3)  # stretched out: J has rank 1, K is singular, only HiGHS can answer
+    limits = [*standard_limits(arm), AccelerationLimits(np.full(3, 0.5))]
+    moving = q0 - np.array([0.0, 0.0, 1e-4])  # joint 3 at 0.01 rad/s; it may shed 0.005
+    P = build_problem(arm.jacobian(q0), np.array([-0.01, 0.0]), q0, limits, dt=0.01,
+                      q_prev=moving)  # fmt: skip
+    res = lp2(P)
+    assert (res.status, res.path, res.p) == (st.INFEASIBLE, "highs", 0.0)
+    assert res.binding == "joint 3 lower acceleration limit"

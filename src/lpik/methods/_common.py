@@ -250,3 +250,60 @@ def crossed_label(problem: Problem) -> str | None:
 def solver_for(solver: HighsSolver | None) -> HighsSolver:
     """The given reusable solver, or a fresh one."""
     return solver if solver is not None else HighsSolver()
+
+
+def conflict_label(problem: Problem, A_eq: FloatArray, b_eq: FloatArray, n_lam: int) -> str | None:
+    """Name the limit in conflict when a step's LP is infeasible even at ``p = 0``.
+
+    Solves the elastic program: the method's equality rows ``A_eq x = b_eq``
+    over ``x = (dq, lam, p)`` (``n_lam`` multipliers; ``p`` in [0, 1]) hold
+    exactly, while every bound on ``dq`` and ``lam`` and every extra row may
+    give way by a slack ``s >= 0``; it minimises the slacks, each divided by
+    the width of its band (``upper - lower`` where both are finite, else 1),
+    so that the narrowest limits (an acceleration band of ``2 qdd_max dt^2``)
+    count most. The limit whose weighted slack is largest is named.
+
+    Returns:
+        Its label (as :meth:`~lpik.problem.Problem.step_bounds`,
+        :meth:`~lpik.problem.Problem.multiplier_labels` and ``row_labels``
+        write them), or ``None`` when the elastic program finds no violation
+        or fails.
+    """
+    n = problem.n
+    lower, upper, lower_labels, upper_labels = problem.step_bounds()
+    lam_lo_labels, lam_hi_labels = problem.multiplier_labels()
+    lo = np.concatenate([lower, problem.lam_min[:n_lam]])
+    hi = np.concatenate([upper, problem.lam_max[:n_lam]])
+    labels = (
+        lower_labels + lam_lo_labels[:n_lam] + upper_labels + lam_hi_labels[:n_lam]
+        + tuple(problem.row_labels)
+    )  # fmt: skip
+    G, g = problem.G, problem.h - problem.G @ problem.q0
+    k, r, cols = n + n_lam, G.shape[0], A_eq.shape[1]  # cols = n + n_lam + 1 (p)
+    width = np.where(np.isfinite(lo) & np.isfinite(hi), hi - lo, 1.0)
+    weight = 1.0 / np.maximum(np.concatenate([width, width, np.ones(r)]), 1e-12)
+    n_slack = 2 * k + r
+    eye = np.eye(k, cols)
+    A = np.block(
+        [
+            [A_eq, np.zeros((A_eq.shape[0], n_slack))],
+            [eye, np.eye(k), np.zeros((k, k + r))],  # x + s_lo >= lo
+            [eye, np.zeros((k, k)), -np.eye(k), np.zeros((k, r))],  # x - s_hi <= hi
+            [np.hstack([G, np.zeros((r, cols - n))]), np.zeros((r, 2 * k)), -np.eye(r)],
+        ]
+    )
+    inf_k, inf_r = np.full(k, np.inf), np.full(r, np.inf)
+    lp = LinearProgram(
+        c=np.concatenate([np.zeros(cols), weight]),
+        A=A,
+        row_lower=np.concatenate([b_eq, lo, -inf_k, -inf_r]),
+        row_upper=np.concatenate([b_eq, inf_k, hi, g]),
+        col_lower=np.concatenate([np.full(cols - 1, -np.inf), [0.0], np.zeros(n_slack)]),
+        col_upper=np.concatenate([np.full(cols - 1, np.inf), [1.0], np.full(n_slack, np.inf)]),
+    )
+    sol = HighsSolver().solve(lp)
+    if sol.status != st.OPTIMAL:
+        return None
+    violation = weight * sol.x[cols:]
+    worst = int(np.argmax(violation))
+    return labels[worst] if violation[worst] > 0.0 else None

@@ -8,7 +8,14 @@ import numpy as np
 
 from lpik import result as st
 from lpik.lp import HighsSolver
-from lpik.methods._common import binding_from_duals, crossed_label, finish, lp_over, solver_for
+from lpik.methods._common import (
+    binding_from_duals,
+    conflict_label,
+    crossed_label,
+    finish,
+    lp_over,
+    solver_for,
+)
 from lpik.problem import Problem
 from lpik.result import Result
 
@@ -28,7 +35,9 @@ def lp1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
         solver: A :class:`~lpik.lp.HighsSolver` to reuse across steps (warm start).
 
     Returns:
-        The step, with ``binding`` naming the limit with the largest dual when ``p < 1``.
+        The step, with ``binding`` naming the limit with the largest dual when
+        ``p < 1``, or the limit in conflict when no step is feasible
+        (:func:`~lpik.methods._common.conflict_label`).
     """
     start = time.perf_counter()
     n, lower, upper = problem.n, *problem.step_bounds()[:2]
@@ -43,8 +52,18 @@ def lp1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
     )
     sol = solver_for(solver).solve(lp)
     if sol.status != st.OPTIMAL:
+        conflict = (
+            conflict_label(problem, A_eq, np.zeros(problem.m), 0)
+            if sol.status == st.INFEASIBLE
+            else None
+        )
         return st.safe_step(
-            problem, "lp1", sol.status, solve_time=time.perf_counter() - start, path="highs"
+            problem,
+            "lp1",
+            sol.status,
+            conflict,
+            solve_time=time.perf_counter() - start,
+            path="highs",
         )
     p = float(sol.x[-1])
     binding = binding_from_duals(problem, sol, lp, p, problem.m)

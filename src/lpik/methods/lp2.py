@@ -35,6 +35,7 @@ from lpik.lp import HighsSolver
 from lpik.methods._common import (
     FULL_P,
     binding_from_duals,
+    conflict_label,
     criterion,
     crossed_label,
     finish,
@@ -168,7 +169,8 @@ def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = No
     Returns:
         The step; ``binding`` names the limit that keeps ``p < 1`` (e.g.
         ``"joint 1 upper end-stop"``, ``"multiplier 2 upper bound"``), or the
-        conflicting limit when the step is infeasible even at ``p = 0``.
+        conflicting limit when the step is infeasible even at ``p = 0`` (on the
+        HiGHS path: :func:`~lpik.methods._common.conflict_label`).
     """
     if path not in PATHS:
         raise ValueError(f"path: unknown LP2 path {path!r}; available: {', '.join(PATHS)}")
@@ -244,8 +246,14 @@ def _highs_path(problem: Problem, solver: HighsSolver | None, start: float) -> R
     lp = lp_over(problem, cost, A_eq, b_eq, col_lower, col_upper)
     sol = solver_for(solver).solve(lp)
     if sol.status != st.OPTIMAL:
+        conflict = conflict_label(problem, A_eq, b_eq, m) if sol.status == st.INFEASIBLE else None
         return st.safe_step(
-            problem, "lp2", sol.status, solve_time=time.perf_counter() - start, path="highs"
+            problem,
+            "lp2",
+            sol.status,
+            conflict,
+            solve_time=time.perf_counter() - start,
+            path="highs",
         )
     dq, lam, p = sol.x[:n], sol.x[n : n + m], float(sol.x[-1])
     failure = _criterion_failure(problem, H, c, dq, lam)
