@@ -6,9 +6,12 @@ import importlib
 
 import numpy as np
 import pytest
+from hypothesis import event, given, settings
+from hypothesis import strategies as st_h
 
 pytest.importorskip("numba")
 
+from core_strategies import examples  # noqa: E402
 from lpik import result as st  # noqa: E402
 from lpik.fast import BatchArrays, lp2_batch, lp2_compiled  # noqa: E402
 from lpik.fast import batch as lpik_fast_batch  # noqa: E402
@@ -608,3 +611,62 @@ def test_step_batch_rejects_bad_input() -> None:
     chain = Lp2Controller(_panda("pose"), dt=0.001)
     with pytest.raises(ValueError, match=r"targets: must have shape \(B, 3\) or \(B, 3, 3\) or"):
         chain.step_batch(np.zeros((2, 7)), np.zeros((2, 4)))
+
+
+@st_h.composite
+def fused_states(draw: st_h.DrawFn):  # noqa: ANN201 - (controller, q0, target, q_prev)
+    """A random planar arm with end-stops, velocity and acceleration limits, and one state."""
+    from lpik.fast.controller import Lp2Controller
+    from lpik.robots.planar import PlanarArm
+
+    n = draw(st_h.integers(3, 6))
+    floats = lambda lo, hi: st_h.floats(lo, hi, allow_nan=False, allow_subnormal=False)  # noqa: E731
+    lengths = [draw(floats(0.3, 1.5)) for _ in range(n)]
+    centre = np.array([draw(floats(-1.0, 1.0)) for _ in range(n)])
+    half = np.array([draw(floats(0.3, 2.5)) for _ in range(n)])
+    task = draw(st_h.sampled_from(["position", "pose"]))
+    arm = PlanarArm(lengths, q_min=centre - half, q_max=centre + half,
+                    qd_max=draw(floats(0.2, 2.0)), task=task)  # fmt: skip
+    dt = draw(st_h.sampled_from([1e-3, 1e-2]))
+    qdd = draw(st_h.sampled_from([None, 5.0, 50.0]))
+    bound = draw(st_h.sampled_from([None, 0.05, 1.0]))
+    controller = Lp2Controller(arm, dt=dt, v_max=draw(floats(0.1, 1.0)), qdd_max=qdd,
+                               lambda_bound=bound)  # fmt: skip
+    q0 = centre + half * np.array([draw(floats(-1.0, 1.0)) for _ in range(n)])
+    speed = draw(st_h.sampled_from([0.0, 0.1, 1.0]))  # of the previous step, in qd_max units
+    q_prev = q0 - speed * dt * arm.qd_max * np.array([draw(floats(-1.0, 1.0)) for _ in range(n)])
+    q_prev = None if draw(st_h.booleans()) and speed == 0.0 else q_prev
+    goal = arm.pose(q0)[: arm.task_dim] + np.array(
+        [draw(floats(-0.5, 0.5)) for _ in range(arm.task_dim)]
+    )
+    return controller, q0, goal, q_prev
+
+
+@settings(max_examples=examples(300))
+@given(state=fused_states())
+def test_fused_step_keeps_every_hard_limit_and_moves_along_the_command(state) -> None:
+    controller, q0, goal, q_prev = state
+    arm, dt, n = controller.model, controller.dt, len(q0)
+    res = controller.step(q0, goal, q_prev)
+    event(f"{res.status}, p {'= 1' if res.p == 1 else '< 1' if res.p > 0 else '= 0'}")
+    assert res.status in {st.OPTIMAL, st.INFEASIBLE, st.SOLVER_ERROR} or res.path == "highs"
+    assert 0.0 <= res.p <= 1.0
+    np.testing.assert_allclose(res.q, q0 + res.dq, rtol=0, atol=1e-12)
+    if not res.moved:
+        np.testing.assert_array_equal(res.q, q0)
+        assert res.p == 0.0 and (res.binding is not None or res.status != st.INFEASIBLE)
+        return
+    tol = 1e-9
+    inside = np.clip(q0, arm.q_min, arm.q_max)  # q0 sits inside its end-stops here
+    assert (res.q >= np.minimum(arm.q_min, inside) - tol).all()
+    assert (res.q <= np.maximum(arm.q_max, inside) + tol).all()
+    assert (np.abs(res.dq) <= arm.qd_max * dt + tol).all()
+    if controller.limits[-1].__class__.__name__ == "AccelerationLimits":
+        last = np.zeros(n) if q_prev is None else q0 - q_prev
+        qdd = controller.limits[-1].qdd_max
+        assert (np.abs(res.dq - last) <= qdd * dt * dt + tol).all()
+    problem = controller.problem(q0, goal, q_prev)  # the clamped command dw and J(q0)
+    np.testing.assert_allclose(problem.J @ res.dq, res.p * problem.dw, rtol=0, atol=1e-9)
+    batch = controller.step_batch(q0[None], goal[None], None if q_prev is None else q_prev[None])
+    assert (batch.status_of(0), batch.binding_of(0)) == (res.status, res.binding)
+    np.testing.assert_allclose(batch.q[0], res.q, rtol=0, atol=1e-12)
