@@ -27,3 +27,25 @@ def test_readme_two_commands_match_ci() -> None:
     ci = (README.parent / ".ci" / "run").read_text(encoding="utf-8")
     assert "lpik reproduce" in commands[0]
     assert commands[1] in ci, "'.ci/run' must run exactly the README's test command"
+
+
+def _table_rows(text: str, first_cells: tuple[str, ...]) -> list[list[str]]:
+    rows = []
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.replace(r"\|", "!").strip().strip("|").split("|")]
+        if line.startswith("|") and cells[0].startswith(first_cells):
+            rows.append(cells)
+    return rows
+
+
+def test_readme_results_table_is_the_one_of_docs_summary() -> None:
+    """The README's table of the paper's runs is copied from docs/summary.md: they must agree."""
+    readme = _table_rows(README.read_text(encoding="utf-8"), ("pull-in,", "edge singularity,"))
+    summary_text = (README.parent / "docs" / "summary.md").read_text(encoding="utf-8")
+    summary = _table_rows(summary_text, ("pull-in-", "edge-singularity-"))
+    assert len(readme) == len(summary) == 5
+    for ours, theirs in zip(readme, summary):
+        assert float(ours[1]) == float(theirs[3]), ours[0]  # jitter, same digits
+        assert float(ours[2]) == pytest.approx(float(theirs[4]), abs=0.01), ours[0]  # max q1
+        assert float(ours[3]) == pytest.approx(float(theirs[5]), abs=5e-4), ours[0]  # final p
+        assert ours[4] == theirs[6], ours[0]  # final end effector
