@@ -296,3 +296,16 @@ def test_command_lists_the_examples() -> None:
     )
     assert run.returncode == 0
     assert run.stdout.split() == example_names()
+
+
+@pytest.mark.parametrize("method", ["lp1", "l1", "lp2"])
+def test_the_real_command_prints_only_json_on_stdout(tmp_path: Path, method: str) -> None:
+    """stdout is the JSON document and nothing else: no solver banner or log, at the fd level."""
+    path = tmp_path / "step.json"
+    path.write_text(doc(method=method, dq_min=[-0.001] * 4, dq_max=[0.001] * 4))
+    run = subprocess.run(
+        [str(LPIK), "solve", str(path)], capture_output=True, text=True, check=False
+    )
+    assert (run.returncode, run.stderr) == (0, "")
+    assert set(json.loads(run.stdout)) == OUTPUT_KEYS
+    assert run.stdout.count("\n") == 1

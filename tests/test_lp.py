@@ -42,6 +42,14 @@ def test_a_small_lp_is_solved() -> None:
     assert sol.highs_status == "Optimal"
 
 
+def test_highs_writes_nothing_to_the_process_output(capfd) -> None:
+    """Not even the banner highspy >= 1.16 prints when its Python class is built (fd level)."""
+    lp = program([-1, -1], [[1, 2], [3, 1]], [-INF, -INF], [4, 6], [0, 0], [INF, INF])
+    for _ in range(2):
+        assert HighsSolver().solve(lp).status == result.OPTIMAL
+    assert capfd.readouterr() == ("", "")
+
+
 def test_an_infeasible_lp_says_so() -> None:
     lp = program([1, 0], [[1, 1]], [3], [3], [0, 0], [1, 1])
     sol = HighsSolver().solve(lp)

@@ -94,6 +94,16 @@ class LpSolution:
     basic: NDArray[np.bool_] | None = None
 
 
+class _Highs(getattr(highspy, "_Highs", highspy.Highs)):  # type: ignore[misc]
+    """highspy's core class, for lpik's :class:`HighsSolver`.
+
+    highspy's own Python subclass ``highspy.Highs`` prints a banner on the
+    process's standard output when it is constructed (highspy 1.16), before any
+    option can silence it, which corrupts ``lpik solve``'s JSON. lpik uses none
+    of that subclass's additions (callbacks, ``solve``).
+    """
+
+
 class HighsSolver:
     """One reusable HiGHS instance.
 
@@ -103,8 +113,8 @@ class HighsSolver:
     """
 
     def __init__(self) -> None:
-        self._highs = highspy.Highs()
-        self._highs.silent()
+        self._highs = _Highs()
+        self._highs.setOptionValue("output_flag", False)  # before any other call
         for name, value in HIGHS_OPTIONS.items():
             self._highs.setOptionValue(name, value)
         self._pattern: tuple[tuple[int, int], bytes] | None = None
