@@ -252,6 +252,32 @@ def solver_for(solver: HighsSolver | None) -> HighsSolver:
     return solver if solver is not None else HighsSolver()
 
 
+def unsolved_step(
+    problem: Problem,
+    method: str,
+    status: str,
+    A_eq: FloatArray,
+    b_eq: FloatArray,
+    n_lam: int,
+    start: float,
+) -> Result:
+    """The safe step of a HiGHS answer that is not optimal, naming the conflict if infeasible.
+
+    Args:
+        problem: The step.
+        method: ``"lp1"`` or ``"lp2"``.
+        status: The solver's status (an lpik status word).
+        A_eq: The method's equality rows over ``(dq, lam, p)``, for :func:`conflict_label`.
+        b_eq: Their right-hand side.
+        n_lam: The number of multiplier columns in ``A_eq`` (0 for LP1).
+        start: ``time.perf_counter()`` when the method started.
+    """
+    conflict = conflict_label(problem, A_eq, b_eq, n_lam) if status == st.INFEASIBLE else None
+    return st.safe_step(
+        problem, method, status, conflict, solve_time=time.perf_counter() - start, path="highs"
+    )
+
+
 def conflict_label(problem: Problem, A_eq: FloatArray, b_eq: FloatArray, n_lam: int) -> str | None:
     """Name the limit in conflict when a step's LP is infeasible even at ``p = 0``.
 
@@ -278,8 +304,9 @@ def conflict_label(problem: Problem, A_eq: FloatArray, b_eq: FloatArray, n_lam: 
         lower_labels + lam_lo_labels[:n_lam] + upper_labels + lam_hi_labels[:n_lam]
         + tuple(problem.row_labels)
     )  # fmt: skip
-    G, g = problem.G, problem.h - problem.G @ problem.q0
-    k, r, cols = n + n_lam, G.shape[0], A_eq.shape[1]  # cols = n + n_lam + 1 (p)
+    cols = A_eq.shape[1]  # n + n_lam + 1 (p)
+    G, g = extra_rows(problem, cols)
+    k, r = n + n_lam, G.shape[0]
     width = np.where(np.isfinite(lo) & np.isfinite(hi), hi - lo, 1.0)
     weight = 1.0 / np.maximum(np.concatenate([width, width, np.ones(r)]), 1e-12)
     n_slack = 2 * k + r
@@ -289,7 +316,7 @@ def conflict_label(problem: Problem, A_eq: FloatArray, b_eq: FloatArray, n_lam: 
             [A_eq, np.zeros((A_eq.shape[0], n_slack))],
             [eye, np.eye(k), np.zeros((k, k + r))],  # x + s_lo >= lo
             [eye, np.zeros((k, k)), -np.eye(k), np.zeros((k, r))],  # x - s_hi <= hi
-            [np.hstack([G, np.zeros((r, cols - n))]), np.zeros((r, 2 * k)), -np.eye(r)],
+            [G, np.zeros((r, 2 * k)), -np.eye(r)],
         ]
     )
     inf_k, inf_r = np.full(k, np.inf), np.full(r, np.inf)

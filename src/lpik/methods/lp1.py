@@ -10,11 +10,11 @@ from lpik import result as st
 from lpik.lp import HighsSolver
 from lpik.methods._common import (
     binding_from_duals,
-    conflict_label,
     crossed_label,
     finish,
     lp_over,
     solver_for,
+    unsolved_step,
 )
 from lpik.problem import Problem
 from lpik.result import Result
@@ -52,19 +52,7 @@ def lp1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
     )
     sol = solver_for(solver).solve(lp)
     if sol.status != st.OPTIMAL:
-        conflict = (
-            conflict_label(problem, A_eq, np.zeros(problem.m), 0)
-            if sol.status == st.INFEASIBLE
-            else None
-        )
-        return st.safe_step(
-            problem,
-            "lp1",
-            sol.status,
-            conflict,
-            solve_time=time.perf_counter() - start,
-            path="highs",
-        )
+        return unsolved_step(problem, "lp1", sol.status, A_eq, np.zeros(problem.m), 0, start)
     p = float(sol.x[-1])
     binding = binding_from_duals(problem, sol, lp, p, problem.m)
     return finish(problem, "lp1", sol.x[:n], p, None, binding, start, "highs")

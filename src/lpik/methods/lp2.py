@@ -35,12 +35,12 @@ from lpik.lp import HighsSolver
 from lpik.methods._common import (
     FULL_P,
     binding_from_duals,
-    conflict_label,
     criterion,
     crossed_label,
     finish,
     lp_over,
     solver_for,
+    unsolved_step,
 )
 from lpik.problem import Problem
 from lpik.result import Result
@@ -246,15 +246,7 @@ def _highs_path(problem: Problem, solver: HighsSolver | None, start: float) -> R
     lp = lp_over(problem, cost, A_eq, b_eq, col_lower, col_upper)
     sol = solver_for(solver).solve(lp)
     if sol.status != st.OPTIMAL:
-        conflict = conflict_label(problem, A_eq, b_eq, m) if sol.status == st.INFEASIBLE else None
-        return st.safe_step(
-            problem,
-            "lp2",
-            sol.status,
-            conflict,
-            solve_time=time.perf_counter() - start,
-            path="highs",
-        )
+        return unsolved_step(problem, "lp2", sol.status, A_eq, b_eq, m, start)
     dq, lam, p = sol.x[:n], sol.x[n : n + m], float(sol.x[-1])
     failure = _criterion_failure(problem, H, c, dq, lam)
     if failure is not None:
