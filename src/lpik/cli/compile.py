@@ -30,8 +30,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 def run(args: argparse.Namespace) -> int:
     """Ready the kernels and report them; exit status 0."""
-    import lpik.fast  # noqa: F401 - a one-line error (exit 2) without numba
-    from lpik.fast.precompile import compile_kernels
+    from lpik.fast.precompile import compile_kernels  # without numba: one line, exit 2
 
     loads = compile_kernels()
     if args.json:

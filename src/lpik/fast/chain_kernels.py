@@ -566,6 +566,11 @@ def step_kernel(kind: str):  # noqa: ANN201 - a numba dispatcher
     return _compiled_steps[kind]
 
 
+def loaded_step_kernel(kind: str):  # noqa: ANN201 - a numba dispatcher or None
+    """The fused step of ``kind`` if :func:`step_kernel` has readied it in this process."""
+    return _compiled_steps.get(kind)
+
+
 # The same steps without explicit signatures, for the batch loops below. They
 # compile for the batch's argument types, which are those of _STEPS, so they
 # share their disk-cache entries with step_kernel's dispatchers.
@@ -581,6 +586,8 @@ def _copy_out(state, outs, b):  # noqa: ANN001, ANN201
         outs[b, k] = state[o_out + k]
 
 
+# chain_step_batch and planar_step_batch differ only in the step they call: one
+# loop built by a factory (a closure) would not load from numba's disk cache.
 @njit(cache=True, parallel=True)
 def chain_step_batch(state, q0, q_prev, targets, outs, codes, chunks):  # noqa: ANN001, ANN201
     """:func:`chain_step` for every row of the batch, in parallel.

@@ -297,8 +297,9 @@ class Lp2Controller:
         infeasible = codes == K.INFEASIBLE
         q[infeasible], dq[infeasible], p[infeasible], lam[infeasible] = Q0[infeasible], 0, 0, np.nan
         fallback: dict[int, Result] = {}
-        for b in np.nonzero((codes != K.OK) & ~infeasible)[0].tolist():
-            res = self.step(Q0[b], T[b], None if q_prev is None else Qp[b])
+        for b in np.nonzero((codes != K.OK) & ~infeasible)[0].tolist():  # the HiGHS path
+            prev_b = None if q_prev is None else Qp[b]
+            res = self._not_optimal(int(codes[b]), Q0[b], T[b], prev_b, perf_counter())
             fallback[b] = res
             q[b], dq[b], p[b] = res.q, res.dq, res.p
             lam[b] = np.nan if res.lam is None else res.lam

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -54,52 +55,42 @@ def compile_kernels() -> list[KernelLoad]:
 
     loads: list[KernelLoad] = []
 
-    def ready(name: str, dispatcher, call, before: tuple[int, int] | None = None) -> None:  # noqa: ANN001
-        """Time ``call``; ``dispatcher()`` is the kernel it readies (looked up afterwards)."""
-        before = before or (0, 0)
+    def ready(name: str, call, kernel=None) -> None:  # noqa: ANN001 - numba dispatchers
+        """Time ``call``, which readies ``kernel`` (``None``: the dispatcher ``call`` returns)."""
+        misses, hits = _counts(kernel) if kernel is not None else (0, 0)
         start = time.perf_counter()
-        call()
+        returned = call()
         seconds = time.perf_counter() - start
-        misses, hits = _counts(dispatcher())
-        if misses > before[0]:
+        kernel = returned if kernel is None else kernel
+        now_misses, now_hits = _counts(kernel)
+        if now_misses > misses:
             source = "compiled"
-        elif hits > before[1]:
+        elif now_hits > hits:
             source = "disk cache"
         else:
             source = "in memory"
-        cache = str(dispatcher().stats.cache_path)
-        loads.append(KernelLoad(name, seconds, source, cache))
+        loads.append(KernelLoad(name, seconds, source, str(kernel.stats.cache_path)))
 
+    # A step kernel compiles (or loads) when step_kernel first asks for it.
+    for kind, label in (("chain", "serial chain"), ("planar", "planar arm")):
+        ready(f"fused step, {label}", partial(CK.step_kernel, kind), CK.loaded_step_kernel(kind))
     panda = load_robot("panda", task="pose")
     q = home_configuration("panda")
     pose = panda.pose(q)
-    made: dict[str, Lp2Controller] = {}
-    models = {
-        "chain": (panda, 1e-3, "serial chain"),
-        "planar": (PlanarArm([1.0] * 4), 0.01, "planar arm"),
-    }
-
-    def build(kind: str) -> None:
-        model, dt, _ = models[kind]
-        made[kind] = Lp2Controller(model, dt=dt, qdd_max=10.0)
-
-    for kind in models:
-        # A step kernel compiles (or loads) when the first controller of its kind is built.
-        before = _counts(CK.step_kernel(kind)) if kind in CK._compiled_steps else None
-        ready(f"fused step, {models[kind][2]}", lambda kind=kind: CK.step_kernel(kind),
-              lambda kind=kind: build(kind), before)  # fmt: skip
-    batches = (
-        ("fused step batch, serial chain", CK.chain_step_batch,
-         lambda: made["chain"].step_batch(q[None], pose[None], q[None])),
-        ("fused step batch, planar arm", CK.planar_step_batch,
-         lambda: made["planar"].step_batch(np.full((1, 4), 0.3), np.ones((1, 2)))),
-    )  # fmt: skip
+    chain = Lp2Controller(panda, dt=1e-3, qdd_max=10.0)
+    planar = Lp2Controller(PlanarArm([1.0] * 4), dt=0.01, qdd_max=10.0)
     problem = Problem(J=panda.jacobian(q), dw=np.full(6, 1e-4), q0=q,
                       q_min=panda.q_min, q_max=panda.q_max)  # fmt: skip
-    for name, dispatcher, call in (
-        *batches,
-        ("LP2 ratio test (lp2_compiled)", K.lp2_kernel, lambda: B.lp2_compiled(problem)),
-        ("LP2 batch (lp2_batch)", K.lp2_batch_kernel, lambda: B.lp2_batch([problem])),
-    ):
-        ready(name, lambda d=dispatcher: d, call, _counts(dispatcher))
+    ready(
+        "fused step batch, serial chain",
+        lambda: chain.step_batch(q[None], pose[None], q[None]),
+        CK.chain_step_batch,
+    )
+    ready(
+        "fused step batch, planar arm",
+        lambda: planar.step_batch(np.full((1, 4), 0.3), np.ones((1, 2))),
+        CK.planar_step_batch,
+    )
+    ready("LP2 ratio test (lp2_compiled)", lambda: B.lp2_compiled(problem), K.lp2_kernel)
+    ready("LP2 batch (lp2_batch)", lambda: B.lp2_batch([problem]), K.lp2_batch_kernel)
     return loads
