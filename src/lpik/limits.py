@@ -16,11 +16,10 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
-from numpy.typing import NDArray
 
+from lpik import labels
 from lpik.problem import Problem
-
-FloatArray = NDArray[np.float64]
+from lpik.types import FloatArray
 
 
 @dataclass(frozen=True)
@@ -97,7 +96,7 @@ class VelocityLimits:
         """Bounds on ``dq`` for a step of ``context.dt`` seconds."""
         hi = _vec("qd_max", self.qd_max)
         lo = -hi if self.qd_min is None else _vec("qd_min", self.qd_min)
-        return Piece(dq_min=lo * context.dt, dq_max=hi * context.dt, kind="velocity limit")
+        return Piece(dq_min=lo * context.dt, dq_max=hi * context.dt, kind=labels.VELOCITY_LIMIT)
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,7 +121,7 @@ class AccelerationLimits:
         lo = -hi if self.qdd_min is None else _vec("qdd_min", self.qdd_min)
         last = 0.0 if context.q_prev is None else context.q0 - context.q_prev
         dt2 = context.dt**2
-        return Piece(dq_min=last + lo * dt2, dq_max=last + hi * dt2, kind="acceleration limit")
+        return Piece(dq_min=last + lo * dt2, dq_max=last + hi * dt2, kind=labels.ACCELERATION_LIMIT)
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,8 +158,8 @@ class LinearRows:
         """The rows as they are."""
         G = np.atleast_2d(np.asarray(self.G, dtype=np.float64))
         h = _vec("h", self.h)
-        labels = self.labels or tuple(f"row {i + 1}" for i in range(h.size))
-        return Piece(G=G, h=h, row_labels=tuple(labels))
+        names = self.labels or labels.default_row_labels(h.size)
+        return Piece(G=G, h=h, row_labels=tuple(names))
 
 
 def standard_limits(
@@ -215,9 +214,9 @@ def build_problem(
     )
     q_min, q_max = np.full(n, -np.inf), np.full(n, np.inf)
     dq_min, dq_max = np.full(n, -np.inf), np.full(n, np.inf)
-    lo_kind, hi_kind = ["velocity limit"] * n, ["velocity limit"] * n
+    lo_kind, hi_kind = [labels.VELOCITY_LIMIT] * n, [labels.VELOCITY_LIMIT] * n
     lam_min, lam_max = np.full(m, -np.inf), np.full(m, np.inf)
-    rows, rhs, labels = [], [], []
+    rows, rhs, row_labels = [], [], []
     for limit in limits:
         piece = limit.apply(context)
         if piece.q_min is not None:
@@ -239,10 +238,10 @@ def build_problem(
         if piece.G is not None and piece.h is not None:
             rows.append(piece.G)
             rhs.append(piece.h)
-            labels.extend(piece.row_labels)
+            row_labels.extend(piece.row_labels)
     extra: dict[str, Any] = {}
     if rows:
-        extra = {"G": np.vstack(rows), "h": np.concatenate(rhs), "row_labels": labels}
+        extra = {"G": np.vstack(rows), "h": np.concatenate(rhs), "row_labels": row_labels}
     return Problem(
         J=J,
         dw=dw,

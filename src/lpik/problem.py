@@ -16,17 +16,25 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from lpik import labels
 from lpik.exceptions import InvalidProblemError
-
-FloatArray = NDArray[np.float64]
-
-#: Relative tolerance on the symmetry of M and Lambda.
-SYMMETRY_RTOL = 1e-9
+from lpik.tolerances import PSD_RTOL, SYMMETRY_RTOL
+from lpik.types import FloatArray
 
 #: Default name of the limit that sets ``dq_min`` / ``dq_max`` (eq. 14).
-STEP_BOUND_KIND = "velocity limit"
+STEP_BOUND_KIND = labels.VELOCITY_LIMIT
+
+
+def reference_configuration(q_min: FloatArray, q_max: FloatArray, q0: FloatArray) -> FloatArray:
+    """The default ``q_ref`` of sec. 3.1: the end-stops' midpoint where both are finite, else q0.
+
+    A caller that does not know ``q0`` yet (a compiled controller) passes NaN
+    there and gets NaN where ``q_ref`` is to follow ``q0``.
+    """
+    finite = np.isfinite(q_min) & np.isfinite(q_max)
+    mid = 0.5 * (np.where(finite, q_min, 0.0) + np.where(finite, q_max, 0.0))
+    return np.where(finite, mid, q0)
 
 
 def _vector(name: str, value: Any, size: int, *, allow_inf: bool = False) -> FloatArray:
@@ -179,15 +187,12 @@ class Problem:
             raise InvalidProblemError("M", "must be positive definite") from None
         set_(self, "M", M)
         Lam = _matrix("Lambda", self.Lambda, n, 0.0)
-        if np.linalg.eigvalsh(Lam).min() < -1e-12 * max(1.0, float(np.abs(Lam).max())):
+        if np.linalg.eigvalsh(Lam).min() < -PSD_RTOL * max(1.0, float(np.abs(Lam).max())):
             raise InvalidProblemError("Lambda", "must be positive semidefinite")
         set_(self, "Lambda", Lam)
         set_(self, "f", np.zeros(n) if self.f is None else _vector("f", self.f, n))
         if self.q_ref is None:
-            finite = np.isfinite(q_min) & np.isfinite(q_max)
-            q_ref = np.where(
-                finite, 0.5 * (np.where(finite, q_min, 0) + np.where(finite, q_max, 0)), self.q0
-            )
+            q_ref = reference_configuration(q_min, q_max, self.q0)
         else:
             q_ref = _vector("q_ref", self.q_ref, n)
         set_(self, "q_ref", q_ref)
@@ -209,7 +214,7 @@ class Problem:
             set_(self, "k", k)
         set_(self, "dq_min_kind", _labels("dq_min_kind", self.dq_min_kind, n, STEP_BOUND_KIND))
         set_(self, "dq_max_kind", _labels("dq_max_kind", self.dq_max_kind, n, STEP_BOUND_KIND))
-        names = tuple(f"joint {i + 1}" for i in range(n))
+        names = labels.default_joint_names(n)
         set_(self, "joint_names", _labels("joint_names", self.joint_names, n, None) or names)
 
     def _init_rows(self, n: int) -> None:
@@ -238,7 +243,7 @@ class Problem:
         r = G.shape[0]
         set_(self, "G", G)
         set_(self, "h", _vector("h", self.h, r))
-        default = tuple(f"row {i + 1}" for i in range(r))
+        default = labels.default_row_labels(r)
         set_(self, "row_labels", _labels("row_labels", self.row_labels, r, None) or default)
 
     @property
@@ -266,13 +271,13 @@ class Problem:
             lower = np.maximum(lo_stop, self.dq_min)
             upper = np.minimum(hi_stop, self.dq_max)
             lower_labels = tuple(
-                f"{name} lower {'end-stop' if s >= d else kind}"
+                labels.bound_label(name, "lower", labels.END_STOP if s >= d else kind)
                 for name, s, d, kind in zip(
                     self.joint_names, lo_stop, self.dq_min, self.dq_min_kind
                 )
             )
             upper_labels = tuple(
-                f"{name} upper {'end-stop' if s <= d else kind}"
+                labels.bound_label(name, "upper", labels.END_STOP if s <= d else kind)
                 for name, s, d, kind in zip(
                     self.joint_names, hi_stop, self.dq_max, self.dq_max_kind
                 )
@@ -282,10 +287,7 @@ class Problem:
 
     def multiplier_labels(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
         """Labels of the lower and upper multiplier bounds (sec. 3.2)."""
-        return (
-            tuple(f"multiplier {i + 1} lower bound" for i in range(self.m)),
-            tuple(f"multiplier {i + 1} upper bound" for i in range(self.m)),
-        )
+        return labels.multiplier_labels(self.m)
 
     def replace(self, **changes: Any) -> Problem:
         """A copy with some fields changed (validated again)."""

@@ -1,4 +1,4 @@
-"""Reading one step's problem from the ``lpik solve`` JSON contract (see DESIGN.md)."""
+"""Reading one step's problem from the ``lpik solve`` JSON contract (the README lists its keys)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from lpik.exceptions import InvalidProblemError
-from lpik.methods import METHODS
+from lpik.methods.registry import METHODS, get_method
 from lpik.problem import Problem
 
 #: Keys every problem file must have.
@@ -33,13 +33,15 @@ OPTIONAL_KEYS = (
 
 
 def validate_method(method: Any) -> str:
-    """``method`` if it names one of :data:`lpik.methods.METHODS`, else an error listing them."""
-    if not isinstance(method, str) or method not in METHODS:
-        hint = " ('nlp' needs the robot model: use lpik simulate)" if method == "nlp" else ""
+    """``method`` if it names a method that needs only the problem, else an error listing them."""
+    problem_only = [name for name, spec in METHODS.items() if not spec.needs_model]
+    if isinstance(method, str) and method in METHODS and method not in problem_only:
         raise InvalidProblemError(
-            "method", f"unknown method {method!r}{hint}; available: {', '.join(METHODS)}"
+            "method",
+            f"{method!r} needs the robot model: use lpik simulate; available here: "
+            + ", ".join(problem_only),
         )
-    return method
+    return get_method(method).name
 
 
 def problem_from_dict(data: Any) -> tuple[str, Problem]:

@@ -1,24 +1,20 @@
-"""The result of one step, its statuses, and the independent check of a step.
+"""The result of one step and its statuses.
 
 Every method returns a :class:`Result`. Its ``status`` is one of the words in
 :data:`STATUSES`; ``binding`` says *why* ``p < 1`` (or which limit a classical
-step breaks). :func:`check_step` re-checks a step against the problem's
-limits and equations with lpik's own tolerance, independently of the solver
-that produced it.
+step breaks; :mod:`lpik.labels` spells it). :mod:`lpik.check` re-checks a
+step independently of the solver that produced it.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from lpik.problem import Problem
-
-FloatArray = NDArray[np.float64]
+from lpik.types import FloatArray
 
 OPTIMAL = "optimal"
 SCALED = "scaled"
@@ -46,11 +42,6 @@ STATUSES: dict[str, str] = {
 
 #: Statuses whose step moves the robot as the method intends.
 MOVING = frozenset({OPTIMAL, SCALED, VIOLATES_LIMITS})
-
-#: Absolute tolerance of :func:`check_step` on bounds and rows, scaled by the bound's size.
-FEASIBILITY_TOL = 1e-7
-#: Tolerance of :func:`check_step` on ``J dq = p dw``, relative to ``|J| |dq| + |dw|``.
-EQUALITY_RTOL = 1e-7
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,15 +75,16 @@ class Result:
     path: str = ""
 
     @classmethod
-    def trusted(cls, **fields: Any) -> Result:
+    def trusted(cls, fields: dict[str, Any]) -> Result:
         """Build a result from already-checked values without the dataclass ``__init__``.
 
-        For the compiled path (:mod:`lpik.fast`), whose kernel checks its own
-        answer: a frozen dataclass's ``__init__`` costs about 2 us, a sizeable
-        part of a 1 kHz loop's step. Every field must be given.
+        The one way the compiled path (:mod:`lpik.fast`, whose kernel checks its
+        own answer) builds a result: a frozen dataclass's ``__init__`` is a
+        sizeable part of a 1 kHz loop's step. ``fields`` holds every field by
+        name; the result takes it over as its ``__dict__`` (no copy).
         """
         obj = object.__new__(cls)
-        obj.__dict__.update(fields)
+        object.__setattr__(obj, "__dict__", fields)
         return obj
 
     @property
@@ -134,72 +126,3 @@ def safe_step(
         residual=0.0,
         path=path,
     )
-
-
-@dataclass(frozen=True)
-class Violation:
-    """The worst limit a step breaks, by how much, and its label."""
-
-    amount: float
-    label: str | None
-
-
-def worst_violation(problem: Problem, dq: FloatArray, lam: FloatArray | None = None) -> Violation:
-    """The largest scaled violation of any bound or row by a step (eqs. 13-14, sec. 3.2, G q <= h).
-
-    Each violation is divided by ``max(1, |bound|)`` so that one tolerance fits
-    bounds of any size.
-    """
-    lower, upper, lower_labels, upper_labels = problem.step_bounds()
-    worst = Violation(0.0, None)
-    checks: list[tuple[FloatArray, FloatArray, tuple[str, ...]]] = [
-        (lower - dq, lower, lower_labels),
-        (dq - upper, upper, upper_labels),
-    ]
-    if lam is not None:
-        lam_lo, lam_hi = problem.multiplier_labels()
-        checks.append((problem.lam_min - lam, problem.lam_min, lam_lo))
-        checks.append((lam - problem.lam_max, problem.lam_max, lam_hi))
-    if problem.G.shape[0]:
-        rhs = problem.h - problem.G @ problem.q0
-        checks.append((problem.G @ dq - rhs, rhs, tuple(problem.row_labels)))
-    for excess, bound, labels in checks:
-        if excess.size == 0:
-            continue
-        with np.errstate(invalid="ignore"):
-            scaled = excess / np.maximum(1.0, np.where(np.isfinite(bound), np.abs(bound), 1.0))
-        scaled = np.where(np.isnan(scaled), -np.inf, scaled)
-        i = int(np.argmax(scaled))
-        if scaled[i] > worst.amount:
-            worst = Violation(float(scaled[i]), labels[i])
-    return worst
-
-
-def task_residual(problem: Problem, dq: FloatArray, p: float) -> float:
-    """``max |J dq - p dw|``: how far a step is from the linearised task (eqs. 12, 15)."""
-    return float(np.abs(problem.J @ dq - p * problem.dw).max())
-
-
-def check_step(problem: Problem, dq: FloatArray, p: float, lam: FloatArray | None) -> str | None:
-    """Independent re-check of an LP answer; ``None`` when it holds, else what fails.
-
-    Checks ``0 <= p <= 1``, every bound and row (:func:`worst_violation`) within
-    :data:`FEASIBILITY_TOL`, and ``J dq = p dw`` within :data:`EQUALITY_RTOL`.
-    """
-    if not (math.isfinite(p) and -FEASIBILITY_TOL <= p <= 1 + FEASIBILITY_TOL):
-        return f"p = {p} outside [0, 1]"
-    if not np.isfinite(dq).all() or (lam is not None and not np.isfinite(lam).all()):
-        return "non-finite step"
-    violation = worst_violation(problem, dq, lam)
-    if violation.amount > FEASIBILITY_TOL:
-        return f"{violation.label} violated by {violation.amount:.3g}"
-    scale = float(np.abs(problem.J).max() * np.abs(dq).max() + np.abs(problem.dw).max())
-    if task_residual(problem, dq, p) > EQUALITY_RTOL * max(1.0, scale):
-        return "J dq != p dw"
-    return None
-
-
-def clip_to_bounds(problem: Problem, dq: FloatArray) -> FloatArray:
-    """Remove solver-tolerance excursions (below :data:`FEASIBILITY_TOL`) past the bounds."""
-    lower, upper, _, _ = problem.step_bounds()
-    return np.clip(dq, lower, upper)

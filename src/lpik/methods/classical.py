@@ -15,17 +15,13 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from numpy.typing import NDArray
 
-from lpik import result as st
-from lpik.methods._common import criterion
+from lpik.check import task_residual, worst_violation
+from lpik.methods.assembly import criterion
 from lpik.problem import Problem
-from lpik.result import Result
-
-FloatArray = NDArray[np.float64]
-
-#: Above this condition number the classical linear systems count as singular.
-MAX_CONDITION = 1e12
+from lpik.result import OPTIMAL, SINGULAR, VIOLATES_LIMITS, Result, safe_step
+from lpik.tolerances import FEASIBILITY_TOL, MAX_CONDITION
+from lpik.types import FloatArray
 
 
 def pinv(problem: Problem) -> Result:
@@ -39,10 +35,10 @@ def pinv(problem: Problem) -> Result:
     J = problem.J
     JJt = J @ J.T
     if np.linalg.cond(JJt) > MAX_CONDITION:
-        return st.safe_step(
+        return safe_step(
             problem,
             "pinv",
-            st.SINGULAR,
+            SINGULAR,
             "J J^T",
             solve_time=time.perf_counter() - start,
             path="closed-form",
@@ -64,10 +60,10 @@ def weighted(problem: Problem) -> Result:
     n, m = problem.n, problem.m
     K = np.block([[H, problem.J.T], [problem.J, np.zeros((m, m))]])
     if np.linalg.cond(K) > MAX_CONDITION:
-        return st.safe_step(
+        return safe_step(
             problem,
             "weighted",
-            st.SINGULAR,
+            SINGULAR,
             "KKT matrix",
             solve_time=time.perf_counter() - start,
             path="closed-form",
@@ -103,10 +99,10 @@ def robust(problem: Problem) -> Result:
     k = yoshikawa_manipulability(problem.J) if problem.k is None else float(problem.k)
     K = np.block([[H, problem.J.T], [problem.J, -k * np.eye(m)]])
     if np.linalg.cond(K) > MAX_CONDITION:
-        return st.safe_step(
+        return safe_step(
             problem,
             "robust",
-            st.SINGULAR,
+            SINGULAR,
             f"robust KKT matrix (k = {k:.3g})",
             solve_time=time.perf_counter() - start,
             path="closed-form",
@@ -121,10 +117,10 @@ def robust(problem: Problem) -> Result:
 def _closed(
     problem: Problem, method: str, dq: FloatArray, lam: FloatArray, p: float, start: float
 ) -> Result:
-    violation = st.worst_violation(problem, dq)
-    status, binding = st.OPTIMAL, None
-    if violation.amount > st.FEASIBILITY_TOL:
-        status, binding = st.VIOLATES_LIMITS, violation.label
+    violation = worst_violation(problem, dq)
+    status, binding = OPTIMAL, None
+    if violation.amount > FEASIBILITY_TOL:
+        status, binding = VIOLATES_LIMITS, violation.label
     return Result(
         q=problem.q0 + dq,
         dq=dq,
@@ -134,6 +130,6 @@ def _closed(
         binding=binding,
         method=method,
         solve_time=time.perf_counter() - start,
-        residual=st.task_residual(problem, dq, p),
+        residual=task_residual(problem, dq, p),
         path="closed-form",
     )

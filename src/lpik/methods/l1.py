@@ -6,12 +6,12 @@ import time
 
 import numpy as np
 
-from lpik import result as st
-from lpik.lp import HighsSolver
-from lpik.methods._common import FULL_P, crossed_label, finish, lp_over, solver_for
+from lpik.highs import HighsSolver
+from lpik.methods.assembly import crossed_joint, finish, lp_over, solver_for
 from lpik.methods.lp1 import lp1
 from lpik.problem import Problem
-from lpik.result import Result
+from lpik.result import INFEASIBLE, OPTIMAL, SCALED, Result, safe_step
+from lpik.tolerances import FULL_P
 
 
 def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
@@ -30,24 +30,22 @@ def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
 
     Args:
         problem: The step to solve.
-        solver: A :class:`~lpik.lp.HighsSolver` to reuse across steps (warm start).
+        solver: A :class:`~lpik.highs.HighsSolver` to reuse across steps (warm start).
     """
     start = time.perf_counter()
     n = problem.n
-    crossed = crossed_label(problem)
+    crossed = crossed_joint(problem)
     if crossed is not None:
-        return st.safe_step(problem, "l1", st.INFEASIBLE, crossed, path="highs")
+        return safe_step(problem, "l1", INFEASIBLE, crossed, path="highs")
     solver = solver_for(solver)
     sol, x = _least_l1(problem, solver, 1.0, 1.0)
-    if sol == st.OPTIMAL:
+    if sol == OPTIMAL:
         return finish(problem, "l1", x[:n], 1.0, None, None, start, "highs")
-    if sol != st.INFEASIBLE:
-        return st.safe_step(
-            problem, "l1", sol, solve_time=time.perf_counter() - start, path="highs"
-        )
+    if sol != INFEASIBLE:
+        return safe_step(problem, "l1", sol, solve_time=time.perf_counter() - start, path="highs")
     best = lp1(problem, solver=solver)
     if not best.moved:
-        return st.safe_step(
+        return safe_step(
             problem,
             "l1",
             best.status,
@@ -56,12 +54,12 @@ def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
             path="highs",
         )
     sol, x = _least_l1(problem, solver, max(0.0, best.p - 1e-9), best.p)
-    if sol != st.OPTIMAL:  # the LP1 step itself is feasible at p*: keep it rather than fail
+    if sol != OPTIMAL:  # the LP1 step itself is feasible at p*: keep it rather than fail
         x = np.concatenate([best.dq, np.abs(best.dq), [best.p]])
     if best.p >= FULL_P:  # the first solve misjudged a nearly singular program: p = 1 holds
         return finish(problem, "l1", x[:n], float(x[-1]), None, None, start, "highs")
     return finish(
-        problem, "l1", x[:n], float(x[-1]), None, best.binding, start, "highs", status=st.SCALED
+        problem, "l1", x[:n], float(x[-1]), None, best.binding, start, "highs", status=SCALED
     )
 
 

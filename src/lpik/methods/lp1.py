@@ -6,18 +6,11 @@ import time
 
 import numpy as np
 
-from lpik import result as st
-from lpik.lp import HighsSolver
-from lpik.methods._common import (
-    binding_from_duals,
-    crossed_label,
-    finish,
-    lp_over,
-    solver_for,
-    unsolved_step,
-)
+from lpik.highs import HighsSolver
+from lpik.methods.assembly import crossed_joint, finish, lp_over, solver_for, unsolved_step
+from lpik.methods.duals import binding_from_duals
 from lpik.problem import Problem
-from lpik.result import Result
+from lpik.result import INFEASIBLE, OPTIMAL, Result, safe_step
 
 
 def lp1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
@@ -32,26 +25,26 @@ def lp1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
 
     Args:
         problem: The step to solve.
-        solver: A :class:`~lpik.lp.HighsSolver` to reuse across steps (warm start).
+        solver: A :class:`~lpik.highs.HighsSolver` to reuse across steps (warm start).
 
     Returns:
         The step, with ``binding`` naming the limit with the largest dual when
         ``p < 1``, or the limit in conflict when no step is feasible
-        (:func:`~lpik.methods._common.conflict_label`).
+        (:func:`~lpik.methods.duals.conflict_label`).
     """
     start = time.perf_counter()
     n, lower, upper = problem.n, *problem.step_bounds()[:2]
     A_eq = np.hstack([problem.J, -problem.dw[:, None]])
     c = np.zeros(n + 1)
     c[-1] = -1.0
-    crossed = crossed_label(problem)
+    crossed = crossed_joint(problem)
     if crossed is not None:
-        return st.safe_step(problem, "lp1", st.INFEASIBLE, crossed, path="highs")
+        return safe_step(problem, "lp1", INFEASIBLE, crossed, path="highs")
     lp = lp_over(
         problem, c, A_eq, np.zeros(problem.m), np.append(lower, 0.0), np.append(upper, 1.0)
     )
     sol = solver_for(solver).solve(lp)
-    if sol.status != st.OPTIMAL:
+    if sol.status != OPTIMAL:
         return unsolved_step(problem, "lp1", sol.status, A_eq, np.zeros(problem.m), 0, start)
     p = float(sol.x[-1])
     binding = binding_from_duals(problem, sol, lp, p, problem.m)

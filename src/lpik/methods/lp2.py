@@ -28,33 +28,31 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
-from numpy.typing import NDArray
 
-from lpik import result as st
-from lpik.lp import HighsSolver
-from lpik.methods._common import (
-    FULL_P,
-    binding_from_duals,
+from lpik.highs import HighsSolver
+from lpik.methods.assembly import (
     criterion,
-    crossed_label,
+    crossed_joint,
     finish,
     lp_over,
     solver_for,
     unsolved_step,
 )
+from lpik.methods.duals import binding_from_duals
 from lpik.problem import Problem
-from lpik.result import Result
+from lpik.result import CHECK_FAILED, INFEASIBLE, OPTIMAL, Result, safe_step
+from lpik.tolerances import (
+    EQUALITY_RTOL,
+    FULL_P,
+    INTERVAL_TOL,
+    MAX_SCHUR_CONDITION,
+    RATE_TOL,
+    SLACK_TOL,
+)
+from lpik.types import FloatArray
 
-FloatArray = NDArray[np.float64]
-
-#: Above this condition number of the Schur complement the ratio test hands over to HiGHS.
-MAX_SCHUR_CONDITION = 1e10
-#: Slack below zero by at most this (relative to the bound) counts as zero.
-SLACK_TOL = 1e-12
-#: A rate ``|b|`` at or below this (relative to the largest rate) counts as zero.
-RATE_TOL = 1e-14
-
-PATHS = ("auto", "ratio-test", "highs")
+#: The ways :func:`lp2` can solve a step (its ``path`` argument).
+PATHS = ("auto", "ratio-test", "highs", "compiled")
 
 
 @dataclass(frozen=True, eq=False)
@@ -149,7 +147,7 @@ def ratio_test(
         p_down, down_label = float(low_lo[j_lo]), lo_labels[j_lo]
     p_hi = min(1.0, p_up)
     p_lo = max(0.0, p_down)
-    if p_hi < p_lo - 1e-12:
+    if p_hi < p_lo - INTERVAL_TOL:
         return RatioTest(False, 0.0, down_label if p_lo > 1.0 else up_label)
     p = max(p_hi, p_lo)
     return RatioTest(True, p, up_label if p < FULL_P else None)
@@ -162,33 +160,42 @@ def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = No
         problem: The step to solve. ``M``, ``f``, ``Lambda``, ``q_ref`` weight the
             criterion; ``lam_min``/``lam_max`` bound the multipliers.
         path: ``"auto"`` (ratio test when valid, else HiGHS), ``"ratio-test"``
-            (fails over to HiGHS all the same when ``K`` is singular) or ``"highs"``
-            (the general LP, the reference).
-        solver: A :class:`~lpik.lp.HighsSolver` to reuse across steps.
+            (fails over to HiGHS all the same when ``K`` is singular), ``"highs"``
+            (the general LP, the reference) or ``"compiled"`` (the ratio test
+            compiled by numba, :mod:`lpik.fast`; HiGHS when ``K`` is singular).
+        solver: A :class:`~lpik.highs.HighsSolver` to reuse across steps.
 
     Returns:
         The step; ``binding`` names the limit that keeps ``p < 1`` (e.g.
         ``"joint 1 upper end-stop"``, ``"multiplier 2 upper bound"``), or the
         conflicting limit when the step is infeasible even at ``p = 0`` (on the
-        HiGHS path: :func:`~lpik.methods._common.conflict_label`).
+        HiGHS path: :func:`~lpik.methods.duals.conflict_label`).
+
+    Raises:
+        ValueError: For an unknown ``path``.
+        MissingBackendError: For ``path="compiled"`` without numba installed.
     """
     if path not in PATHS:
         raise ValueError(f"path: unknown LP2 path {path!r}; available: {', '.join(PATHS)}")
     start = time.perf_counter()
-    crossed = crossed_label(problem)
-    if crossed is not None:  # both paths name the same conflict
-        return st.safe_step(
+    crossed = crossed_joint(problem)
+    if crossed is not None:  # every path names the same conflict
+        return safe_step(
             problem,
             "lp2",
-            st.INFEASIBLE,
+            INFEASIBLE,
             crossed,
-            path="highs" if path == "highs" else "ratio-test",
+            path=path if path in ("highs", "compiled") else "ratio-test",
         )
+    if path == "compiled":
+        from lpik.fast.batch import solve_compiled  # numba is optional: import on use
+
+        return solve_compiled(problem, solver)
     if path != "highs":
         affine = affine_solution(problem)
         if affine is not None:
             result = _ratio_path(problem, affine, start)
-            if result.status != st.CHECK_FAILED:
+            if result.status != CHECK_FAILED:
                 return result
     return _highs_path(problem, solver, start)
 
@@ -207,10 +214,10 @@ def _ratio_path(problem: Problem, aff: AffineSolution, start: float) -> Result:
         a, b, lo, hi, lower_labels + lam_lo_labels + rows, upper_labels + lam_hi_labels + rows
     )
     if not test.feasible:
-        return st.safe_step(
+        return safe_step(
             problem,
             "lp2",
-            st.INFEASIBLE,
+            INFEASIBLE,
             test.binding,
             solve_time=time.perf_counter() - start,
             path="ratio-test",
@@ -245,15 +252,15 @@ def _highs_path(problem: Problem, solver: HighsSolver | None, start: float) -> R
     col_upper = np.concatenate([upper, problem.lam_max, [1.0]])
     lp = lp_over(problem, cost, A_eq, b_eq, col_lower, col_upper)
     sol = solver_for(solver).solve(lp)
-    if sol.status != st.OPTIMAL:
+    if sol.status != OPTIMAL:
         return unsolved_step(problem, "lp2", sol.status, A_eq, b_eq, m, start)
     dq, lam, p = sol.x[:n], sol.x[n : n + m], float(sol.x[-1])
     failure = _criterion_failure(problem, H, c, dq, lam)
     if failure is not None:
-        return st.safe_step(
+        return safe_step(
             problem,
             "lp2",
-            st.CHECK_FAILED,
+            CHECK_FAILED,
             failure,
             solve_time=time.perf_counter() - start,
             path="highs",
@@ -278,6 +285,6 @@ def _criterion_failure(
         + np.abs(problem.J).max() * np.abs(lam).max(initial=0.0)
         + np.abs(c).max()
     )
-    if residual > st.EQUALITY_RTOL * max(1.0, float(scale)):
+    if residual > EQUALITY_RTOL * max(1.0, float(scale)):
         return f"criterion rows of eq. 18 violated by {residual:.3g}"
     return None

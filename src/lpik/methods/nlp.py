@@ -11,21 +11,16 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from numpy.typing import NDArray
 from scipy.optimize import minimize
 
-from lpik import result as st
-from lpik.methods._common import FULL_P, SINGULARITY, criterion, crossed_label
+from lpik.check import clip_to_bounds, worst_violation
+from lpik.labels import SINGULARITY
+from lpik.methods.assembly import criterion, crossed_joint
 from lpik.problem import Problem
-from lpik.result import Result
+from lpik.result import CHECK_FAILED, INFEASIBLE, OPTIMAL, SOLVER_ERROR, Result, safe_step
 from lpik.robots.base import TaskModel
-
-FloatArray = NDArray[np.float64]
-
-#: Tolerance handed to SLSQP.
-SLSQP_TOL = 1e-12
-#: Largest accepted residual of the nonlinear constraint (eq. 10) [m or rad].
-NONLINEAR_TOL = 1e-7
+from lpik.tolerances import FEASIBILITY_TOL, FULL_P, NONLINEAR_TOL, SLSQP_TOL
+from lpik.types import FloatArray
 
 
 def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Result:
@@ -53,9 +48,9 @@ def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Res
             f"model: {model.name} has {model.n_joints} joints and {model.task_dim} task "
             f"coordinates, the problem {problem.n} and {problem.m}"
         )
-    crossed = crossed_label(problem)
+    crossed = crossed_joint(problem)
     if crossed is not None:
-        return st.safe_step(problem, "nlp", st.INFEASIBLE, crossed, path="slsqp")
+        return safe_step(problem, "nlp", INFEASIBLE, crossed, path="slsqp")
     n = problem.n
     q0, dw = problem.q0, problem.dw
     w0 = model.pose(q0)
@@ -96,10 +91,10 @@ def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Res
         options=options,
     )
     if not first.success:
-        return st.safe_step(
+        return safe_step(
             problem,
             "nlp",
-            st.SOLVER_ERROR,
+            SOLVER_ERROR,
             str(first.message),
             solve_time=time.perf_counter() - start,
             path="slsqp",
@@ -119,22 +114,20 @@ def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Res
         options=options,
     )
     x = second.x if second.success else first.x
-    dq = st.clip_to_bounds(problem, x[:n])
+    dq = clip_to_bounds(problem, x[:n])
     p = float(np.clip(x[n], 0.0, 1.0))
     residual = float(np.abs(model.difference(w0, model.pose(q0 + dq)) - p * dw).max())
-    violation = st.worst_violation(problem, dq)
+    violation = worst_violation(problem, dq)
     elapsed = time.perf_counter() - start
-    if residual > NONLINEAR_TOL or violation.amount > st.FEASIBILITY_TOL:
-        reason = violation.label if violation.amount > st.FEASIBILITY_TOL else "phi(q) - w0 != p dw"
-        return st.safe_step(
-            problem, "nlp", st.CHECK_FAILED, reason, solve_time=elapsed, path="slsqp"
-        )
+    if residual > NONLINEAR_TOL or violation.amount > FEASIBILITY_TOL:
+        reason = violation.label if violation.amount > FEASIBILITY_TOL else "phi(q) - w0 != p dw"
+        return safe_step(problem, "nlp", CHECK_FAILED, reason, solve_time=elapsed, path="slsqp")
     return Result(
         q=q0 + dq,
         dq=dq,
         p=p,
         lam=None,
-        status=st.OPTIMAL,
+        status=OPTIMAL,
         binding=binding if p < FULL_P else None,
         method="nlp",
         solve_time=elapsed,

@@ -17,29 +17,28 @@ import highspy
 import numpy as np
 from numpy.typing import NDArray
 
-from lpik import result as st
-
-FloatArray = NDArray[np.float64]
+from lpik.result import INFEASIBLE, LIMIT_REACHED, OPTIMAL, SOLVER_ERROR
+from lpik.types import FloatArray
 
 _MS = highspy.HighsModelStatus
 
 #: HiGHS model status -> lpik status. Anything not listed is a solver error.
 HIGHS_STATUS: dict[object, str] = {
-    _MS.kOptimal: st.OPTIMAL,
-    _MS.kInfeasible: st.INFEASIBLE,
-    _MS.kUnboundedOrInfeasible: st.INFEASIBLE,
-    _MS.kUnbounded: st.SOLVER_ERROR,  # every lpik LP is bounded (0 <= p <= 1, |dq| >= 0)
-    _MS.kIterationLimit: st.LIMIT_REACHED,
-    _MS.kTimeLimit: st.LIMIT_REACHED,
-    _MS.kModelEmpty: st.SOLVER_ERROR,
-    _MS.kModelError: st.SOLVER_ERROR,
-    _MS.kLoadError: st.SOLVER_ERROR,
-    _MS.kPresolveError: st.SOLVER_ERROR,
-    _MS.kSolveError: st.SOLVER_ERROR,
-    _MS.kPostsolveError: st.SOLVER_ERROR,
-    _MS.kMemoryLimit: st.SOLVER_ERROR,
-    _MS.kUnknown: st.SOLVER_ERROR,
-    _MS.kNotset: st.SOLVER_ERROR,
+    _MS.kOptimal: OPTIMAL,
+    _MS.kInfeasible: INFEASIBLE,
+    _MS.kUnboundedOrInfeasible: INFEASIBLE,
+    _MS.kUnbounded: SOLVER_ERROR,  # every lpik LP is bounded (0 <= p <= 1, |dq| >= 0)
+    _MS.kIterationLimit: LIMIT_REACHED,
+    _MS.kTimeLimit: LIMIT_REACHED,
+    _MS.kModelEmpty: SOLVER_ERROR,
+    _MS.kModelError: SOLVER_ERROR,
+    _MS.kLoadError: SOLVER_ERROR,
+    _MS.kPresolveError: SOLVER_ERROR,
+    _MS.kSolveError: SOLVER_ERROR,
+    _MS.kPostsolveError: SOLVER_ERROR,
+    _MS.kMemoryLimit: SOLVER_ERROR,
+    _MS.kUnknown: SOLVER_ERROR,
+    _MS.kNotset: SOLVER_ERROR,
 }
 
 #: HiGHS options used for every solve: tight tolerances (steps are small numbers).
@@ -137,24 +136,24 @@ class HighsSolver:
             model_status = h.getModelStatus()
             if model_status != _MS.kOptimal:
                 model_status = self._retry(model_status)
-        except Exception as exc:  # noqa: BLE001 - a solver crash must become a status
+        except Exception as exc:  # a solver crash must become a status
             self._pattern = None
             return LpSolution(
-                st.SOLVER_ERROR,
+                SOLVER_ERROR,
                 np.zeros(lp.c.size),
                 np.zeros(lp.c.size),
                 np.zeros(lp.A.shape[0]),
                 f"exception: {exc}",
                 time.perf_counter() - start,
             )
-        status = HIGHS_STATUS.get(model_status, st.SOLVER_ERROR)
+        status = HIGHS_STATUS.get(model_status, SOLVER_ERROR)
         sol = h.getSolution()
         x = np.array(sol.col_value, dtype=np.float64)
         col_dual = np.array(sol.col_dual, dtype=np.float64)
         row_dual = np.array(sol.row_dual, dtype=np.float64)
         if x.size != lp.c.size:
             x = np.zeros(lp.c.size)
-            status = st.SOLVER_ERROR if status == st.OPTIMAL else status
+            status = SOLVER_ERROR if status == OPTIMAL else status
         if col_dual.size != lp.c.size:
             col_dual = np.zeros(lp.c.size)
         if row_dual.size != lp.A.shape[0]:

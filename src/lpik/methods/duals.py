@@ -1,40 +1,20 @@
-"""Pieces shared by the methods: the quadratic criterion, the LP assembly, the finish."""
+"""Which limit binds: read from an LP's duals, or from the elastic program when none is feasible.
+
+:func:`binding_from_duals` names the limit that keeps ``p`` below 1 at an LP
+optimum; :func:`conflict_label` names the limit in conflict when no step is
+feasible, not even ``p = 0``. Labels are those of :mod:`lpik.labels`.
+"""
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
-from numpy.typing import NDArray
 
-from lpik import result as st
-from lpik.lp import HighsSolver, LinearProgram, LpSolution
+from lpik.highs import HighsSolver, LinearProgram, LpSolution
+from lpik.labels import SINGULARITY
 from lpik.problem import Problem
-from lpik.result import Result
-
-FloatArray = NDArray[np.float64]
-
-#: p at or above this counts as the full displacement (no binding limit).
-FULL_P = 1.0 - 1e-9
-#: Duals (sensitivities of p to the limits) all at or below this cannot tell which limit
-#: binds: :func:`binding_from_duals` then relaxes the active limits to find out.
-DUAL_TOL = 1e-9
-#: Relative amount by which :func:`binding_from_duals` relaxes each active limit then.
-RELAX = 1e-6
-#: Binding label when ``p < 1`` although no limit is active: ``J`` cannot produce
-#: ``dw`` (a singularity of the arm, paper sec. 3.2).
-SINGULARITY = "singularity"
-
-
-def criterion(problem: Problem) -> tuple[FloatArray, FloatArray]:
-    """``H = M + Lambda`` and ``c = f + Lambda (q_ref - q0)``: the criterion in ``dq``.
-
-    Minimising eq. 3 plus sec. 3.1's ``Z2`` over ``dq = q - q0`` is minimising
-    ``1/2 dq^T H dq - c^T dq``; eqs. 7, 16 and 18 are its optimality conditions.
-    """
-    H = problem.M + problem.Lambda
-    c = problem.f + problem.Lambda @ (problem.q_ref - problem.q0)
-    return H, c
+from lpik.result import OPTIMAL
+from lpik.tolerances import ACTIVE_RTOL, DUAL_TOL, FULL_P, RELAX
+from lpik.types import FloatArray
 
 
 def extra_rows(problem: Problem, n_cols: int) -> tuple[FloatArray, FloatArray]:
@@ -43,35 +23,6 @@ def extra_rows(problem: Problem, n_cols: int) -> tuple[FloatArray, FloatArray]:
     rows = np.zeros((G.shape[0], n_cols))
     rows[:, : problem.n] = G
     return rows, problem.h - G @ problem.q0
-
-
-def lp_over(
-    problem: Problem,
-    c: FloatArray,
-    A_eq: FloatArray,
-    b_eq: FloatArray,
-    col_lower: FloatArray,
-    col_upper: FloatArray,
-    A_ub: FloatArray | None = None,
-    b_ub: FloatArray | None = None,
-) -> LinearProgram:
-    """Stack equality rows, the problem's extra rows and optional ``A_ub x <= b_ub`` rows."""
-    G, g = extra_rows(problem, c.size)
-    blocks_A = [A_eq, G]
-    lower = [b_eq, np.full(g.size, -np.inf)]
-    upper = [b_eq, g]
-    if A_ub is not None and b_ub is not None:
-        blocks_A.append(A_ub)
-        lower.append(np.full(b_ub.size, -np.inf))
-        upper.append(b_ub)
-    return LinearProgram(
-        c=c,
-        A=np.vstack(blocks_A),
-        row_lower=np.concatenate(lower),
-        row_upper=np.concatenate(upper),
-        col_lower=col_lower,
-        col_upper=col_upper,
-    )
 
 
 def binding_from_duals(
@@ -112,8 +63,10 @@ def binding_from_duals(
         values, duals = x[sl], sol.col_dual[sl]
         lo, hi = lp.col_lower[sl], lp.col_upper[sl]
         for i in range(values.size):
-            at_lo = np.isfinite(lo[i]) and abs(values[i] - lo[i]) <= 1e-9 * max(1.0, abs(lo[i]))
-            at_hi = np.isfinite(hi[i]) and abs(values[i] - hi[i]) <= 1e-9 * max(1.0, abs(hi[i]))
+            near_lo = abs(values[i] - lo[i]) <= ACTIVE_RTOL * max(1.0, abs(lo[i]))
+            near_hi = abs(values[i] - hi[i]) <= ACTIVE_RTOL * max(1.0, abs(hi[i]))
+            at_lo = np.isfinite(lo[i]) and near_lo
+            at_hi = np.isfinite(hi[i]) and near_hi
             if at_hi and (not at_lo or duals[i] <= 0):
                 candidates.append((abs(duals[i]), hi_labels[i]))
             elif at_lo:
@@ -131,7 +84,7 @@ def binding_from_duals(
         activity = lp.A[n_eq : n_eq + r] @ x
         rhs = lp.row_upper[n_eq : n_eq + r]
         for i in range(r):
-            if abs(activity[i] - rhs[i]) <= 1e-9 * max(1.0, abs(rhs[i])):
+            if abs(activity[i] - rhs[i]) <= ACTIVE_RTOL * max(1.0, abs(rhs[i])):
                 candidates.append((abs(sol.row_dual[n_eq + i]), problem.row_labels[i]))
                 active.append((lp.A.shape[1] + n_eq + i, None, problem.row_labels[i]))
     if not candidates:
@@ -186,96 +139,13 @@ def _binding_after_relaxing(
         labels.update(label for label in (lo_label, hi_label) if label is not None)
     relaxed_lp = LinearProgram(lp.c, lp.A, lp.row_lower, row_upper, col_lower, col_upper)
     sol = HighsSolver().solve(relaxed_lp)
-    if sol.status != st.OPTIMAL:
+    if sol.status != OPTIMAL:
         return None
     p_relaxed = float(sol.x[-1])
     if p_relaxed <= p + 1e-3 * RELAX:
         return SINGULARITY
     label = binding_from_duals(problem, sol, relaxed_lp, p_relaxed, n_eq, lam_slice, relaxed=True)
     return label if label in labels else None
-
-
-def finish(
-    problem: Problem,
-    method: str,
-    dq: FloatArray,
-    p: float,
-    lam: FloatArray | None,
-    binding: str | None,
-    start: float,
-    path: str,
-    status: str = st.OPTIMAL,
-) -> Result:
-    """Clip solver-tolerance excursions, re-check independently, and build the result.
-
-    A step that fails :func:`lpik.result.check_step` is never returned: the
-    result is the safe no-motion step with status ``check_failed``.
-    """
-    dq = st.clip_to_bounds(problem, dq)
-    p = float(min(1.0, max(0.0, p)))
-    failure = st.check_step(problem, dq, p, lam)
-    elapsed = time.perf_counter() - start
-    if failure is not None:
-        return st.safe_step(
-            problem, method, st.CHECK_FAILED, failure, solve_time=elapsed, path=path
-        )
-    return Result(
-        q=problem.q0 + dq,
-        dq=dq,
-        p=p,
-        lam=lam,
-        status=status,
-        binding=binding,
-        method=method,
-        solve_time=elapsed,
-        residual=st.task_residual(problem, dq, p),
-        path=path,
-    )
-
-
-def crossed_label(problem: Problem) -> str | None:
-    """Label of the first joint whose lower step bound lies above its upper one, if any.
-
-    That happens when ``q0`` is outside its end-stops by more than one step can
-    repair: no step, not even ``p = 0``, is feasible.
-    """
-    lower, upper, lower_labels, upper_labels = problem.step_bounds()
-    crossed = lower > upper
-    if not crossed.any():
-        return None
-    i = int(np.argmax(crossed))
-    return f"{lower_labels[i]} / {upper_labels[i]}"
-
-
-def solver_for(solver: HighsSolver | None) -> HighsSolver:
-    """The given reusable solver, or a fresh one."""
-    return solver if solver is not None else HighsSolver()
-
-
-def unsolved_step(
-    problem: Problem,
-    method: str,
-    status: str,
-    A_eq: FloatArray,
-    b_eq: FloatArray,
-    n_lam: int,
-    start: float,
-) -> Result:
-    """The safe step of a HiGHS answer that is not optimal, naming the conflict if infeasible.
-
-    Args:
-        problem: The step.
-        method: ``"lp1"`` or ``"lp2"``.
-        status: The solver's status (an lpik status word).
-        A_eq: The method's equality rows over ``(dq, lam, p)``, for :func:`conflict_label`.
-        b_eq: Their right-hand side.
-        n_lam: The number of multiplier columns in ``A_eq`` (0 for LP1).
-        start: ``time.perf_counter()`` when the method started.
-    """
-    conflict = conflict_label(problem, A_eq, b_eq, n_lam) if status == st.INFEASIBLE else None
-    return st.safe_step(
-        problem, method, status, conflict, solve_time=time.perf_counter() - start, path="highs"
-    )
 
 
 def conflict_label(problem: Problem, A_eq: FloatArray, b_eq: FloatArray, n_lam: int) -> str | None:
@@ -329,7 +199,7 @@ def conflict_label(problem: Problem, A_eq: FloatArray, b_eq: FloatArray, n_lam: 
         col_upper=np.concatenate([np.full(cols - 1, np.inf), [1.0], np.full(n_slack, np.inf)]),
     )
     sol = HighsSolver().solve(lp)
-    if sol.status != st.OPTIMAL:
+    if sol.status != OPTIMAL:
         return None
     violation = weight * sol.x[cols:]
     worst = int(np.argmax(violation))

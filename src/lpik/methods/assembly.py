@@ -1,0 +1,144 @@
+"""What the LP methods share: the criterion, the LP's assembly, the finish of a step.
+
+- :func:`criterion`: eq. 3 plus sec. 3.1's term as ``H``, ``c`` over ``dq``;
+- :func:`lp_over`: a method's equality rows, the problem's extra rows and bounds
+  as one :class:`~lpik.highs.LinearProgram`;
+- :func:`finish`: clip, re-check independently (:mod:`lpik.check`), build the
+  :class:`~lpik.result.Result`;
+- :func:`crossed_joint`, :func:`unsolved_step`: the safe steps of a problem no
+  step can satisfy and of a solve that did not end optimal.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from lpik import check, labels
+from lpik.highs import HighsSolver, LinearProgram
+from lpik.methods.duals import conflict_label, extra_rows
+from lpik.problem import Problem
+from lpik.result import CHECK_FAILED, INFEASIBLE, OPTIMAL, Result, safe_step
+from lpik.types import FloatArray
+
+
+def criterion(problem: Problem) -> tuple[FloatArray, FloatArray]:
+    """``H = M + Lambda`` and ``c = f + Lambda (q_ref - q0)``: the criterion in ``dq``.
+
+    Minimising eq. 3 plus sec. 3.1's ``Z2`` over ``dq = q - q0`` is minimising
+    ``1/2 dq^T H dq - c^T dq``; eqs. 7, 16 and 18 are its optimality conditions.
+    """
+    H = problem.M + problem.Lambda
+    c = problem.f + problem.Lambda @ (problem.q_ref - problem.q0)
+    return H, c
+
+
+def lp_over(
+    problem: Problem,
+    c: FloatArray,
+    A_eq: FloatArray,
+    b_eq: FloatArray,
+    col_lower: FloatArray,
+    col_upper: FloatArray,
+    A_ub: FloatArray | None = None,
+    b_ub: FloatArray | None = None,
+) -> LinearProgram:
+    """Stack equality rows, the problem's extra rows and optional ``A_ub x <= b_ub`` rows."""
+    G, g = extra_rows(problem, c.size)
+    blocks_A = [A_eq, G]
+    lower = [b_eq, np.full(g.size, -np.inf)]
+    upper = [b_eq, g]
+    if A_ub is not None and b_ub is not None:
+        blocks_A.append(A_ub)
+        lower.append(np.full(b_ub.size, -np.inf))
+        upper.append(b_ub)
+    return LinearProgram(
+        c=c,
+        A=np.vstack(blocks_A),
+        row_lower=np.concatenate(lower),
+        row_upper=np.concatenate(upper),
+        col_lower=col_lower,
+        col_upper=col_upper,
+    )
+
+
+def finish(
+    problem: Problem,
+    method: str,
+    dq: FloatArray,
+    p: float,
+    lam: FloatArray | None,
+    binding: str | None,
+    start: float,
+    path: str,
+    status: str = OPTIMAL,
+) -> Result:
+    """Clip solver-tolerance excursions, re-check independently, and build the result.
+
+    A step that fails :func:`lpik.check.check_step` is never returned: the
+    result is the safe no-motion step with status ``check_failed``.
+    """
+    dq = check.clip_to_bounds(problem, dq)
+    p = float(min(1.0, max(0.0, p)))
+    failure = check.check_step(problem, dq, p, lam)
+    elapsed = time.perf_counter() - start
+    if failure is not None:
+        return safe_step(problem, method, CHECK_FAILED, failure, solve_time=elapsed, path=path)
+    return Result(
+        q=problem.q0 + dq,
+        dq=dq,
+        p=p,
+        lam=lam,
+        status=status,
+        binding=binding,
+        method=method,
+        solve_time=elapsed,
+        residual=check.task_residual(problem, dq, p),
+        path=path,
+    )
+
+
+def crossed_joint(problem: Problem) -> str | None:
+    """Label of the first joint whose lower step bound lies above its upper one, if any.
+
+    That happens when ``q0`` is outside its end-stops by more than one step can
+    repair: no step, not even ``p = 0``, is feasible.
+    """
+    lower, upper, lower_labels, upper_labels = problem.step_bounds()
+    crossed = lower > upper
+    if not crossed.any():
+        return None
+    i = int(np.argmax(crossed))
+    return labels.crossed_label(lower_labels[i], upper_labels[i])
+
+
+def solver_for(solver: HighsSolver | None) -> HighsSolver:
+    """The given reusable solver, or a fresh one."""
+    return solver if solver is not None else HighsSolver()
+
+
+def unsolved_step(
+    problem: Problem,
+    method: str,
+    status: str,
+    A_eq: FloatArray,
+    b_eq: FloatArray,
+    n_lam: int,
+    start: float,
+) -> Result:
+    """The safe step of a HiGHS answer that is not optimal, naming the conflict if infeasible.
+
+    Args:
+        problem: The step.
+        method: ``"lp1"`` or ``"lp2"``.
+        status: The solver's status (an lpik status word).
+        A_eq: The method's equality rows over ``(dq, lam, p)``, for :func:`conflict_label`.
+        b_eq: Their right-hand side.
+        n_lam: The number of multiplier columns in ``A_eq`` (0 for LP1).
+        start: ``time.perf_counter()`` when the method started.
+    """
+    conflict = conflict_label(problem, A_eq, b_eq, n_lam) if status == INFEASIBLE else None
+    return safe_step(
+        problem, method, status, conflict, solve_time=time.perf_counter() - start, path="highs"
+    )

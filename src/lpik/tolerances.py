@@ -1,0 +1,55 @@
+"""Every numerical tolerance of lpik, in one place.
+
+The numpy path and the compiled kernels (:mod:`lpik.fast`) both read these
+plain constants; numba freezes them when it compiles a kernel. numba's disk
+cache does not notice a change here: after editing a value, delete the
+``__pycache__`` folders under ``lpik/fast`` (or set ``NUMBA_CACHE_DIR`` to a
+new folder) so that the kernels compile again.
+"""
+
+from __future__ import annotations
+
+# ----------------------------------------------------------------- problems
+#: Relative tolerance on the symmetry of M and Lambda (and of a batch's H).
+SYMMETRY_RTOL = 1e-9
+#: Lambda may have eigenvalues down to minus this (relative to its largest entry).
+PSD_RTOL = 1e-12
+
+# ----------------------------------------------------- the independent check
+#: Absolute tolerance of the check on bounds and rows, scaled by ``max(1, |bound|)``.
+FEASIBILITY_TOL = 1e-7
+#: Tolerance of the check on ``J dq = p dw``, relative to ``|J| |dq| + |dw|``.
+EQUALITY_RTOL = 1e-7
+
+# ---------------------------------------------------------- affine dexterity
+#: p at or above this counts as the full displacement (no binding limit).
+FULL_P = 1.0 - 1e-9
+
+# -------------------------------------------------------- LP2's ratio test
+#: Above this condition number of the Schur complement ``J H^-1 J^T`` the ratio
+#: test hands over to HiGHS (eqs. 15-18 are then solved as a general LP).
+MAX_SCHUR_CONDITION = 1e10
+#: A slack below zero by at most this (relative to the bound) counts as zero.
+SLACK_TOL = 1e-12
+#: A rate ``|b|`` at or below this (relative to the largest rate) counts as zero.
+RATE_TOL = 1e-14
+#: The feasible interval of p may be empty by at most this and still count as a point.
+INTERVAL_TOL = 1e-12
+
+# ----------------------------------------------------- binding from the duals
+#: A limit within this (relative to its size) of its bound is active.
+ACTIVE_RTOL = 1e-9
+#: Duals all at or below this cannot tell which limit binds.
+DUAL_TOL = 1e-9
+#: Relative amount by which active limits are relaxed to find the binding one.
+RELAX = 1e-6
+
+# -------------------------------------------------------- classical methods
+#: Above this condition number the classical linear systems count as singular.
+MAX_CONDITION = 1e12
+
+# ------------------------------------------------------------------- the NLP
+#: Tolerance handed to SLSQP.
+SLSQP_TOL = 1e-12
+#: Largest accepted residual of the nonlinear constraint (eq. 10) [m or rad].
+NONLINEAR_TOL = 1e-7
