@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from lpik.robots.chain import SerialChain
 from lpik.robots.registry import robot_names
 
 
@@ -75,7 +76,7 @@ MIXED_URDF = robot(
 ROBOT_NAMES = robot_names()
 
 
-def random_configurations(chain, count: int, seed: int = 0) -> np.ndarray:  # noqa: ANN001
+def random_configurations(chain: SerialChain, count: int, seed: int = 0) -> np.ndarray:
     """Configurations drawn uniformly inside the end-stops (within +-pi where unbounded)."""
     rng = np.random.default_rng(seed)
     lo = np.where(np.isfinite(chain.q_min), chain.q_min, -np.pi)

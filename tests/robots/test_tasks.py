@@ -125,9 +125,9 @@ def test_tasks_implement_the_protocol(cls: type) -> None:
 
 
 def test_planar_arm_is_a_masked_position_task() -> None:
-    from lpik.robots.planar import PlanarArm
+    from lpik.robots.planar import planar_arm
 
-    planar = PlanarArm([1.0, 1.0, 1.0, 1.0])
+    planar = planar_arm([1.0, 1.0, 1.0, 1.0])
     joints = [
         ChainJoint(f"joint {i + 1}", "revolute", transform((1.0 if i else 0.0, 0, 0)), (0, 0, 1))
         for i in range(4)
@@ -135,7 +135,8 @@ def test_planar_arm_is_a_masked_position_task() -> None:
     chain = SerialChain(joints, tip_offset=transform((1.0, 0, 0)), name="planar-4")
     task = PositionTask(chain, mask="xy")
     q = np.deg2rad([60.0, -30.0, -30.0, -30.0])
-    assert np.allclose(task.pose(q)[:2], planar.pose(q))
+    assert np.allclose(task.pose(q), planar.pose(q))
+    assert np.allclose(task.pose(q)[:2], planar.position(q))
     assert np.allclose(task.jacobian(q), planar.jacobian(q))
     w0, w1 = planar.pose(q), planar.pose(q + 0.01)
     assert np.allclose(

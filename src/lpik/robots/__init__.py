@@ -1,20 +1,20 @@
 """Kinematic models behind one protocol (:class:`~lpik.robots.base.TaskModel`).
 
-The paper's planar arm (:class:`PlanarArm`), 3-D serial chains read from URDF
-(:mod:`lpik.robots.urdf`, :mod:`lpik.robots.chain`) with their tasks
+Serial chains (:mod:`lpik.robots.chain`), read from URDF (:mod:`lpik.robots.urdf`)
+or built for the paper's planar arm (:func:`planar_arm`)
+with their tasks
 (:mod:`lpik.robots.tasks`), and the bundled arms (:func:`load_robot`).
 """
 
 from lpik.robots.base import TaskModel
 from lpik.robots.chain import SerialChain
-from lpik.robots.planar import PlanarArm
+from lpik.robots.planar import planar_arm, planar_chain
 from lpik.robots.registry import home_configuration, list_robots, load_robot, robot_names
 from lpik.robots.tasks import OrientationTask, PoseTask, PositionTask, make_task
 from lpik.robots.urdf import load_urdf
 
 __all__ = [
     "OrientationTask",
-    "PlanarArm",
     "PoseTask",
     "PositionTask",
     "SerialChain",
@@ -24,5 +24,7 @@ __all__ = [
     "load_robot",
     "load_urdf",
     "make_task",
+    "planar_arm",
+    "planar_chain",
     "robot_names",
 ]

@@ -13,12 +13,15 @@ rows 0-2 are the linear velocity of the task point [m/s], rows 3-5 the angular
 velocity of the task frame [rad/s], both in base-frame coordinates
 (Pinocchio's ``LOCAL_WORLD_ALIGNED``).
 
-Speed: every joint frame is stored re-expressed with z along the joint axis,
-so a motion changes one or two columns of a batched (n, 4, 4) array, and the
+Every joint frame is stored re-expressed with z along the joint axis, so a
+motion changes one or two columns of a batched (n, 4, 4) array, and the
 running product of the n local transforms is a prefix product in
-ceil(log2 n) batched matrix products. A 7-joint chain takes about 25 us for
-``fk`` and 45 us for ``jacobian`` in CPython (``benchmarks/bench_chain.py``),
-well inside a 1 kHz control loop.
+ceil(log2 n) batched matrix products (timings: ``docs/benchmarks.md``).
+
+A chain whose joints all turn about the base's z axis, with every offset in
+the x-y plane, moves in that plane: :attr:`SerialChain.planar` says so, and
+its tasks report (x, y) positions (the paper's planar arm,
+:func:`lpik.robots.planar.planar_arm`).
 """
 
 from __future__ import annotations
@@ -29,8 +32,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.robots.base import FloatArray
 from lpik.robots.rotations import as_transform
+from lpik.types import FloatArray
 
 JOINT_KINDS = ("revolute", "prismatic")
 
@@ -80,6 +83,11 @@ class ChainJoint:
         object.__setattr__(self, "axis", axis / norm)
 
 
+def _in_plane(T: FloatArray) -> bool:
+    """True when ``T`` turns about z only and moves within the x-y plane."""
+    return abs(T[2, 2] - 1.0) < 1e-12 and abs(T[2, 3]) < 1e-12
+
+
 @dataclass(frozen=True)
 class _LinkRef:
     joint: int  # index of the last moving joint before the link, -1 for the base
@@ -112,6 +120,8 @@ class SerialChain:
         base_link: Name of the base (world) frame.
         tip_link: Name of the link the task point is attached to.
         tool: Offset of the task point from the tip link, shape (4, 4).
+        planar: True when every joint is revolute about the base's z axis and
+            every offset lies in the x-y plane: the chain moves in that plane.
     """
 
     def __init__(
@@ -182,6 +192,10 @@ class SerialChain:
         self._offsets = {
             k: (v.offset if v.joint < 0 else align[v.joint].T @ v.offset) for k, v in refs.items()
         }
+        self.planar = all(
+            j.kind == "revolute" and _in_plane(j.origin) and abs(abs(j.axis[2]) - 1.0) < 1e-12
+            for j in joints
+        ) and _in_plane(self._tip)
 
     @property
     def link_names(self) -> tuple[str, ...]:

@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.robots.base import FloatArray
 from lpik.robots.rotations import as_transform
 from lpik.robots.urdf import parse_urdf, read_urdf_text
+from lpik.types import FloatArray
 
 INSTALL_HINT = 'pip install "lpik[mujoco]"'
 

@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.robots.base import FloatArray
 from lpik.robots.rotations import as_transform
+from lpik.types import FloatArray
 
 INSTALL_HINT = 'pip install "lpik[pinocchio]"'
 _TOOL_FRAME = "lpik_task_point"

@@ -1,8 +1,11 @@
-"""The paper's planar n-link arm (sec. 4, Fig. 2) with revolute joints.
+"""The paper's planar n-link arm (sec. 4, Fig. 2): a serial chain that moves in the x-y plane.
 
 Joint angles are relative: ``q1`` is measured from the x axis, ``qi`` from
-link ``i - 1``. Link ``i`` ends at
-``sum_{j<=i} l_j (cos s_j, sin s_j)`` with ``s_j = q1 + ... + qj``.
+link ``i - 1``; every joint turns about z. Link ``i`` ends at
+``sum_{j<=i} l_j (cos s_j, sin s_j)`` with ``s_j = q1 + ... + qj``. The arm is
+a :class:`~lpik.robots.chain.SerialChain` like any URDF arm, and its task is
+a masked task of :mod:`lpik.robots.tasks`: ``"xy"`` (position) or ``"x y rz"``
+(position and the tool angle ``q1 + ... + qn``).
 """
 
 from __future__ import annotations
@@ -10,11 +13,15 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
-FloatArray = NDArray[np.float64]
+from lpik.labels import default_joint_names
+from lpik.robots.chain import ChainJoint, SerialChain
+from lpik.robots.rotations import transform
+from lpik.robots.tasks import PoseTask, PositionTask
+from lpik.types import FloatArray
 
-TASKS = {"position": 2, "pose": 3}
+#: Planar task name -> the rows of a 3-D task it keeps.
+PLANAR_TASKS = {"position": "xy", "pose": "x y rz"}
 
 
 def _per_joint(
@@ -22,116 +29,99 @@ def _per_joint(
 ) -> FloatArray:
     if value is None:
         return np.full(n, default)
-    arr = (
-        np.broadcast_to(np.asarray(value, dtype=np.float64), (n,))
-        if np.ndim(value) == 0
-        else np.asarray(value, dtype=np.float64)
-    )
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
     if arr.shape != (n,):
         raise ValueError(f"{name}: must have one entry per joint ({n}), got shape {arr.shape}")
     if np.isnan(arr).any():
         raise ValueError(f"{name}: contains NaN")
-    return np.array(arr, dtype=np.float64)
+    return arr
 
 
-class PlanarArm:
-    """Planar serial arm with n revolute joints and relative joint angles.
-
-    Implements :class:`lpik.robots.base.TaskModel`.
+def planar_chain(
+    link_lengths: Sequence[float],
+    q_min: float | Sequence[float] | None = None,
+    q_max: float | Sequence[float] | None = None,
+    qd_max: float | Sequence[float] | None = None,
+    *,
+    name: str | None = None,
+) -> SerialChain:
+    """The planar arm as a serial chain of z-axis revolute joints (sec. 4, Fig. 2).
 
     Args:
         link_lengths: Length of each link [m], all > 0.
         q_min: Lower end-stops [rad], one per joint or one for all; default unbounded.
         q_max: Upper end-stops [rad]; default unbounded.
         qd_max: Symmetric joint velocity limits [rad/s]; default unbounded.
-        task: ``"position"`` (x, y; m = 2) or ``"pose"`` (x, y and the tool angle
-            ``q1 + ... + qn``; m = 3).
-        name: Name of the model.
+        name: Name of the model; default ``"planar-<n>"``.
 
     Raises:
         ValueError: Naming the argument that is wrong.
     """
+    lengths = np.asarray(link_lengths, dtype=np.float64)
+    if lengths.ndim != 1 or lengths.size < 1:
+        raise ValueError("link_lengths: must be a non-empty list of lengths [m]")
+    if not np.isfinite(lengths).all() or (lengths <= 0).any():
+        raise ValueError("link_lengths: every length must be finite and > 0")
+    n = lengths.size
+    lower = _per_joint("q_min", q_min, n, -np.inf)
+    upper = _per_joint("q_max", q_max, n, np.inf)
+    speed = _per_joint("qd_max", qd_max, n, np.inf)
+    if (lower > upper).any():
+        i = int(np.argmax(lower > upper))
+        raise ValueError(f"q_min: q_min[{i}] exceeds q_max[{i}]")
+    if (speed <= 0).any():
+        raise ValueError("qd_max: velocity limits must be > 0")
+    offsets = np.concatenate([[0.0], lengths[:-1]])  # joint i sits at the end of link i - 1
+    joints = [
+        ChainJoint(
+            name=joint,
+            kind="revolute",
+            origin=transform((offset, 0.0, 0.0)),
+            axis=(0.0, 0.0, 1.0),
+            lower=float(lo),
+            upper=float(hi),
+            velocity=float(v),
+        )
+        for joint, offset, lo, hi, v in zip(default_joint_names(n), offsets, lower, upper, speed)
+    ]
+    return SerialChain(
+        joints,
+        tip_offset=transform((float(lengths[-1]), 0.0, 0.0)),
+        name=name or f"planar-{n}",
+        tip_link="end effector",
+    )
 
-    def __init__(
-        self,
-        link_lengths: Sequence[float],
-        q_min: float | Sequence[float] | None = None,
-        q_max: float | Sequence[float] | None = None,
-        qd_max: float | Sequence[float] | None = None,
-        *,
-        task: str = "position",
-        name: str | None = None,
-    ) -> None:
-        lengths = np.asarray(link_lengths, dtype=np.float64)
-        if lengths.ndim != 1 or lengths.size < 1:
-            raise ValueError("link_lengths: must be a non-empty list of lengths [m]")
-        if not np.isfinite(lengths).all() or (lengths <= 0).any():
-            raise ValueError("link_lengths: every length must be finite and > 0")
-        if task not in TASKS:
-            raise ValueError(f"task: unknown planar task {task!r}; available: {', '.join(TASKS)}")
-        n = lengths.size
-        self.link_lengths = lengths
-        self.n_joints = n
-        self.task = task
-        self.task_dim = TASKS[task]
-        self.name = name or f"planar-{n}"
-        self.joint_names = tuple(f"joint {i + 1}" for i in range(n))
-        self.q_min = _per_joint("q_min", q_min, n, -np.inf)
-        self.q_max = _per_joint("q_max", q_max, n, np.inf)
-        self.qd_max = _per_joint("qd_max", qd_max, n, np.inf)
-        if (self.q_min > self.q_max).any():
-            i = int(np.argmax(self.q_min > self.q_max))
-            raise ValueError(f"q_min: q_min[{i}] exceeds q_max[{i}]")
-        if (self.qd_max <= 0).any():
-            raise ValueError("qd_max: velocity limits must be > 0")
 
-    @property
-    def reach(self) -> float:
-        """Largest distance of the end effector from the base [m]."""
-        return float(self.link_lengths.sum())
+def planar_arm(
+    link_lengths: Sequence[float],
+    q_min: float | Sequence[float] | None = None,
+    q_max: float | Sequence[float] | None = None,
+    qd_max: float | Sequence[float] | None = None,
+    *,
+    task: str = "position",
+    name: str | None = None,
+) -> PositionTask | PoseTask:
+    """The paper's planar arm with its task: a task model like any other.
 
-    def _q(self, q: Sequence[float] | FloatArray) -> FloatArray:
-        arr = np.asarray(q, dtype=np.float64)
-        if arr.shape != (self.n_joints,):
-            raise ValueError(f"q: must have length {self.n_joints}, got shape {arr.shape}")
-        return arr
+    Args:
+        link_lengths: Length of each link [m], all > 0.
+        q_min: Lower end-stops [rad], one per joint or one for all; default unbounded.
+        q_max: Upper end-stops [rad]; default unbounded.
+        qd_max: Symmetric joint velocity limits [rad/s]; default unbounded.
+        task: ``"position"`` (x, y; m = 2) or ``"pose"`` (x, y and the tool
+            angle about z; m = 3). Task values are those of the 3-D tasks: an
+            xyz point (z = 0) or a 4 x 4 pose.
+        name: Name of the model; default ``"planar-<n>"``.
 
-    def joint_positions(self, q: Sequence[float] | FloatArray) -> FloatArray:
-        """Base, every joint and the end effector, shape (n + 1, 2) [m] (for drawing)."""
-        s = np.cumsum(self._q(q))
-        pts = np.zeros((self.n_joints + 1, 2))
-        pts[1:, 0] = np.cumsum(self.link_lengths * np.cos(s))
-        pts[1:, 1] = np.cumsum(self.link_lengths * np.sin(s))
-        return pts
-
-    def position(self, q: Sequence[float] | FloatArray) -> FloatArray:
-        """End-effector position (x, y) [m] (eq. 1)."""
-        s = np.cumsum(self._q(q))
-        return np.array([self.link_lengths @ np.cos(s), self.link_lengths @ np.sin(s)])
-
-    def pose(self, q: Sequence[float] | FloatArray) -> FloatArray:
-        """Task coordinates ``w = phi(q)``: (x, y) or (x, y, tool angle) (eq. 1)."""
-        qa = self._q(q)
-        xy = self.position(qa)
-        return xy if self.task == "position" else np.append(xy, qa.sum())
-
-    def difference(self, a: FloatArray, b: FloatArray) -> FloatArray:
-        """``b - a``, with the tool-angle difference wrapped to (-pi, pi]."""
-        d = np.asarray(b, dtype=np.float64) - np.asarray(a, dtype=np.float64)
-        if self.task == "pose":
-            d[2] = -((-d[2] + np.pi) % (2 * np.pi) - np.pi)
-        return d
-
-    def jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
-        """Task Jacobian ``d phi / d q``, shape (m, n) (eq. 2)."""
-        s = np.cumsum(self._q(q))
-        lx = self.link_lengths * np.cos(s)
-        ly = self.link_lengths * np.sin(s)
-        # Joint i moves every link from i on: reverse cumulative sums.
-        J = np.vstack([-np.cumsum(ly[::-1])[::-1], np.cumsum(lx[::-1])[::-1]])
-        if self.task == "pose":
-            J = np.vstack([J, np.ones(self.n_joints)])
-        return J
-
-    def __repr__(self) -> str:
-        return f"PlanarArm(link_lengths={self.link_lengths.tolist()}, task={self.task!r})"
+    Raises:
+        ValueError: Naming the argument that is wrong.
+    """
+    if task not in PLANAR_TASKS:
+        raise ValueError(
+            f"task: unknown planar task {task!r}; available: {', '.join(PLANAR_TASKS)}"
+        )
+    chain = planar_chain(link_lengths, q_min, q_max, qd_max, name=name)
+    cls = PositionTask if task == "position" else PoseTask
+    return cls(chain, mask=PLANAR_TASKS[task], name=chain.name)

@@ -25,10 +25,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik.naming import lookup
-from lpik.robots.base import FloatArray
 from lpik.robots.chain import SerialChain
 from lpik.robots.tasks import OrientationTask, PoseTask, PositionTask, make_task
 from lpik.robots.urdf import load_urdf
+from lpik.types import FloatArray
 
 _PI = math.pi
 DATA_DIR = Path(__file__).resolve().parent / "data"

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.robots.base import FloatArray
+from lpik.types import FloatArray
 
 # Below this angle [rad] the log map uses its Taylor series.
 _SMALL_ANGLE = 1e-6

@@ -1,4 +1,4 @@
-"""Task spaces of a 3-D arm: position, orientation, full pose, and axis masks.
+"""Task spaces of an arm: position, orientation, full pose, and axis masks.
 
 Each task wraps a kinematics backend (a :class:`~lpik.robots.chain.SerialChain`
 or one of the Pinocchio / MuJoCo adapters: anything that satisfies
@@ -34,8 +34,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.robots.base import FloatArray
 from lpik.robots.rotations import left_jacobian_inverse, log_so3
+from lpik.types import FloatArray
 
 POSITION_ROWS = ("x", "y", "z")
 ORIENTATION_ROWS = ("rx", "ry", "rz")
@@ -137,13 +137,15 @@ class _Task:
         self.q_min = np.asarray(kinematics.q_min, dtype=float)
         self.q_max = np.asarray(kinematics.q_max, dtype=float)
         self.qd_max = np.asarray(kinematics.qd_max, dtype=float)
+        #: Coordinates :meth:`position` reports: 2 (x, y) for a planar chain, else 3.
+        self.position_dims = 2 if getattr(kinematics, "planar", False) else 3
 
     def _select(self, full: FloatArray) -> FloatArray:
         return full if self._full else full[list(self._rows)]
 
     def position(self, q: ArrayLike) -> FloatArray:
-        """Position of the task point in the base frame, shape (3,) [m]."""
-        return self.kinematics.fk(q)[:3, 3].copy()
+        """Position of the task point in the base frame: (x, y, z), or (x, y) when planar [m]."""
+        return self.kinematics.fk(q)[: self.position_dims, 3].copy()
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.kinematics!r}, rows={self.row_names})"
