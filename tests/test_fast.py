@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-import importlib
+import sys
+from typing import Any
 
 import numpy as np
 import pytest
@@ -12,25 +13,81 @@ from hypothesis import strategies as st_h
 pytest.importorskip("numba")
 
 from core_strategies import examples  # noqa: E402
-from lpik import result as st  # noqa: E402
-from lpik.fast import BatchArrays, lp2_batch, lp2_compiled  # noqa: E402
-from lpik.fast import batch as lpik_fast_batch  # noqa: E402
-from lpik.fast import kernels as K  # noqa: E402
-from lpik.lp import HighsSolver  # noqa: E402
-from lpik.methods.lp2 import affine_solution, lp2  # noqa: E402
+from lpik import tolerances  # noqa: E402
+from lpik.check import task_residual  # noqa: E402
+from lpik.exceptions import MissingBackendError  # noqa: E402
+from lpik.fast import BatchArrays, layout, lp2_batch  # noqa: E402
+from lpik.fast import arrays as fast_arrays  # noqa: E402
+from lpik.fast import lp2_kernel as K  # noqa: E402
+from lpik.highs import HighsSolver  # noqa: E402
+from lpik.methods.lp2 import PATHS, affine_solution, lp2  # noqa: E402
 from lpik.problem import Problem  # noqa: E402
+from lpik.result import INFEASIBLE, OPTIMAL, SOLVER_ERROR  # noqa: E402
+from lpik.robots.base import TaskModel  # noqa: E402
+from lpik.robots.planar import planar_arm  # noqa: E402
 
 N_RANDOM = 20000  # instances held to the HiGHS path
-# The module, not the function of the same name that lpik.methods exports.
-lp2_module = importlib.import_module("lpik.methods.lp2")
+
+#: The tolerances the LP2 kernel reads; each must be lpik.tolerances' own object.
+KERNEL_TOLERANCES = (
+    "MAX_SCHUR_CONDITION",
+    "SLACK_TOL",
+    "RATE_TOL",
+    "INTERVAL_TOL",
+    "FULL_P",
+    "FEASIBILITY_TOL",
+    "EQUALITY_RTOL",
+)
 
 
-def test_kernel_constants_match_the_numpy_path() -> None:
-    assert K.MAX_SCHUR_CONDITION == lp2_module.MAX_SCHUR_CONDITION
-    assert K.SLACK_TOL == lp2_module.SLACK_TOL
-    assert K.RATE_TOL == lp2_module.RATE_TOL
-    assert K.FEASIBILITY_TOL == st.FEASIBILITY_TOL
-    assert K.EQUALITY_RTOL == st.EQUALITY_RTOL
+@pytest.mark.parametrize("name", KERNEL_TOLERANCES)
+def test_kernel_tolerances_are_lpik_tolerances(name: str) -> None:
+    """The kernel imports every tolerance from lpik.tolerances (no copied values)."""
+    assert getattr(K, name) is getattr(tolerances, name)
+
+
+def test_the_layout_describes_the_buffer_once() -> None:
+    """Blocks lie in the order of their header slots; the out blocks form one range."""
+    assert [b.slot for b in layout.BLOCKS] == list(range(layout.REVOLUTE, layout.END))
+    assert layout.HEADER == layout.END + 1
+    names = [b.name for b in layout.BLOCKS]
+    assert len(set(names)) == len(names)
+    out = [b.name for b in layout.BLOCKS if layout.Q <= b.slot <= layout.RESIDUAL]
+    assert tuple(out) == layout.OUT_BLOCKS
+    n, m, r = 7, 6, 2
+    arrays = {
+        b.name: np.full(layout.block_shape(b, n, m, r), float(b.slot))
+        for b in layout.BLOCKS
+        if b.name in layout.INPUT_BLOCKS
+    }
+    state = layout.pack(n, m, r, h_diag=True, dt=1e-3, v_max=0.5, w_max=1.0, **arrays)
+    assert state.size == state[layout.END]
+    assert tuple(state[[layout.N, layout.M, layout.R, layout.H_DIAG]]) == (n, m, r, 1.0)
+    assert tuple(state[[layout.DT, layout.V_MAX, layout.W_MAX]]) == (1e-3, 0.5, 1.0)
+    for block in layout.BLOCKS:
+        start, stop = int(state[block.slot]), int(state[block.slot + 1])
+        assert stop - start == np.prod(layout.block_shape(block, n, m, r)), block.name
+        if block.name in arrays:
+            assert (state[start:stop] == block.slot).all(), block.name
+    fields = layout.out_fields(state)
+    assert list(fields) == list(layout.OUT_BLOCKS)
+    out_size = layout.out_range(state).stop - layout.out_range(state).start
+    assert fields["q"] == slice(0, n) and fields["residual"] == slice(out_size - 1, out_size)
+    with pytest.raises(ValueError, match="block tip must be"):
+        layout.pack(n, m, r, h_diag=True, dt=1e-3, v_max=0.5, w_max=1.0,
+                    **{**arrays, "tip": np.eye(3)})  # fmt: skip
+    with pytest.raises(ValueError, match="expected the blocks"):
+        layout.pack(n, m, r, h_diag=True, dt=1e-3, v_max=0.5, w_max=1.0, tip=np.eye(4))
+
+
+def test_compiled_path_without_numba_says_what_to_install(monkeypatch) -> None:
+    problem = Problem(J=np.eye(2), dw=np.ones(2) * 1e-3, q0=np.zeros(2))
+    assert "compiled" in PATHS
+    monkeypatch.setitem(sys.modules, "numba", None)  # find_spec("numba") is None now
+    for name in [m for m in sys.modules if m == "lpik.fast" or m.startswith("lpik.fast.")]:
+        monkeypatch.delitem(sys.modules, name)
+    with pytest.raises(MissingBackendError, match=r'pip install "lpik\[fast\]"'):
+        lp2(problem, path="compiled")
 
 
 def degenerate_problem(rng: np.random.Generator, n: int, m: int) -> Problem:
@@ -130,10 +187,10 @@ def test_batch_equals_highs_on_random_degenerate_instances(random_batches) -> No
             assert fast.status == ref.status, (i, fast, ref)
             if fast.path == "highs":
                 counts["highs fallback"] += 1
-            if fast.status == st.INFEASIBLE:
+            if fast.status == INFEASIBLE:
                 counts["infeasible"] += 1
                 continue
-            assert fast.status == st.OPTIMAL
+            assert fast.status == OPTIMAL
             assert abs(fast.p - ref.p) <= 1e-9, (fast, ref)
             counts["p=0" if fast.p == 0 else "p=1" if fast.p == 1 else "0<p<1"] += 1
             if fast.path == "compiled":  # unique q, lam: the KKT matrix is nonsingular
@@ -155,8 +212,9 @@ def test_compiled_single_equals_numpy_ratio_test(random_batches) -> None:
     for problems in random_batches[:3]:
         for problem in problems[:500]:
             a = lp2(problem, path="ratio-test")
-            b = lp2_compiled(problem)
+            b = lp2(problem, path="compiled")
             assert (a.status, a.binding) == (b.status, b.binding)
+            assert b.path in ("compiled", "highs")
             assert abs(a.p - b.p) <= 1e-12
             np.testing.assert_allclose(a.q, b.q, atol=1e-12, rtol=0)
 
@@ -213,7 +271,7 @@ def test_raw_batch_arrays_are_normalised_and_solved_like_problems() -> None:
     for arrays in (as_lists, strided, BatchArrays(**_raw_batch(H=full_H))):
         batch = lp2_batch(arrays)
         for i in range(4):
-            one = lp2(lpik_fast_batch._problem_at(arrays, i), path="highs")
+            one = lp2(fast_arrays.problem_at(arrays, i), path="highs")
             assert (batch.status_of(i), batch.binding_of(i)) == (one.status, one.binding)
             np.testing.assert_allclose(batch.q[i], one.q, atol=1e-9, rtol=0)
     assert BatchArrays(**_raw_batch(H=full_H)).h_diag is False
@@ -333,28 +391,48 @@ def _closed_loop_matches(controller, q, target, steps: int) -> dict[str, int]:
         np.testing.assert_allclose(fast.q, ref.q, atol=1e-12, rtol=0)
         if fast.lam is not None:
             np.testing.assert_allclose(fast.lam, ref.lam, atol=1e-10, rtol=1e-10)
-            assert abs(fast.residual - st.task_residual(problem, fast.dq, fast.p)) <= 1e-15
+            assert abs(fast.residual - task_residual(problem, fast.dq, fast.p)) <= 1e-15
         seen["compiled"] += fast.path == "compiled"
         seen["binding"] += fast.binding is not None
-        seen["infeasible"] += fast.status == st.INFEASIBLE
+        seen["infeasible"] += fast.status == INFEASIBLE
         q_prev, q = q, fast.q
     return seen
 
 
 def test_controller_equals_numpy_layers_planar() -> None:
-    from lpik.fast.controller import Lp2Controller
-    from lpik.robots.planar import PlanarArm
+    from lpik.control.controller import Lp2Controller
 
-    arm = PlanarArm([1, 1, 1, 1], q_min=np.deg2rad([-180, -180, -180, -180]),
-                    q_max=np.deg2rad([95, 180, 180, 180]), qd_max=1.0)  # fmt: skip
+    arm = planar_arm([1, 1, 1, 1], q_min=np.deg2rad([-180, -180, -180, -180]),
+                     q_max=np.deg2rad([95, 180, 180, 180]), qd_max=1.0)  # fmt: skip
     controller = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5)
     seen = _closed_loop_matches(controller, np.deg2rad([60.0, -30, -30, -30]),
-                                np.array([0.2, 0.866]), 400)  # fmt: skip
+                                np.array([0.2, 0.866, 0.0]), 400)  # fmt: skip
     assert seen["compiled"] == 400 and seen["binding"] > 50
 
 
+def test_controller_equals_numpy_layers_planar_pose() -> None:
+    """The planar pose task (rows x, y, rz) through the chain step, toward a 4 x 4 pose."""
+    from lpik.control.controller import Lp2Controller
+
+    arm = planar_arm([1, 1, 1, 1], q_min=np.deg2rad([-180, -180, -180, -180]),
+                     q_max=np.deg2rad([95, 180, 180, 180]), qd_max=1.0, task="pose")  # fmt: skip
+    controller = Lp2Controller(arm, dt=0.01, v_max=0.5, w_max=1.0, qdd_max=30.0)
+    target = _planar_pose(0.2, 0.866, np.pi / 2)
+    seen = _closed_loop_matches(controller, np.deg2rad([60.0, -30, -30, -30]), target, 400)
+    assert seen["compiled"] == 400 and seen["binding"] > 50
+
+
+def _planar_pose(x: float, y: float, angle: float) -> np.ndarray:
+    """The 4 x 4 pose of a planar tool at (x, y, 0), turned by ``angle`` about z."""
+    c, s = np.cos(angle), np.sin(angle)
+    pose = np.eye(4)
+    pose[:2, :2] = [[c, -s], [s, c]]
+    pose[:2, 3] = x, y
+    return pose
+
+
 def test_controller_equals_numpy_layers_panda() -> None:
-    from lpik.fast.controller import Lp2Controller
+    from lpik.control.controller import Lp2Controller
     from lpik.robots.registry import home_configuration, load_robot
 
     panda = load_robot("panda", task="pose")
@@ -368,18 +446,18 @@ def test_controller_equals_numpy_layers_panda() -> None:
 
 
 def test_controller_rejects_bad_input() -> None:
-    from lpik.fast.controller import Lp2Controller
-    from lpik.robots.planar import PlanarArm
+    from lpik.control.controller import Lp2Controller
 
-    controller = Lp2Controller(PlanarArm([1, 1, 1]), dt=0.01)
-    q, goal = np.array([0.1, 0.2, 0.3]), np.array([1.0, 1.0])
+    controller = Lp2Controller(planar_arm([1, 1, 1]), dt=0.01)
+    q, goal = np.array([0.1, 0.2, 0.3]), np.array([1.0, 1.0, 0.0])
+    shapes = r"target: must be xyz \(3,\), a rotation \(3, 3\) or a pose \(4, 4\), got "
     bad = [
         ((np.zeros(2), goal), "q0: must have length 3"),
         (([0.1, 0.2], goal), "q0: must have length 3"),
-        ((q, np.array([1.0, 1.0, 1.0])), "target: must have length 2"),
-        ((q, np.ones((2, 2))), "target: must have length 2"),
+        ((q, np.array([1.0, 1.0])), shapes + r"\(2,\)"),
+        ((q, np.ones((2, 2))), shapes + r"\(2, 2\)"),
         ((np.array([0.1, np.nan, 0.2]), goal), "q0: contains NaN"),
-        ((q, np.array([np.inf, 1.0])), "target: contains NaN"),
+        ((q, np.array([np.inf, 1.0, 0.0])), "target: contains NaN"),
         ((q, goal, np.array([0.1, 0.2, np.nan])), "q_prev: contains NaN"),
         ((q, goal, np.zeros(4)), "q_prev: must have length 3"),
         (("abc", goal), "q0: must be 3 numbers"),
@@ -389,14 +467,16 @@ def test_controller_rejects_bad_input() -> None:
         with pytest.raises(ValueError, match=message):
             controller.step(*args)
     with pytest.raises(ValueError, match="dt"):
-        Lp2Controller(PlanarArm([1, 1, 1]), dt=0.0)
+        Lp2Controller(planar_arm([1, 1, 1]), dt=0.0)
+    with pytest.raises(ValueError, match="model: the compiled path supports tasks over a Serial"):
+        Lp2Controller(object(), dt=0.01)
     pose = Lp2Controller(_panda("pose"), dt=0.001)
     for target in (np.ones((2, 2)), np.ones(4), np.eye(4)[:3], np.full((4, 4), np.nan)):
         with pytest.raises(ValueError, match="target"):
             pose.step(np.zeros(7), target)
 
 
-def _panda(task: str):  # noqa: ANN202 - a TaskModel
+def _panda(task: str) -> TaskModel:
     from lpik.robots.registry import load_robot
 
     return load_robot("panda", task=task)
@@ -404,7 +484,7 @@ def _panda(task: str):  # noqa: ANN202 - a TaskModel
 
 def test_controller_converts_other_inputs_to_the_same_step() -> None:
     """Lists, integers, strided and read-only arrays take the converting path: same answers."""
-    from lpik.fast.controller import Lp2Controller
+    from lpik.control.controller import Lp2Controller
     from lpik.robots.registry import home_configuration
 
     model = _panda("pose")
@@ -429,7 +509,7 @@ def test_controller_converts_other_inputs_to_the_same_step() -> None:
         assert (got.p, got.status, got.binding) == (ref.p, ref.status, ref.binding)
     whole = np.array([0, 0, 0, -2, 0, 2, 1])  # integers
     by_int = controller.step(whole, target)
-    assert by_int.status == st.OPTIMAL
+    assert by_int.status == OPTIMAL
     np.testing.assert_array_equal(by_int.q, controller.step(whole.astype(float), target).q)
     # xyz, a rotation and a pose address the same compiled step of a position task.
     position = Lp2Controller(_panda("position"), dt=0.001)
@@ -444,13 +524,12 @@ def test_controller_converts_other_inputs_to_the_same_step() -> None:
 def test_controller_labels_every_kind_of_binding_limit_as_the_numpy_layers() -> None:
     """Random states of a planar arm bound by end-stops, velocity and acceleration
     limits, multiplier bounds and an extra row: the fused step names the same limit."""
-    from lpik.fast.controller import Lp2Controller
-    from lpik.robots.planar import PlanarArm
+    from lpik.control.controller import Lp2Controller
 
     rng = np.random.default_rng(7)
     qd_max = np.array([0.5, 0.8, 1.0, 1.2])
-    arm = PlanarArm([1.0, 0.8, 0.6, 0.4], q_min=np.full(4, -2.0), q_max=np.full(4, 2.0),
-                    qd_max=qd_max)  # fmt: skip
+    arm = planar_arm([1.0, 0.8, 0.6, 0.4], q_min=np.full(4, -2.0), q_max=np.full(4, 2.0),
+                     qd_max=qd_max)  # fmt: skip
     controller = Lp2Controller(
         arm, dt=0.05, v_max=2.0, qdd_max=np.array([4.0, 6.0, 8.0, 10.0]), lambda_bound=0.05,
         G=np.array([[1.0, 1.0, 0.0, 0.0]]), h=np.array([1.5]), row_labels=("elbow row",),
@@ -461,7 +540,7 @@ def test_controller_labels_every_kind_of_binding_limit_as_the_numpy_layers() -> 
         q0[1] = min(q0[1], 1.5 - q0[0])  # start on the feasible side of the row
         # A last step within the velocity limits (else the numpy layers reject the bounds).
         prev = q0 - rng.uniform(-1.0, 1.0, 4) * qd_max * 0.05 * rng.integers(0, 2)
-        target = arm.pose(q0)[:2] + rng.normal(0.0, 0.2, 2)
+        target = arm.pose(q0) + np.append(rng.normal(0.0, 0.2, 2), 0.0)  # xyz, z = 0
         fast = controller.step(q0, target, prev)
         ref = lp2(controller.problem(q0, target, prev), path="ratio-test")
         assert (fast.status, fast.binding) == (ref.status, ref.binding), (q0, prev, target)
@@ -477,23 +556,22 @@ def test_controller_reports_a_last_step_beyond_reach_as_infeasible() -> None:
     """A last step twice the velocity limit that the acceleration limits cannot undo in
     one period: the numpy layers reject the crossed bounds as a Problem, while the
     fused step returns the safe step naming both limits."""
-    from lpik.fast.controller import Lp2Controller
-    from lpik.robots.planar import PlanarArm
+    from lpik.control.controller import Lp2Controller
 
-    arm = PlanarArm([1.0, 1.0, 1.0], qd_max=1.0)
+    arm = planar_arm([1.0, 1.0, 1.0], qd_max=1.0)
     controller = Lp2Controller(arm, dt=0.01, qdd_max=10.0)
     q = np.array([0.3, 0.4, 0.5])
     prev = q - np.array([0.02, 0.0, 0.0])  # 2 rad/s against a limit of 1 rad/s
-    result = controller.step(q, np.array([1.5, 1.5]), prev)
-    assert result.status == st.INFEASIBLE and result.p == 0.0
+    result = controller.step(q, np.array([1.5, 1.5, 0.0]), prev)
+    assert result.status == INFEASIBLE and result.p == 0.0
     assert result.binding == "joint 1 lower acceleration limit / joint 1 upper velocity limit"
     np.testing.assert_array_equal(result.q, q)
     with pytest.raises(ValueError, match="dq_min"):
-        controller.problem(q, np.array([1.5, 1.5]), prev)
+        controller.problem(q, np.array([1.5, 1.5, 0.0]), prev)
 
 
 def test_step_into_gives_the_steps_answers_without_a_result() -> None:
-    from lpik.fast.controller import Lp2Controller
+    from lpik.control.controller import Lp2Controller
     from lpik.robots.registry import home_configuration
 
     model = _panda("pose")
@@ -513,13 +591,13 @@ def test_step_into_gives_the_steps_answers_without_a_result() -> None:
         assert (p, twin.last_status, twin.last_binding) == (ref.p, ref.status, ref.binding)
         seen.add(ref.status)
         prev, q = q, out.copy()
-    assert st.OPTIMAL in seen
+    assert OPTIMAL in seen
     # The safe step of an infeasible state writes q0 and says why.
     far = np.array([0.3, 0.4, 0.5, -1.0, 0.1, 1.0, 0.2])
     beyond = far - np.array([0.01, 0, 0, 0, 0, 0, 0])  # 10 rad/s: beyond reach in one step
     assert twin.step_into(far, target, beyond, out=out) == 0.0
     np.testing.assert_array_equal(out, far)
-    assert twin.last_status == st.INFEASIBLE and " / " in twin.last_binding
+    assert twin.last_status == INFEASIBLE and " / " in twin.last_binding
     for bad in (np.empty(6), np.empty((2, 7)), np.empty(7, dtype=np.float32), [0.0] * 7):
         with pytest.raises(ValueError, match="out: must be a float64 array of shape"):
             twin.step_into(q, target, out=bad)
@@ -542,7 +620,7 @@ def _assert_rows_equal_steps(controller, batch, q0, targets, q_prev) -> None:
 
 
 def test_step_batch_equals_steps_panda() -> None:
-    from lpik.fast.controller import Lp2Controller
+    from lpik.control.controller import Lp2Controller
 
     model = _panda("pose")
     controller = Lp2Controller(model, dt=0.001, qdd_max=10.0, lambda_bound=2.0,
@@ -559,7 +637,7 @@ def test_step_batch_equals_steps_panda() -> None:
     batch = controller.step_batch(q0, poses, q_prev)
     _assert_rows_equal_steps(controller, batch, q0, poses, q_prev)
     statuses = set(batch.status)
-    assert statuses == {st.OPTIMAL, st.INFEASIBLE}
+    assert statuses == {OPTIMAL, INFEASIBLE}
     assert (batch.p == 1).any() and ((batch.p > 0) & (batch.p < 1)).any()
     # xyz targets, at rest (q_prev None), lists in
     xyz = poses[:50, :3, 3]
@@ -568,11 +646,10 @@ def test_step_batch_equals_steps_panda() -> None:
 
 
 def test_step_batch_equals_steps_planar_with_the_highs_path() -> None:
-    from lpik.fast.controller import Lp2Controller
-    from lpik.robots.planar import PlanarArm
+    from lpik.control.controller import Lp2Controller
 
-    arm = PlanarArm([1, 1, 1, 1], q_min=np.deg2rad([-180, -180, -180, -180]),
-                    q_max=np.deg2rad([95, 180, 180, 180]), qd_max=1.0)  # fmt: skip
+    arm = planar_arm([1, 1, 1, 1], q_min=np.deg2rad([-180, -180, -180, -180]),
+                     q_max=np.deg2rad([95, 180, 180, 180]), qd_max=1.0)  # fmt: skip
     controller = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5)
     rng = np.random.default_rng(5)
     B = 300
@@ -580,30 +657,29 @@ def test_step_batch_equals_steps_planar_with_the_highs_path() -> None:
     q0[:5] = 0.0  # stretched out: J is singular, the HiGHS path takes these rows
     q_prev = q0 - rng.normal(size=(B, 4)) * rng.choice([0.0, 1e-3, 1e-1], size=(B, 1))
     q_prev[:5] = 0.0  # at rest there
-    targets = rng.uniform(-2.0, 2.0, size=(B, 2))
+    targets = np.column_stack([rng.uniform(-2.0, 2.0, size=(B, 2)), np.zeros(B)])  # xyz
     batch = controller.step_batch(q0, targets, q_prev)
     _assert_rows_equal_steps(controller, batch, q0, targets, q_prev)
     assert set(batch.path[:5]) == {"highs"} and set(batch.path[5:]) == {"compiled"}
-    assert {st.OPTIMAL, st.INFEASIBLE} <= set(batch.status)
+    assert {OPTIMAL, INFEASIBLE} <= set(batch.status)
 
 
 def test_step_batch_rejects_bad_input() -> None:
-    from lpik.fast.controller import Lp2Controller
-    from lpik.robots.planar import PlanarArm
+    from lpik.control.controller import Lp2Controller
 
-    controller = Lp2Controller(PlanarArm([1, 1, 1]), dt=0.01)
-    q, goal = np.full((4, 3), 0.2), np.ones((4, 2))
+    controller = Lp2Controller(planar_arm([1, 1, 1]), dt=0.01)
+    q, goal = np.full((4, 3), 0.2), np.ones((4, 3))
     nan_row = q.copy()
     nan_row[2, 1] = np.nan
     bad = [
         ((np.zeros(3), goal), r"q0: must have shape \(B, 3\) with B >= 1, got \(3,\)"),
         ((np.zeros((0, 3)), goal[:0]), r"q0: must have shape \(B, 3\) with B >= 1"),
         ((q, goal[:3]), r"targets: must have 4 rows \(one per row of q0\), got 3"),
-        ((q, np.ones((4, 3))), r"targets: must have shape \(B, 2\)"),
+        ((q, np.ones((4, 2))), r"targets: must have shape \(B, 3\) or \(B, 3, 3\) or \(B, 4, 4\)"),
         ((q, goal, np.zeros((4, 2))), r"q_prev: must have shape \(B, 3\)"),
         ((nan_row, goal), r"q0: row 2 contains NaN or inf"),
         ((q, goal, nan_row), r"q_prev: row 2 contains NaN or inf"),
-        ((q, [["a", "b"]] * 4), r"targets: must be numbers"),
+        ((q, [["a", "b", "c"]] * 4), r"targets: must be numbers"),
     ]
     for args, message in bad:
         with pytest.raises(ValueError, match=message):
@@ -614,10 +690,9 @@ def test_step_batch_rejects_bad_input() -> None:
 
 
 @st_h.composite
-def fused_states(draw: st_h.DrawFn):  # noqa: ANN201 - (controller, q0, target, q_prev)
+def fused_states(draw: st_h.DrawFn) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray | None]:
     """A random planar arm with end-stops, velocity and acceleration limits, and one state."""
-    from lpik.fast.controller import Lp2Controller
-    from lpik.robots.planar import PlanarArm
+    from lpik.control.controller import Lp2Controller
 
     n = draw(st_h.integers(3, 6))
     floats = lambda lo, hi: st_h.floats(lo, hi, allow_nan=False, allow_subnormal=False)  # noqa: E731
@@ -625,8 +700,8 @@ def fused_states(draw: st_h.DrawFn):  # noqa: ANN201 - (controller, q0, target, 
     centre = np.array([draw(floats(-1.0, 1.0)) for _ in range(n)])
     half = np.array([draw(floats(0.3, 2.5)) for _ in range(n)])
     task = draw(st_h.sampled_from(["position", "pose"]))
-    arm = PlanarArm(lengths, q_min=centre - half, q_max=centre + half,
-                    qd_max=draw(floats(0.2, 2.0)), task=task)  # fmt: skip
+    arm = planar_arm(lengths, q_min=centre - half, q_max=centre + half,
+                     qd_max=draw(floats(0.2, 2.0)), task=task)  # fmt: skip
     dt = draw(st_h.sampled_from([1e-3, 1e-2]))
     qdd = draw(st_h.sampled_from([None, 5.0, 50.0]))
     bound = draw(st_h.sampled_from([None, 0.05, 1.0]))
@@ -636,9 +711,13 @@ def fused_states(draw: st_h.DrawFn):  # noqa: ANN201 - (controller, q0, target, 
     speed = draw(st_h.sampled_from([0.0, 0.1, 1.0]))  # of the previous step, in qd_max units
     q_prev = q0 - speed * dt * arm.qd_max * np.array([draw(floats(-1.0, 1.0)) for _ in range(n)])
     q_prev = None if draw(st_h.booleans()) and speed == 0.0 else q_prev
-    goal = arm.pose(q0)[: arm.task_dim] + np.array(
-        [draw(floats(-0.5, 0.5)) for _ in range(arm.task_dim)]
-    )
+    offset = np.array([draw(floats(-0.5, 0.5)) for _ in range(arm.task_dim)])
+    now = arm.pose(q0)
+    if task == "position":  # xyz, z = 0
+        goal = now + np.append(offset, 0.0)
+    else:  # a 4 x 4 pose in the plane: x, y and the tool angle about z
+        angle = np.arctan2(now[1, 0], now[0, 0])
+        goal = _planar_pose(now[0, 3] + offset[0], now[1, 3] + offset[1], angle + offset[2])
     return controller, q0, goal, q_prev
 
 
@@ -649,12 +728,12 @@ def test_fused_step_keeps_every_hard_limit_and_moves_along_the_command(state) ->
     arm, dt, n = controller.model, controller.dt, len(q0)
     res = controller.step(q0, goal, q_prev)
     event(f"{res.status}, p {'= 1' if res.p == 1 else '< 1' if res.p > 0 else '= 0'}")
-    assert res.status in {st.OPTIMAL, st.INFEASIBLE, st.SOLVER_ERROR} or res.path == "highs"
+    assert res.status in {OPTIMAL, INFEASIBLE, SOLVER_ERROR} or res.path == "highs"
     assert 0.0 <= res.p <= 1.0
     np.testing.assert_allclose(res.q, q0 + res.dq, rtol=0, atol=1e-12)
     if not res.moved:
         np.testing.assert_array_equal(res.q, q0)
-        assert res.p == 0.0 and (res.binding is not None or res.status != st.INFEASIBLE)
+        assert res.p == 0.0 and (res.binding is not None or res.status != INFEASIBLE)
         return
     tol = 1e-9
     inside = np.clip(q0, arm.q_min, arm.q_max)  # q0 sits inside its end-stops here

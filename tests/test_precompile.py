@@ -13,10 +13,8 @@ from lpik.fast.precompile import compile_kernels  # noqa: E402
 
 NAMES = [
     "fused step, serial chain",
-    "fused step, planar arm",
     "fused step batch, serial chain",
-    "fused step batch, planar arm",
-    "LP2 ratio test (lp2_compiled)",
+    'LP2 ratio test (lp2, path="compiled")',
     "LP2 batch (lp2_batch)",
 ]
 

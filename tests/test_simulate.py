@@ -3,16 +3,18 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 
 import numpy as np
 import pytest
 
-import lpik.simulate as sim
+from lpik.control.command import ClampedTarget, clamp_command
+from lpik.control.log import SimulationLog
+from lpik.control.simulate import simulate
 from lpik.limits import EndStops, VelocityLimits
-from lpik.methods import ALL_METHODS
-from lpik.robots.planar import PlanarArm
-from lpik.scenarios import get_scenario
-from lpik.simulate import ClampedTarget, SimulationLog, clamp_length, simulate
+from lpik.methods import ALL_METHODS, registry
+from lpik.paper.scenarios import get_scenario
+from lpik.robots.planar import planar_arm
 from paper_runs import lp2_pull_in, run
 
 PULL_IN = get_scenario("pull-in")
@@ -25,22 +27,38 @@ def short_run(method: str = "lp2", steps: int = 20, **kw: object) -> SimulationL
 # --- command law ---------------------------------------------------------------------------
 
 
-def test_clamp_length_keeps_short_and_scales_long() -> None:
+def clamped(dw: list[float], rows: list[int], v_max: float, w_max: float = 1.0) -> np.ndarray:
+    out = np.array(dw, dtype=float)
+    clamp_command(out, np.array(rows, dtype=float), v_max, w_max, 1.0)
+    return out
+
+
+def test_clamp_keeps_short_and_scales_long() -> None:
     short = np.array([0.001, -0.002])
-    np.testing.assert_array_equal(clamp_length(short, 0.005), short)
+    np.testing.assert_array_equal(clamped(short, [0, 1], 0.005), short)
     long = np.array([3.0, 4.0])
-    out = clamp_length(long, 0.5)
+    out = clamped(long, [0, 1], 0.5)
     assert np.linalg.norm(out) == pytest.approx(0.5)
     np.testing.assert_allclose(out / np.linalg.norm(out), long / 5.0)
 
 
+def test_clamp_limits_linear_and_angular_speed_each_and_keeps_the_direction() -> None:
+    dw = [0.3, 0.0, 0.4, 0.0, 0.0, 2.0]  # 0.5 m and 2 rad
+    rows = [0, 1, 2, 3, 4, 5]
+    by_angle = clamped(dw, rows, v_max=1.0, w_max=0.5)  # the angular part binds: scale 1/4
+    np.testing.assert_allclose(by_angle, np.array(dw) / 4)
+    by_length = clamped(dw, rows, v_max=0.1, w_max=10.0)  # the linear part binds: scale 1/5
+    np.testing.assert_allclose(by_length, np.array(dw) / 5)
+    np.testing.assert_array_equal(clamped(dw, rows, v_max=1.0, w_max=3.0), dw)
+
+
 def test_clamped_target_points_at_target_with_length_v_max_dt(paper_arm, paper_q0) -> None:
-    target = np.array([0.2, 0.866])
+    target = np.array([0.2, 0.866, 0.0])
     dw = ClampedTarget(target, 0.5)(paper_arm, paper_q0, 0.01)
-    to_target = target - paper_arm.pose(paper_q0)
+    to_target = (target - paper_arm.pose(paper_q0))[:2]
     assert np.linalg.norm(dw) == pytest.approx(0.005)
     np.testing.assert_allclose(dw / 0.005, to_target / np.linalg.norm(to_target))
-    near = paper_arm.pose(paper_q0) + np.array([0.001, 0.0])
+    near = paper_arm.pose(paper_q0) + np.array([0.001, 0.0, 0.0])
     np.testing.assert_allclose(ClampedTarget(near, 0.5)(paper_arm, paper_q0, 0.01), [0.001, 0])
 
 
@@ -81,7 +99,7 @@ def test_simulate_rejects_bad_arguments(paper_arm, paper_q0, kwargs, word) -> No
     with pytest.raises(ValueError, match=word):
         simulate(
             paper_arm,
-            ClampedTarget(np.array([0.2, 0.866]), 0.5),
+            ClampedTarget(np.array([0.2, 0.866, 0.0]), 0.5),
             args["q0"],
             args["steps"],
             method=args["method"],
@@ -91,7 +109,7 @@ def test_simulate_rejects_bad_arguments(paper_arm, paper_q0, kwargs, word) -> No
 
 def test_unknown_method_lists_the_methods(paper_arm, paper_q0) -> None:
     with pytest.raises(ValueError) as info:
-        simulate(paper_arm, ClampedTarget(np.zeros(2), 0.5), paper_q0, 3, method="x", dt=0.01)
+        simulate(paper_arm, ClampedTarget(np.zeros(3), 0.5), paper_q0, 3, method="x", dt=0.01)
     for name in ALL_METHODS:
         assert name in str(info.value)
 
@@ -101,11 +119,11 @@ def test_unknown_method_lists_the_methods(paper_arm, paper_q0) -> None:
 
 def test_log_rows_are_the_state_before_each_step() -> None:
     log = short_run(steps=25)
-    model = PULL_IN.model()
+    model = PULL_IN.setup().model
     assert log.steps == 25
     assert log.q.shape == (25, 4) and log.lam.shape == (25, 2) and log.position.shape == (25, 2)
     np.testing.assert_allclose(log.t, np.arange(25) * 0.01)
-    np.testing.assert_allclose(log.q[0], PULL_IN.q0)
+    np.testing.assert_allclose(log.q[0], PULL_IN.paper.q0)
     np.testing.assert_allclose(log.position[0], [3.2321, 0.8660], atol=1e-4)
     for k in range(25):
         np.testing.assert_allclose(log.position[k], model.position(log.q[k]))
@@ -133,7 +151,7 @@ def test_nlp_runs_in_the_loop_with_the_model() -> None:
     assert list(log.status) == ["optimal"] * 3
     np.testing.assert_allclose(log.p, 1.0)
     # the NLP keeps the nonlinear kinematics: the end effector lands exactly on w0 + dw
-    dw = PULL_IN.command()(PULL_IN.model(), log.q[0], log.dt)
+    dw = PULL_IN.setup().command()(PULL_IN.setup().model, log.q[0], log.dt)
     np.testing.assert_allclose(log.position[1] - log.position[0], dw, atol=1e-9)
 
 
@@ -168,13 +186,13 @@ def test_metrics_summarise_the_log() -> None:
 
 def test_one_solver_serves_every_step(monkeypatch) -> None:
     seen = []
-    real = sim.METHODS["lp1"]
+    real = registry.METHODS["lp1"]
 
     def spy(problem, *, solver=None):
         seen.append(solver)
-        return real(problem, solver=solver)
+        return real.function(problem, solver=solver)
 
-    monkeypatch.setitem(sim.METHODS, "lp1", spy)
+    monkeypatch.setitem(registry.METHODS, "lp1", dataclasses.replace(real, function=spy))
     short_run("lp1", steps=6)
     assert len(seen) == 6 and seen[0] is not None and all(s is seen[0] for s in seen)
     seen.clear()
@@ -190,7 +208,7 @@ def test_safe_step_keeps_q(paper_arm) -> None:
     q0 = np.array([1.0, 0.2, 0.2, 0.2])
     limits = [EndStops([-np.pi, -np.pi, -np.pi, -np.pi], [-1.0, np.pi, np.pi, np.pi]),
               VelocityLimits(np.ones(4))]  # fmt: skip
-    log = simulate(paper_arm, ClampedTarget(np.array([1.0, 1.0]), 0.5), q0, 4, dt=0.01,
+    log = simulate(paper_arm, ClampedTarget(np.array([1.0, 1.0, 0.0]), 0.5), q0, 4, dt=0.01,
                    limits=limits)  # fmt: skip
     assert set(log.status) == {"infeasible"}
     np.testing.assert_array_equal(log.q_end, q0)
@@ -200,7 +218,7 @@ def test_safe_step_keeps_q(paper_arm) -> None:
 
 def test_classical_step_is_clamped_to_the_end_stop_and_logged() -> None:
     log = run("pull-in", "pinv")
-    q1_max = PULL_IN.q_max[0]
+    q1_max = PULL_IN.paper.q_max[0]
     assert log.q[:, 0].max() <= q1_max and log.q_end[0] <= q1_max
     bad = log.status == "violates_limits"
     assert bad.any()
@@ -238,7 +256,7 @@ def test_csv_unwritable_is_a_value_error(tmp_path) -> None:
 
 
 def test_planar_arm_without_limits_uses_model_limits() -> None:
-    arm = PlanarArm([1.0, 1.0], q_min=-1.0, q_max=1.0, qd_max=0.5)
-    log = simulate(arm, ClampedTarget(np.array([0.0, 2.0]), 1.0), [0.0, 0.0], 50, dt=0.1)
+    arm = planar_arm([1.0, 1.0], q_min=-1.0, q_max=1.0, qd_max=0.5)
+    log = simulate(arm, ClampedTarget(np.array([0.0, 2.0, 0.0]), 1.0), [0.0, 0.0], 50, dt=0.1)
     assert np.abs(log.joint_velocities()).max() <= 0.5 + 1e-9
     assert log.q.max() <= 1.0 + 1e-12

@@ -3,8 +3,8 @@
 :class:`Lp2Controller` prepares everything that does not change between steps
 (the chain's geometry, the limits, the weights) once; :meth:`Lp2Controller.step`
 then runs forward kinematics, the Jacobian, the command law, the limits and
-LP2's ratio test (eqs. 15-18) in one compiled call and returns the same
-:class:`~lpik.result.Result` as building the problem with
+LP2's ratio test (eqs. 15-18) in one compiled call (:mod:`lpik.fast.step`)
+and returns the same :class:`~lpik.result.Result` as building the problem with
 :func:`lpik.limits.build_problem` and solving it with
 :func:`lpik.methods.lp2.lp2` (tests hold the two equal). Steps the ratio test
 cannot take (singular KKT matrix) go to the HiGHS path.
@@ -19,42 +19,53 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik import result as st
-from lpik.fast import chain_kernels as CK
-from lpik.fast import kernels as K
-from lpik.fast.batch import BatchResult, is_diagonal
+from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, clamp_command, task_rows
+from lpik.control.inputs import (
+    TARGET_SHAPES,
+    chain_arrays,
+    joint_vector,
+    stacked_rows,
+    target_array,
+    task_value,
+)
+from lpik.fast import layout
+from lpik.fast.arrays import is_diagonal
+from lpik.fast.batch import BatchResult
+from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
+from lpik.fast.lp2_kernel import OK
+from lpik.fast.step import BAD_INPUT, chain_step_batch, step_kernel
+from lpik.labels import step_label_table
 from lpik.limits import AccelerationLimits, LinearRows, build_problem, standard_limits
 from lpik.methods.lp2 import lp2
-from lpik.problem import Problem
-from lpik.result import Result
-from lpik.robots.base import FloatArray, TaskModel
-from lpik.robots.planar import PlanarArm
+from lpik.problem import Problem, reference_configuration
+from lpik.result import INFEASIBLE, OPTIMAL, Result
+from lpik.robots.base import TaskModel
+from lpik.types import FloatArray
 
-# Building a Result from a dict of its fields skips the frozen dataclass's __init__,
-# the largest Python cost of a step (the kernel checked the answer itself).
-_new = object.__new__
-_set_dict = object.__setattr__
 #: The fields of an optimal compiled step that are the same on every step.
-_OPTIMAL_FIELDS = {"status": st.OPTIMAL, "method": "lp2", "path": "compiled"}
-
-ROW_INDEX = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
+_OPTIMAL_FIELDS = {"status": OPTIMAL, "method": "lp2", "path": "compiled"}
 
 
 class Lp2Controller:
     """Compiled LP2 steps for one task model with fixed limits and weights.
 
     Args:
-        model: A :class:`~lpik.robots.planar.PlanarArm`, or a task of
-            :mod:`lpik.robots.tasks` over a :class:`~lpik.robots.chain.SerialChain`.
+        model: A task of :mod:`lpik.robots.tasks` over a
+            :class:`~lpik.robots.chain.SerialChain`: :func:`~lpik.robots.planar.planar_arm`,
+            :func:`~lpik.robots.registry.load_robot`, :func:`~lpik.robots.urdf.load_urdf`.
         dt: Control period [s].
         v_max: Largest commanded linear speed of the task point [m/s].
         w_max: Largest commanded angular speed of the task frame [rad/s].
         qdd_max: Symmetric joint acceleration limits [rad/s^2] (scalar or (n,)); none when None.
         velocity_limits: Whether the model's ``qd_max`` bounds each step (eq. 14).
         lambda_bound: Symmetric bound on every multiplier (sec. 3.2); none when None.
-        M, f, Lambda, q_ref: Weights of the criterion (eq. 3, sec. 3.1), as in
-            :class:`~lpik.problem.Problem`.
-        G, h, row_labels: Extra rows ``G q <= h``.
+        M: Weight matrix of the criterion (eq. 3), as in :class:`~lpik.problem.Problem`.
+        f: Weight vector of the criterion (eq. 3).
+        Lambda: Smoothing weight (sec. 3.1).
+        q_ref: Reference configuration (sec. 3.1); default as :class:`~lpik.problem.Problem`'s.
+        G: Extra rows ``G q <= h``, (r, n).
+        h: Their right-hand side, (r,).
+        row_labels: Their labels.
 
     Raises:
         ValueError: For a model the compiled path does not support, or bad limits/weights.
@@ -65,8 +76,8 @@ class Lp2Controller:
         model: TaskModel,
         *,
         dt: float,
-        v_max: float = 0.5,
-        w_max: float = 1.0,
+        v_max: float = DEFAULT_V_MAX,
+        w_max: float = DEFAULT_W_MAX,
         qdd_max: ArrayLike | None = None,
         velocity_limits: bool = True,
         lambda_bound: float | None = None,
@@ -84,10 +95,9 @@ class Lp2Controller:
             raise ValueError("v_max, w_max: must be > 0")
         self.model = model
         self.dt, self.v_max, self.w_max = float(dt), float(v_max), float(w_max)
-        n = model.n_joints
-        self._kind, geometry, rows = _geometry(model)
-        self._rows = np.array(rows, dtype=np.int64)
-        m = len(rows)
+        origins, axes, revolute, tip = chain_arrays(model)
+        self._row_index = task_rows(model)
+        n, m = model.n_joints, self._row_index.size
         limits = standard_limits(model, velocity=velocity_limits, lambda_bound=lambda_bound)
         if qdd_max is not None:
             limits.append(AccelerationLimits(np.broadcast_to(np.asarray(qdd_max, float), (n,))))
@@ -106,39 +116,32 @@ class Lp2Controller:
             np.zeros((m, n)), np.zeros(m), np.clip(np.zeros(n), model.q_min, model.q_max), None
         )
         H = template.M + template.Lambda
-        if q_ref is None:  # Problem's default: midpoint of finite end-stops, else q0 (NaN here)
-            finite = np.isfinite(template.q_min) & np.isfinite(template.q_max)
-            mid = 0.5 * (
-                np.where(finite, template.q_min, 0.0) + np.where(finite, template.q_max, 0.0)
-            )
-            ref = np.where(finite, mid, np.nan)
-        else:
-            ref = template.q_ref
+        # NaN where q_ref follows q0 (Problem's default), filled in by the step.
+        ref = template.q_ref if q_ref is not None else reference_configuration(
+            template.q_min, template.q_max, np.full(n, np.nan))  # fmt: skip
         qd = np.broadcast_to(np.asarray(model.qd_max, float), (n,)) if velocity_limits else \
             np.full(n, np.inf)  # fmt: skip
         qdd = np.full(n, np.inf) if qdd_max is None else np.broadcast_to(
             np.asarray(qdd_max, float), (n,))  # fmt: skip
         # (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max.
         bounds = np.vstack([template.q_min, template.q_max, -qd, qd, -qdd, qdd])
-        constants = (bounds, H, np.vstack([template.f, ref]), template.Lambda,
-                     np.vstack([template.lam_min, template.lam_max]), template.G, template.h,
-                     np.array([self.dt, self.v_max, self.w_max]))  # fmt: skip
-        if self._kind == "planar":
-            revolute = np.ones(n)
-            self._kernel = CK.step_kernel("planar")
-        else:
-            origins, axes, revolute, tip = geometry
-            geometry = (origins, axes, tip)
-            self._kernel = CK.step_kernel("chain")
-        self._state, o_out = CK.pack_state(revolute, rows, is_diagonal(H), geometry, constants)
-        size = CK.out_size(n, m)
-        self._out = self._state[o_out : o_out + size]  # the kernel writes here
-        self._p, self._label_at, self._residual = size - 3, size - 2, size - 1
+        self._state = layout.pack(
+            n, m, template.G.shape[0],
+            h_diag=is_diagonal(H), dt=self.dt, v_max=self.v_max, w_max=self.w_max,
+            revolute=revolute, row_index=self._row_index, origins=origins, axes=axes, tip=tip,
+            limits=bounds, criterion=H, f_ref=np.vstack([template.f, ref]),
+            Lambda=template.Lambda, lam_bounds=np.vstack([template.lam_min, template.lam_max]),
+            G=template.G, h=template.h,
+        )  # fmt: skip
+        self._kernel = step_kernel()
+        self._out = self._state[layout.out_range(self._state)]  # the kernel writes here
+        fields = layout.out_fields(self._state)
+        self._q, self._dq, self._lam = fields["q"], fields["dq"], fields["lam"]
+        self._p, self._label_at = fields["p"].start, fields["label"].start
+        self._residual = fields["residual"].start
         self._n, self._m = n, m
-        self._q_slice, self._dq_slice, self._lam_slice = slice(0, n), slice(n, 2 * n), \
-            slice(2 * n, 2 * n + m)  # fmt: skip
-        self._labels = _label_table(model.joint_names, m, template.row_labels)
-        self._q_view = self._out[:n]  # the kernel's q, for step_into
+        self._labels = step_label_table(model.joint_names, m, template.row_labels)
+        self._q_view = self._out[self._q]  # the kernel's q, for step_into
         self._vector_shape = (n,)
         self._last: Result | None = None  # step_into's last outcome when not optimal
         self._last_code: int | None = None  # step_into's last kernel outcome
@@ -152,8 +155,8 @@ class Lp2Controller:
 
         Args:
             q0: Joint coordinates now, (n,) [rad or m].
-            target: Commanded task value: (x, y[, angle]) for the planar arm; xyz,
-                a rotation (3, 3) or a pose (4, 4) for the 3-D tasks.
+            target: Commanded task value: xyz (3,) [m], a rotation (3, 3) or a
+                pose (4, 4); a planar arm's xyz has z = 0, its pose turns about z.
             q_prev: Joint coordinates one period ago (acceleration limits); ``None``: at rest.
 
         Returns:
@@ -174,20 +177,18 @@ class Lp2Controller:
         except TypeError:  # not C-contiguous writable float64 arrays: convert them
             q0, target, prev = self._converted(q0, target, q_prev)
             code = self._kernel(self._state, q0, prev, target)
-        if code == K.OK:
+        if code == OK:
             out = self._out.copy()
             label = out.item(self._label_at)
             fields = _OPTIMAL_FIELDS.copy()  # a Result without the dataclass __init__
-            fields["q"] = out[self._q_slice]
-            fields["dq"] = out[self._dq_slice]
+            fields["q"] = out[self._q]
+            fields["dq"] = out[self._dq]
             fields["p"] = out.item(self._p)
-            fields["lam"] = out[self._lam_slice]
+            fields["lam"] = out[self._lam]
             fields["binding"] = None if label < 0 else self._labels[int(label)]
             fields["residual"] = out.item(self._residual)
             fields["solve_time"] = perf_counter() - start
-            result = _new(Result)
-            _set_dict(result, "__dict__", fields)
-            return result
+            return Result.trusted(fields)
         return self._not_optimal(code, q0, target, q_prev, start)
 
     def step_into(
@@ -224,7 +225,7 @@ class Lp2Controller:
         except TypeError:  # not C-contiguous writable float64 arrays: convert them
             q0, target, prev = self._converted(q0, target, q_prev)
             code = self._kernel(self._state, q0, prev, target)
-        if code == K.OK:
+        if code == OK:
             self._last_code = code
             out[...] = self._q_view
             return self._out.item(self._p)
@@ -238,14 +239,14 @@ class Lp2Controller:
         """Status of the last :meth:`step_into` (``None`` before the first)."""
         if self._last_code is None:
             return None
-        return st.OPTIMAL if self._last_code == K.OK else self._last.status
+        return OPTIMAL if self._last_code == OK else self._last.status
 
     @property
     def last_binding(self) -> str | None:
         """The limit that bound the last :meth:`step_into` (``None``: none, or no step yet)."""
         if self._last_code is None:
             return None
-        if self._last_code != K.OK:
+        if self._last_code != OK:
             return self._last.binding
         label = self._out.item(self._label_at)
         return None if label < 0 else self._labels[int(label)]
@@ -263,9 +264,8 @@ class Lp2Controller:
 
         Args:
             q0: Joint coordinates, (B, n).
-            targets: One commanded task value per row: (B, m) for the planar
-                arm; (B, 3) xyz, (B, 3, 3) rotations or (B, 4, 4) poses for the
-                3-D tasks.
+            targets: One commanded task value per row: (B, 3) xyz, (B, 3, 3)
+                rotations or (B, 4, 4) poses.
             q_prev: Joint coordinates one period earlier, (B, n); ``None``: at rest.
 
         Returns:
@@ -278,26 +278,23 @@ class Lp2Controller:
             ValueError: For arrays of the wrong shape, rows that disagree in
                 number, or values that are not finite (naming the row).
         """
-        n, m = self._n, self._m
-        Q0 = _rows("q0", q0, ((n,),))
+        n = self._n
+        Q0 = stacked_rows("q0", q0, ((n,),))
         B = Q0.shape[0]
-        Qp = Q0 if q_prev is None else _rows("q_prev", q_prev, ((n,),), B)
-        shapes = ((m,),) if self._kind == "planar" else ((3,), (3, 3), (4, 4))
-        T = _rows("targets", targets, shapes, B)
+        Qp = Q0 if q_prev is None else stacked_rows("q_prev", q_prev, ((n,),), B)
+        T = stacked_rows("targets", targets, TARGET_SHAPES, B)
         outs = np.empty((B, self._out.shape[0]))
         codes = np.empty(B, dtype=np.int64)
-        CK.step_batch_kernel(self._kind)(
-            self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads()
-        )
-        if (codes == CK.BAD_INPUT).any():  # _rows checked every row: a bug if it happens
-            raise ValueError(f"row {int(np.argmax(codes == CK.BAD_INPUT))}: rejected by the step")
-        q, dq = outs[:, :n].copy(), outs[:, n : 2 * n].copy()
-        lam, p = outs[:, 2 * n : 2 * n + m].copy(), outs[:, self._p].copy()
+        chain_step_batch(self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads())
+        if (codes == BAD_INPUT).any():  # every row was checked: a bug if it happens
+            raise ValueError(f"row {int(np.argmax(codes == BAD_INPUT))}: rejected by the step")
+        q, dq = outs[:, self._q].copy(), outs[:, self._dq].copy()
+        lam, p = outs[:, self._lam].copy(), outs[:, self._p].copy()
         labels = outs[:, self._label_at].astype(np.int64)
-        infeasible = codes == K.INFEASIBLE
+        infeasible = codes == KERNEL_INFEASIBLE
         q[infeasible], dq[infeasible], p[infeasible], lam[infeasible] = Q0[infeasible], 0, 0, np.nan
         fallback: dict[int, Result] = {}
-        for b in np.nonzero((codes != K.OK) & ~infeasible)[0].tolist():  # the HiGHS path
+        for b in np.nonzero((codes != OK) & ~infeasible)[0].tolist():  # the HiGHS path
             prev_b = None if q_prev is None else Qp[b]
             res = self._not_optimal(int(codes[b]), Q0[b], T[b], prev_b, perf_counter())
             fallback[b] = res
@@ -309,14 +306,23 @@ class Lp2Controller:
 
     def _not_optimal(self, code: int, q0: Any, target: Any, q_prev: Any, start: float) -> Result:
         """The Result of a kernel outcome other than OK: infeasible, bad input or the HiGHS path."""
-        if code == K.INFEASIBLE:
+        if code == KERNEL_INFEASIBLE:
             label = self._out.item(self._label_at)
             return Result.trusted(
-                q=np.array(q0, dtype=np.float64), dq=np.zeros(self._n), p=0.0, lam=None,
-                status=st.INFEASIBLE, binding=self._labels[int(label)], method="lp2",
-                solve_time=perf_counter() - start, residual=0.0, path="compiled",
-            )  # fmt: skip
-        if code == CK.BAD_INPUT:
+                {
+                    "q": np.array(q0, dtype=np.float64),
+                    "dq": np.zeros(self._n),
+                    "p": 0.0,
+                    "lam": None,
+                    "status": INFEASIBLE,
+                    "binding": self._labels[int(label)],
+                    "method": "lp2",
+                    "solve_time": perf_counter() - start,
+                    "residual": 0.0,
+                    "path": "compiled",
+                }
+            )
+        if code == BAD_INPUT:
             self._converted(q0, target, q_prev, check_finite=True)  # raises, naming the input
         return lp2(self.problem(q0, target, q_prev), path="highs")
 
@@ -324,10 +330,9 @@ class Lp2Controller:
         self, q0: Any, target: Any, q_prev: Any, check_finite: bool = False
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """``q0``, the target and ``q_prev`` as the kernel's arrays, or a ValueError naming them."""
-        q0 = _vector("q0", q0, self._n, check_finite)
-        prev = q0 if q_prev is None else _vector("q_prev", q_prev, self._n, check_finite)
-        goal = _target(target, self._m if self._kind == "planar" else None, check_finite)
-        return q0, goal, prev
+        q0 = joint_vector("q0", q0, self._n, check_finite)
+        prev = q0 if q_prev is None else joint_vector("q_prev", q_prev, self._n, check_finite)
+        return q0, target_array(target, check_finite), prev
 
     def _problem(
         self, J: FloatArray, dw: FloatArray, q0: FloatArray, q_prev: FloatArray | None
@@ -335,120 +340,21 @@ class Lp2Controller:
         return build_problem(J, dw, q0, self.limits, dt=self.dt, q_prev=q_prev, **self._weights)
 
     def problem(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Problem:
-        """The step's :class:`~lpik.problem.Problem`, built by the pure-numpy layers."""
+        """The step's :class:`~lpik.problem.Problem`, built by the pure-numpy layers.
+
+        The command is the one law of :mod:`lpik.control.command`: the
+        difference to the target, clamped to ``v_max dt`` and ``w_max dt``.
+        """
         q0 = np.asarray(q0, dtype=np.float64)
         for name, value in (("q0", q0), ("q_prev", q_prev), ("target", target)):
             if value is not None and not np.isfinite(np.asarray(value, dtype=np.float64)).all():
                 raise ValueError(f"{name}: contains NaN or inf")
         model = self.model
-        dw = np.asarray(model.difference(model.pose(q0), np.asarray(target, float)), float)
-        rows = self._rows
-        lin = float(np.linalg.norm(dw[rows < 3]))
-        ang = float(np.linalg.norm(dw[rows >= 3]))
-        scale = 1.0
-        if lin > self.v_max * self.dt:
-            scale = min(scale, self.v_max * self.dt / lin)
-        if ang > self.w_max * self.dt:
-            scale = min(scale, self.w_max * self.dt / ang)
+        dw = np.array(model.difference(model.pose(q0), task_value(model, target)), dtype=float)
+        clamp_command(dw, self._row_index, self.v_max, self.w_max, self.dt)
         return self._problem(
             model.jacobian(q0),
-            dw * scale,
+            dw,
             q0,
             None if q_prev is None else np.asarray(q_prev, float),
         )
-
-
-def _geometry(model: TaskModel) -> tuple[str, tuple, tuple[int, ...]]:
-    """Arrays of the compiled kinematics and the kept task rows, or a ValueError."""
-    if isinstance(model, PlanarArm):
-        rows = (0, 1) if model.task_dim == 2 else (0, 1, 3)
-        return "planar", (np.ascontiguousarray(model.link_lengths),), rows
-    chain = getattr(model, "kinematics", None)
-    row_names = getattr(model, "row_names", None)
-    joints = getattr(chain, "joints", None)
-    if joints is None or row_names is None:
-        raise ValueError(
-            f"model: the compiled path supports PlanarArm and tasks over a SerialChain, not "
-            f"{type(model).__name__}"
-        )
-    origins = np.ascontiguousarray(np.array([j.origin for j in joints], dtype=np.float64))
-    axes = np.ascontiguousarray(np.array([j.axis for j in joints], dtype=np.float64))
-    revolute = np.array([j.kind == "revolute" for j in joints])
-    tip = np.ascontiguousarray(chain.tip_offset @ chain.tool)
-    return "chain", (origins, axes, revolute, tip), tuple(ROW_INDEX[r] for r in row_names)
-
-
-def _vector(name: str, value: Any, n: int, check_finite: bool) -> FloatArray:
-    """A writable C-contiguous float64 copy of a joint vector of length ``n``."""
-    try:
-        v = np.array(value, dtype=np.float64, order="C")
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: must be {n} numbers, got {type(value).__name__}") from None
-    if v.shape != (n,):
-        raise ValueError(f"{name}: must have length {n}, got shape {v.shape}")
-    if check_finite and not np.isfinite(v).all():
-        raise ValueError(f"{name}: contains NaN or inf")
-    return v
-
-
-def _rows(
-    name: str, value: Any, shapes: tuple[tuple[int, ...], ...], count: int | None = None
-) -> FloatArray:
-    """A C-contiguous float64 stack (B, *shape) of finite rows, or a ValueError naming them.
-
-    ``shapes`` lists the accepted shapes of one row; ``count`` the required B.
-    """
-    try:
-        arr = np.ascontiguousarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: must be numbers, got {type(value).__name__}") from None
-    if arr.ndim == 0 or arr.shape[1:] not in shapes or arr.shape[0] == 0:
-        wanted = " or ".join(str(("B",) + s).replace("'", "") for s in shapes)
-        raise ValueError(f"{name}: must have shape {wanted} with B >= 1, got {arr.shape}")
-    if count is not None and arr.shape[0] != count:
-        raise ValueError(f"{name}: must have {count} rows (one per row of q0), got {arr.shape[0]}")
-    finite = np.isfinite(arr).reshape(arr.shape[0], -1).all(axis=1)
-    if not finite.all():
-        raise ValueError(f"{name}: row {int(np.argmin(finite))} contains NaN or inf")
-    return arr
-
-
-def _target(target: Any, m: int | None, check_finite: bool) -> FloatArray:
-    """A writable C-contiguous float64 copy of the target.
-
-    (m,) for the planar arm (``m`` given), else xyz (3,), a rotation (3, 3) or a pose (4, 4).
-    """
-    try:
-        t = np.array(target, dtype=np.float64, order="C")
-    except (TypeError, ValueError):
-        raise ValueError(f"target: must be numbers, got {type(target).__name__}") from None
-    if m is not None and t.shape != (m,):
-        raise ValueError(f"target: must have length {m}, got shape {t.shape}")
-    if m is None and t.shape not in ((3,), (3, 3), (4, 4)):
-        raise ValueError(
-            f"target: must be xyz (3,), a rotation (3, 3) or a pose (4, 4), got {t.shape}"
-        )
-    if check_finite and not np.isfinite(t).all():
-        raise ValueError("target: contains NaN or inf")
-    return t
-
-
-def _label_table(
-    joint_names: tuple[str, ...] | list[str], m: int, row_labels: tuple[str, ...]
-) -> tuple[str, ...]:
-    """Every binding label a step can report.
-
-    In the order of :func:`lpik.fast.chain_kernels.binding_label_index`.
-    """
-    kinds = ("end-stop", "velocity limit", "acceleration limit")
-    labels = []
-    for name in joint_names:
-        for side in ("lower", "upper"):
-            labels += [f"{name} {side} {kind}" for kind in kinds]
-    for k in range(m):
-        labels += [f"multiplier {k + 1} lower bound", f"multiplier {k + 1} upper bound"]
-    for label in row_labels:
-        labels += [label, label]
-    for name in joint_names:
-        labels += [f"{name} lower {low} / {name} upper {high}" for low in kinds for high in kinds]
-    return tuple(labels)

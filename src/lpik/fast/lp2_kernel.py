@@ -1,16 +1,17 @@
-"""Compiled kernels of LP2's exact ratio-test path (numba, cached on disk).
+"""LP2's exact ratio test, compiled (numba, cached on disk): eqs. 15-18.
 
-These are loop-level re-writes of :func:`lpik.methods.lp2.affine_solution`
-and :func:`lpik.methods.lp2.ratio_test` (eqs. 15-18): the same algorithm, the
-same conditioning test, the same tie-breaking, so that they return the same
-``p``, ``dq``, ``lam`` and binding limit as the pure-numpy path (tests hold
-them to 1e-12). They also re-check their own answer (bounds, multiplier
-bounds, rows and ``J dq = p dw``) with :mod:`lpik.result`'s tolerances.
+A loop-level re-write of :func:`lpik.methods.lp2.affine_solution` and
+:func:`lpik.methods.lp2.ratio_test`: the same algorithm, the same
+conditioning test, the same tie-breaking and the same tolerances (read from
+:mod:`lpik.tolerances`), so that it returns the same ``p``, ``dq``, ``lam``
+and binding limit as the pure-numpy path (tests hold them to 1e-12). It also
+re-checks its own answer (bounds, multiplier bounds, rows and
+``J dq = p dw``) as :func:`lpik.check.check_step` does.
 
 Binding limits are returned as codes: ``2 k`` is the lower side and
 ``2 k + 1`` the upper side of constraint ``k``, with constraints ordered as
 joints ``0..n-1``, multipliers ``n..n+m-1``, extra rows ``n+m..``; ``-1``
-means none.
+means none (:func:`lpik.labels.code_labels` spells them).
 """
 
 from __future__ import annotations
@@ -20,37 +21,26 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from lpik.fast.views import matrix
+from lpik.tolerances import (
+    EQUALITY_RTOL,
+    FEASIBILITY_TOL,
+    FULL_P,
+    INTERVAL_TOL,
+    MAX_SCHUR_CONDITION,
+    RATE_TOL,
+    SLACK_TOL,
+)
+
 #: Kernel outcome codes.
 OK = 0
 INFEASIBLE = 1
 SINGULAR = 2  # K singular or ill-conditioned: the caller solves the LP with HiGHS
 CHECK_FAILED = 3
 
-# Keep these equal to lpik.methods.lp2 / lpik.result (a test asserts it).
-MAX_SCHUR_CONDITION = 1e10
-SLACK_TOL = 1e-12
-RATE_TOL = 1e-14
-FULL_P = 1.0 - 1e-9
-FEASIBILITY_TOL = 1e-7
-EQUALITY_RTOL = 1e-7
-
 
 @njit(cache=True)
-def matrix(buf, offset, rows, cols):  # noqa: ANN001, ANN201
-    """The C-ordered (rows, cols) view of ``buf[offset:]`` (``buf`` contiguous, 1-D).
-
-    The same array as ``buf[offset : offset + rows * cols].reshape((rows, cols))``;
-    numba's ``reshape`` calls a C helper per view (about 17 ns), which adds up
-    over the few dozen views of a step, while a strided view is free.
-    """
-    size = buf.itemsize
-    return np.lib.stride_tricks.as_strided(
-        buf[offset:], shape=(rows, cols), strides=(cols * size, size)
-    )
-
-
-@njit(cache=True)
-def cholesky(A, L):  # noqa: ANN001, ANN201 - numba kernel
+def cholesky(A, L):
     """Lower Cholesky factor of the SPD matrix ``A`` into ``L``; False if not SPD."""
     n = A.shape[0]
     for j in range(n):
@@ -72,7 +62,7 @@ def cholesky(A, L):  # noqa: ANN001, ANN201 - numba kernel
 
 
 @njit(cache=True)
-def cho_solve(L, b, x):  # noqa: ANN001, ANN201
+def cho_solve(L, b, x):
     """Solve ``L L^T x = b`` (vectors)."""
     n = L.shape[0]
     for i in range(n):
@@ -88,7 +78,7 @@ def cho_solve(L, b, x):  # noqa: ANN001, ANN201
 
 
 @njit(cache=True)
-def cho_solve2(L, b, c, x, y):  # noqa: ANN001, ANN201
+def cho_solve2(L, b, c, x, y):
     """Solve ``L L^T x = b`` and ``L L^T y = c`` in one sweep (two independent chains)."""
     n = L.shape[0]
     for i in range(n):
@@ -107,23 +97,31 @@ def cho_solve2(L, b, c, x, y):  # noqa: ANN001, ANN201
         x[i], y[i] = s / d, t / d
 
 
-@njit(cache=True)
-def workspace_size(n, m, r):  # noqa: ANN001, ANN201
-    """Length of the float workspace :func:`lp2_core` needs."""
+def workspace_size(n: int, m: int, r: int) -> int:
+    """Length of the float workspace :func:`lp2_core` needs (``r`` extra rows)."""
     return n * m + n * n + 5 * n + 2 * m * m + 4 * m + 4 * (n + m + r)
 
 
+#: :func:`workspace_size` for the kernels.
+_workspace_size = njit(cache=True)(workspace_size)
+
+
 @njit(cache=True)
-def lp2_kernel(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam):  # noqa: ANN001, ANN201
+def lp2_kernel(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam):
     """:func:`lp2_core` with its own workspace."""
     m, n = J.shape
-    ws = np.empty(workspace_size(n, m, G.shape[0]))
+    ws = np.empty(_workspace_size(n, m, G.shape[0]))
     return lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam, ws)
 
 
 @njit(cache=True)
-def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam, ws):  # noqa: ANN001, ANN201, PLR0912, PLR0915
-    """LP2 by the ratio test. Writes ``dq`` and ``lam``; returns ``(code, p, binding)``.
+def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam, ws):
+    """LP2 by the ratio test (eqs. 15-18). Writes ``dq`` and ``lam``.
+
+    The equality rows of eq. 18 give ``dq = a_q + p b_q`` and
+    ``lam = a_l + p b_l`` through the Schur complement ``S = J H^-1 J^T``;
+    every bound then limits ``p`` to an interval, and the largest ``p`` in
+    their intersection with [0, 1] is the LP's optimum.
 
     Args:
         J: Jacobian, (m, n).
@@ -139,8 +137,13 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
         g: Their right-hand side in ``dq``: ``G dq <= g``, (r,).
         dq: Output step, (n,).
         lam: Output multipliers, (m,).
-        ws: Float workspace of length :func:`workspace_size` (no allocation inside);
-            on return ``ws[0]`` holds the residual ``max |J dq - p dw|``.
+        ws: Float workspace of length :func:`workspace_size` (no allocation inside).
+
+    Returns:
+        ``(code, p, binding, residual)``: the outcome (:data:`OK`,
+        :data:`INFEASIBLE`, :data:`SINGULAR` or :data:`CHECK_FAILED`), the
+        affine dexterity, the binding code (``-1``: none) and
+        ``max |J dq - p dw|`` (0 unless the step was computed).
     """
     m, n = J.shape
     r = G.shape[0]
@@ -175,13 +178,13 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
     if h_diag:
         for i in range(n):
             if not H[i, i] > 0.0:
-                return SINGULAR, 0.0, -1
+                return SINGULAR, 0.0, -1, 0.0
             for k in range(m):
                 HinvJt[i, k] = J[k, i] / H[i, i]
             Hinvc[i] = c[i] / H[i, i]
     else:
         if not cholesky(H, LH):
-            return SINGULAR, 0.0, -1
+            return SINGULAR, 0.0, -1, 0.0
         for k in range(m):
             for i in range(n):
                 col[i] = J[k, i]
@@ -197,13 +200,13 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
             S[a, b] = s
             S[b, a] = s
     if not cholesky(S, LS):
-        return SINGULAR, 0.0, -1
+        return SINGULAR, 0.0, -1, 0.0
     dmax, dmin = 0.0, np.inf
     for a in range(m):
         dmax = max(dmax, LS[a, a])
         dmin = min(dmin, LS[a, a])
     if (dmax / dmin) ** 2 > MAX_SCHUR_CONDITION:
-        return SINGULAR, 0.0, -1
+        return SINGULAR, 0.0, -1, 0.0
     for a in range(m):
         s = 0.0
         for i in range(n):
@@ -265,9 +268,9 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
             if stuck_lo < 0 and s_lo < 0:
                 stuck_lo = 2 * k
     if stuck_hi >= 0:
-        return INFEASIBLE, 0.0, stuck_hi
+        return INFEASIBLE, 0.0, stuck_hi, 0.0
     if stuck_lo >= 0:
-        return INFEASIBLE, 0.0, stuck_lo
+        return INFEASIBLE, 0.0, stuck_lo, 0.0
     if up_hi <= up_lo:
         p_up, up_code = up_hi, 2 * i_up_hi + 1
     else:
@@ -278,8 +281,8 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
         p_down, down_code = low_lo, 2 * i_low_lo
     p_hi = min(1.0, p_up)
     p_lo = max(0.0, p_down)
-    if p_hi < p_lo - 1e-12:
-        return INFEASIBLE, 0.0, down_code if p_lo > 1.0 else up_code
+    if p_hi < p_lo - INTERVAL_TOL:
+        return INFEASIBLE, 0.0, down_code if p_lo > 1.0 else up_code, 0.0
     p = max(p_hi, p_lo)
     binding = up_code if p < FULL_P else -1
     p = min(1.0, max(0.0, p))
@@ -310,15 +313,14 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
         wmax = max(wmax, abs(dw[a]))
     for i in range(n):
         qmax = max(qmax, abs(dq[i]))
-    ws[0] = res  # the caller may read the residual max |J dq - p dw| here
     if not (worst <= FEASIBILITY_TOL and res <= EQUALITY_RTOL * max(1.0, jmax * qmax + wmax)):
-        return CHECK_FAILED, p, binding
-    return OK, p, binding
+        return CHECK_FAILED, p, binding, res
+    return OK, p, binding, res
 
 
 #: :func:`lp2_core` inlined at numba's IR level, for the batch loop: a call with 14
-#: array arguments spends about a fifth of a solve on reference counting, which
-#: inlining removes (about 1.2x more batch steps per second, for ~8 s more compile).
+#: array arguments spends a sizeable part of a solve on reference counting, which
+#: inlining removes (at the price of a longer compile).
 _lp2_core_inlined = njit(inline="always")(lp2_core.py_func)
 
 
@@ -336,7 +338,7 @@ def lp2_batch_kernel(
     G,
     g,
     dq,
-    lam,  # noqa: ANN001, ANN201
+    lam,
     codes,
     ps,
     bindings,
@@ -349,11 +351,11 @@ def lp2_batch_kernel(
     """
     B, m, n = J.shape
     chunks = max(1, min(B, chunks))
-    size = workspace_size(n, m, G.shape[1])
+    size = _workspace_size(n, m, G.shape[1])
     for chunk in prange(chunks):
         ws = np.empty(size)
         for b in range(chunk * B // chunks, (chunk + 1) * B // chunks):
-            code, p, binding = _lp2_core_inlined(
+            code, p, binding, _ = _lp2_core_inlined(
                 J[b],
                 dw[b],
                 H[b],

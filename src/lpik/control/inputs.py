@@ -1,0 +1,109 @@
+"""What :class:`~lpik.control.controller.Lp2Controller` accepts, checked and converted.
+
+The compiled step takes C-contiguous, writable float64 arrays only; these
+helpers turn anything else into them, or raise a ``ValueError`` that names
+the argument (and the row of a batch) that is wrong.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from lpik.robots.base import TaskModel
+from lpik.robots.chain import SerialChain
+from lpik.robots.tasks import OrientationTask, PositionTask
+from lpik.types import FloatArray
+
+#: The shapes a target may have: xyz, a rotation, a pose.
+TARGET_SHAPES = ((3,), (3, 3), (4, 4))
+
+
+def chain_arrays(model: TaskModel) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The model's chain as the compiled kinematics' arrays: origins, axes, revolute, tip.
+
+    See :meth:`lpik.robots.chain.SerialChain.arrays`; ``revolute`` as floats.
+
+    Raises:
+        ValueError: For a model that is not a task over a :class:`~lpik.robots.chain.SerialChain`.
+    """
+    chain = getattr(model, "kinematics", None)
+    if not isinstance(chain, SerialChain) or getattr(model, "row_names", None) is None:
+        raise ValueError(
+            "model: the compiled path supports tasks over a SerialChain (planar_arm, "
+            f"load_robot, load_urdf), not {type(model).__name__}"
+        )
+    origins, axes, revolute, tip = chain.arrays()
+    return origins, axes, revolute.astype(np.float64), tip
+
+
+def joint_vector(name: str, value: Any, n: int, check_finite: bool) -> FloatArray:
+    """A writable C-contiguous float64 copy of a joint vector of length ``n``."""
+    try:
+        v = np.array(value, dtype=np.float64, order="C")
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be {n} numbers, got {type(value).__name__}") from None
+    if v.shape != (n,):
+        raise ValueError(f"{name}: must have length {n}, got shape {v.shape}")
+    if check_finite and not np.isfinite(v).all():
+        raise ValueError(f"{name}: contains NaN or inf")
+    return v
+
+
+def target_array(target: Any, check_finite: bool) -> FloatArray:
+    """A writable C-contiguous float64 copy of a target: xyz (3,), a rotation (3, 3) or a pose."""
+    try:
+        t = np.array(target, dtype=np.float64, order="C")
+    except (TypeError, ValueError):
+        raise ValueError(f"target: must be numbers, got {type(target).__name__}") from None
+    if t.shape not in TARGET_SHAPES:
+        raise ValueError(
+            f"target: must be xyz (3,), a rotation (3, 3) or a pose (4, 4), got {t.shape}"
+        )
+    if check_finite and not np.isfinite(t).all():
+        raise ValueError("target: contains NaN or inf")
+    return t
+
+
+def task_value(model: TaskModel, target: Any) -> FloatArray:
+    """The target as the model's task value (what ``model.pose`` returns), as the step reads it.
+
+    A missing part is the identity: an xyz target has no rotation, a rotation
+    target sits at the origin.
+    """
+    t = target_array(target, check_finite=False)
+    goal = np.eye(4)
+    if t.shape == (3,):
+        goal[:3, 3] = t
+    elif t.shape == (3, 3):
+        goal[:3, :3] = t
+    else:
+        goal = t
+    if isinstance(model, PositionTask):
+        return goal[:3, 3]
+    if isinstance(model, OrientationTask):
+        return goal[:3, :3]
+    return goal
+
+
+def stacked_rows(
+    name: str, value: Any, shapes: tuple[tuple[int, ...], ...], count: int | None = None
+) -> FloatArray:
+    """A C-contiguous float64 stack (B, *shape) of finite rows, or a ValueError naming them.
+
+    ``shapes`` lists the accepted shapes of one row; ``count`` the required B.
+    """
+    try:
+        arr = np.ascontiguousarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be numbers, got {type(value).__name__}") from None
+    if arr.ndim == 0 or arr.shape[1:] not in shapes or arr.shape[0] == 0:
+        wanted = " or ".join(str(("B",) + s).replace("'", "") for s in shapes)
+        raise ValueError(f"{name}: must have shape {wanted} with B >= 1, got {arr.shape}")
+    if count is not None and arr.shape[0] != count:
+        raise ValueError(f"{name}: must have {count} rows (one per row of q0), got {arr.shape[0]}")
+    finite = np.isfinite(arr).reshape(arr.shape[0], -1).all(axis=1)
+    if not finite.all():
+        raise ValueError(f"{name}: row {int(np.argmin(finite))} contains NaN or inf")
+    return arr

@@ -1,0 +1,254 @@
+"""One fused LP2 control step, compiled: kinematics, command, limits and LP2 in one call.
+
+:func:`chain_step` does for a task over a :class:`~lpik.robots.chain.SerialChain`
+what :func:`lpik.limits.build_problem` and :func:`lpik.methods.lp2.lp2` do
+through the numpy layers: the pose and Jacobian at ``q0``, the commanded
+displacement ``dw`` of eq. 2 (clamped by :func:`lpik.control.command.clamp_command`,
+compiled here), the bounds on ``dq`` from end-stops, velocity and acceleration
+limits (eqs. 13-14), the criterion's ``c`` (eq. 3, sec. 3.1) and LP2's ratio
+test (eqs. 15-18). Everything it reads and writes lives in one state buffer
+(:mod:`lpik.fast.layout`).
+
+:func:`step_kernel` compiles the step on first use (or loads it from the disk
+cache) for its explicit signatures only: a call with other types raises
+``TypeError`` instead of compiling a new specialisation in the middle of a
+control loop. :func:`chain_step_batch` runs it over a batch of independent
+states, in parallel.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from numba import njit, prange
+
+from lpik.control.command import clamp_command as _clamp_command
+from lpik.fast import layout as L
+from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
+from lpik.fast.lp2_kernel import INFEASIBLE, lp2_core
+
+#: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
+BAD_INPUT = 4
+
+#: The one command law (:func:`lpik.control.command.clamp_command`), compiled.
+clamp_command = njit(cache=True)(_clamp_command)
+
+
+@njit(cache=True)
+def step_bounds(limits, dt, q0, q_prev, lower, upper):
+    """Bounds on ``dq`` from end-stops, velocity and acceleration limits (eqs. 13-14).
+
+    ``limits`` is (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max (inf
+    when none); the last step is ``q0 - q_prev`` (``q_prev = q0``: at rest).
+    Writes ``lower`` and ``upper`` (n,); returns the first joint whose lower
+    bound lies above its upper one, or -1.
+    """
+    n = q0.shape[0]
+    for i in range(n):
+        lo = max(limits[0, i] - q0[i], limits[2, i] * dt)
+        hi = min(limits[1, i] - q0[i], limits[3, i] * dt)
+        last = q0[i] - q_prev[i]
+        lower[i] = max(lo, last + limits[4, i] * dt * dt)
+        upper[i] = min(hi, last + limits[5, i] * dt * dt)
+    for i in range(n):
+        if lower[i] > upper[i]:
+            return i
+    return -1
+
+
+@njit(cache=True)
+def criterion_and_rows(f_ref, Lam, G, h, q0, c, g):
+    """``c = f + Lambda (q_ref - q0)`` (eq. 3, sec. 3.1) and the rows' ``g = h - G q0``.
+
+    A NaN in ``q_ref`` (``f_ref[1]``) means ``q_ref = q0`` for that joint.
+    """
+    n, r = q0.shape[0], G.shape[0]
+    for i in range(n):
+        s = f_ref[0, i]
+        for k in range(n):
+            ref = f_ref[1, k]
+            if not math.isnan(ref):
+                s += Lam[i, k] * (ref - q0[k])
+        c[i] = s
+    for j in range(r):
+        s = h[j]
+        for i in range(n):
+            s -= G[j, i] * q0[i]
+        g[j] = s
+
+
+@njit(cache=True)
+def _bound_kind(k, upper, q0, q_prev, limits, dt):
+    """What sets joint ``k``'s bound on ``dq`` on one side: 0 end-stop, 1 velocity, 2 acceleration.
+
+    The tightest, named as :meth:`lpik.problem.Problem.step_bounds` names it
+    (kinds in the order of :data:`lpik.labels.BOUND_KINDS`).
+    """
+    last = q0[k] - q_prev[k]
+    if upper:
+        stop, vel, acc = limits[1, k] - q0[k], limits[3, k] * dt, last + limits[5, k] * dt * dt
+        kind = 2 if acc < vel else 1
+        return 0 if stop <= min(vel, acc) else kind
+    stop, vel, acc = limits[0, k] - q0[k], limits[2, k] * dt, last + limits[4, k] * dt * dt
+    kind = 2 if acc > vel else 1
+    return 0 if stop >= max(vel, acc) else kind
+
+
+@njit(cache=True)
+def binding_label_index(code, q0, q_prev, limits, dt, constraints):
+    """Where the binding limit ``code`` sits in :func:`lpik.labels.step_label_table`.
+
+    ``code >= 0`` is the LP2 kernel's binding code (``2 k + side``) and
+    ``code <= -2`` marks joint ``-2 - code`` whose lower step bound lies above
+    its upper one. ``constraints`` is the number of multipliers and rows.
+    """
+    n = q0.shape[0]
+    if code <= -2:
+        k = -2 - code
+        lower = _bound_kind(k, False, q0, q_prev, limits, dt)
+        upper = _bound_kind(k, True, q0, q_prev, limits, dt)
+        return 6 * n + 2 * constraints + 9 * k + 3 * lower + upper
+    if code >= 2 * n:
+        return 4 * n + code
+    return 3 * code + _bound_kind(code // 2, code % 2 == 1, q0, q_prev, limits, dt)
+
+
+@njit(cache=True)
+def limit_and_solve(state, q0, q_prev, J, dw):
+    """Bounds, criterion and rows, then LP2; returns the LP2 kernel's outcome.
+
+    Fills the out blocks ``q``, ``dq``, ``lam``, ``p``, ``label`` and
+    ``residual`` of ``state``; ``J`` and ``dw`` are the step's task rows.
+    """
+    n, m, r = q0.shape[0], J.shape[0], int(state[L.R])
+    dt = state[L.DT]
+    limits = L.matrix_at(state, L.LIMITS, 6, n)
+    lower, upper = L.vector(state, L.LOWER), L.vector(state, L.UPPER)
+    dq, lam = L.vector(state, L.DQ), L.vector(state, L.LAM)
+    crossed = step_bounds(limits, dt, q0, q_prev, lower, upper)
+    if crossed >= 0:  # no step is feasible (as lp2's crossed_joint)
+        code, p, binding, residual = INFEASIBLE, 0.0, -2 - crossed, 0.0
+    else:
+        G = L.matrix_at(state, L.ROWS_G, r, n)
+        c, g = L.vector(state, L.C), L.vector(state, L.G_RHS)
+        criterion_and_rows(L.matrix_at(state, L.F_REF, 2, n), L.matrix_at(state, L.LAMBDA, n, n),
+                           G, L.vector(state, L.ROWS_H), q0, c, g)  # fmt: skip
+        lam_bounds = L.matrix_at(state, L.LAM_BOUNDS, 2, m)
+        code, p, binding, residual = lp2_core(
+            J, dw, L.matrix_at(state, L.CRITERION, n, n), state[L.H_DIAG] != 0.0, c, lower,
+            upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam, L.vector(state, L.LP2_WS),
+        )  # fmt: skip
+    q = L.vector(state, L.Q)
+    for i in range(n):
+        q[i] = q0[i] + dq[i]
+    state[int(state[L.P])] = p
+    label = -1 if binding == -1 else binding_label_index(binding, q0, q_prev, limits, dt, m + r)
+    state[int(state[L.LABEL])] = label
+    state[int(state[L.RESIDUAL])] = residual
+    return code
+
+
+@njit(cache=True)
+def _finite_joints(q0, q_prev, n):
+    """True when ``q0`` and ``q_prev`` both have ``n`` finite entries."""
+    if q0.shape[0] != n or q_prev.shape[0] != n:
+        return False
+    for i in range(n):
+        if not (math.isfinite(q0[i]) and math.isfinite(q_prev[i])):
+            return False
+    return True
+
+
+def chain_step(state, q0, q_prev, target):
+    """One fused LP2 control step of a serial chain: FK, Jacobian, command, limits, LP2.
+
+    Call it compiled, through :func:`step_kernel`: for C-contiguous float64 arrays
+    only; other arguments raise a ``TypeError`` (the caller converts them), so a
+    step never compiles anew.
+
+    Args:
+        state: The controller's buffer (:func:`lpik.fast.layout.pack`); the step
+            writes its out and scratch blocks.
+        q0: Joint coordinates now, (n,).
+        q_prev: Joint coordinates one period ago, (n,); ``q0`` for a robot at rest.
+        target: Commanded xyz (3,), rotation (3, 3) or pose (4, 4).
+
+    Returns:
+        The LP2 kernel's outcome code (:mod:`lpik.fast.lp2_kernel`), or :data:`BAD_INPUT`.
+    """
+    n, m = int(state[L.N]), int(state[L.M])
+    goal = L.matrix_at(state, L.GOAL, 4, 4)
+    if not (_finite_joints(q0, q_prev, n) and target_pose(target, goal)):
+        return BAD_INPUT
+    T = L.matrix_at(state, L.FRAME, 4, 4)
+    J6 = L.matrix_at(state, L.JACOBIAN6, 6, n)
+    chain_fk_jacobian(
+        L.tensor_at(state, L.ORIGINS, n, 4, 4), L.matrix_at(state, L.AXES, n, 3),
+        L.vector(state, L.REVOLUTE), L.matrix_at(state, L.TIP, 4, 4), q0, T, J6,
+        L.tensor_at(state, L.JOINTS, 2, n, 3),
+    )  # fmt: skip
+    e6 = L.vector(state, L.ERROR6)
+    pose_error(T, goal, e6, L.vector(state, L.LOG_SCRATCH))
+    rows = L.vector(state, L.ROW_INDEX)
+    J = L.matrix_at(state, L.JACOBIAN, m, n)
+    dw = L.vector(state, L.DW)
+    for k in range(m):
+        row = int(rows[k])
+        dw[k] = e6[row]
+        for i in range(n):
+            J[k, i] = J6[row, i]
+    clamp_command(dw, rows, state[L.V_MAX], state[L.W_MAX], state[L.DT])
+    position = L.vector(state, L.POSITION)
+    for a in range(3):
+        position[a] = T[a, 3]
+    return limit_and_solve(state, q0, q_prev, J, dw)
+
+
+#: The only argument types :func:`step_kernel` compiles :func:`chain_step` for.
+STEP_SIGNATURES = (
+    "int64(float64[::1], float64[::1], float64[::1], float64[::1])",
+    "int64(float64[::1], float64[::1], float64[::1], float64[:, ::1])",
+)
+_compiled_step: list[Any] = []
+
+
+def step_kernel() -> Any:
+    """The compiled :func:`chain_step` (a numba dispatcher).
+
+    Compiled on first use (or loaded from numba's disk cache), for
+    :data:`STEP_SIGNATURES` only, so that a call with other types raises
+    ``TypeError`` instead of compiling in the middle of a loop.
+    """
+    if not _compiled_step:
+        _compiled_step.append(njit(list(STEP_SIGNATURES), cache=True)(chain_step))
+    return _compiled_step[0]
+
+
+def loaded_step_kernel() -> Any:
+    """The compiled step if :func:`step_kernel` has readied it in this process, else None."""
+    return _compiled_step[0] if _compiled_step else None
+
+
+# The same step without explicit signatures, for the batch loop below. It compiles
+# for the batch's argument types, which are those of STEP_SIGNATURES, so it shares
+# their disk-cache entries with step_kernel's dispatcher.
+_chain_step_any = njit(cache=True)(chain_step)
+
+
+@njit(cache=True, parallel=True)
+def chain_step_batch(state, q0, q_prev, targets, outs, codes, chunks):
+    """:func:`chain_step` for every row of the batch, in parallel.
+
+    ``q0`` and ``q_prev`` are (B, n), ``targets`` (B, 3), (B, 3, 3) or (B, 4, 4).
+    The batch is cut into ``chunks`` parts; each works on its own copy of
+    ``state``. Row ``b`` of ``outs`` (B, size of the out blocks) receives the
+    step's out blocks and ``codes[b]`` its outcome.
+    """
+    B = q0.shape[0]
+    chunks = max(1, min(B, chunks))
+    for chunk in prange(chunks):
+        local = state.copy()
+        for b in range(chunk * B // chunks, (chunk + 1) * B // chunks):
+            codes[b] = _chain_step_any(local, q0[b], q_prev[b], targets[b])
+            L.copy_out(local, outs, b)

@@ -1,0 +1,45 @@
+"""One command law, one step: ``simulate`` and ``Lp2Controller`` follow the same joint path."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lpik.paper.scenarios import PLANAR, Setup, get_scenario
+
+pytest.importorskip("numba")
+
+
+def controller_run(setup: Setup) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """The scenario driven by the compiled controller, the way a control loop calls it."""
+    controller = setup.controller()
+    q, q_prev = setup.q0.copy(), None
+    path, p, binding = [], [], []
+    for _ in range(setup.steps):
+        path.append(q)
+        result = controller.step(q, setup.target, q_prev)
+        p.append(result.p if result.moved else 0.0)
+        binding.append(result.binding or "")
+        q_prev, q = q, result.q
+    return np.array(path), np.array(p), binding
+
+
+CASES = [
+    ("pull-in", PLANAR),
+    ("pull-in", "panda"),
+    ("pull-in", "iiwa14"),
+    ("edge-singularity", PLANAR),
+]
+
+
+@pytest.mark.parametrize(("scenario", "robot"), CASES)
+def test_simulate_and_the_controller_give_the_same_joint_path(scenario: str, robot: str) -> None:
+    setup = get_scenario(scenario).setup(robot)
+    if scenario == "edge-singularity":  # stop before the chattering stretch, where
+        setup = type(setup)(**{**vars(setup), "steps": 300})  # rounding decides the path
+    log = setup.run("lp2")
+    path, p, binding = controller_run(setup)
+    np.testing.assert_allclose(path, log.q, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(p, log.p, rtol=0, atol=1e-9)
+    assert binding == list(log.binding)
+    assert (log.p < 1).any() and (log.p == 1).any()  # the run meets a limit
