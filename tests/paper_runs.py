@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import functools
 
-from lpik.reproduce import choose_lambda_bound
-from lpik.scenarios import get_scenario
-from lpik.simulate import SimulationLog
+from lpik.control.simulate import SimulationLog
+from lpik.paper.reproduce import choose_lambda_bound
+from lpik.paper.scenarios import get_scenario
 
 
 @functools.cache

@@ -1,4 +1,4 @@
-"""``lpik solve``: the JSON contract of DESIGN.md, in-process and as a real command."""
+"""``lpik solve``: its JSON contract, in-process and as a real command."""
 
 from __future__ import annotations
 
@@ -68,7 +68,7 @@ BAD_INPUTS = [
 ]
 
 
-#: The cases of DESIGN.md's error contract, also run through the installed command.
+#: The cases of the error contract, also run through the installed command.
 COMMAND_CASES = (
     "missing-key",
     "wrong-shape",
@@ -149,7 +149,7 @@ def test_null_inside_q_min_means_unbounded(tmp_path, capsys) -> None:
     assert assert_result_json(out, 4, 2)["status"] == "optimal"
 
 
-@pytest.mark.parametrize("method", list(METHODS))
+@pytest.mark.parametrize("method", [m for m, spec in METHODS.items() if not spec.needs_model])
 def test_every_method_can_be_asked_for(tmp_path, capsys, method: str) -> None:
     assert main(arguments(tmp_path, doc(), ["--method", method, "--indent", "1"])) == 0
     out, _ = capsys.readouterr()

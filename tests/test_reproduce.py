@@ -7,10 +7,17 @@ import sys
 import numpy as np
 import pytest
 
-from lpik import plots
 from lpik.cli.main import main
 from lpik.exceptions import MissingBackendError
-from lpik.reproduce import FIGURES, SWEEP_BOUNDS, choose_lambda_bound, reproduce, round_up_1sig
+from lpik.paper import figures as plots
+from lpik.paper import style
+from lpik.paper.reproduce import (
+    FIGURES,
+    SWEEP_BOUNDS,
+    choose_lambda_bound,
+    reproduce,
+    round_up_1sig,
+)
 from paper_runs import edge_unbounded, lp2_pull_in
 
 RUNS = (
@@ -134,6 +141,6 @@ def test_reproduce_bad_out_dir(tmp_path, capsys) -> None:
 def test_missing_matplotlib_names_the_extra(monkeypatch) -> None:
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     with pytest.raises(MissingBackendError, match=r"lpik\[plot\]"):
-        plots.require_backend()
+        style.require_backend()
     with pytest.raises(MissingBackendError):
         plots.xy_figure(lp2_pull_in(), None, "unused.png", title="x")

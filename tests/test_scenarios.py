@@ -1,4 +1,4 @@
-"""The paper's two scenarios: the data of DESIGN.md, and what their computed runs show (sec. 4).
+"""The paper's two scenarios: their data (sec. 4), and what their computed runs show (sec. 4).
 
 The facts asserted here are the paper's claims, checked on logs the code
 computes (tests/paper_runs.py): nothing is constructed to match them.
@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lpik.scenarios import SCENARIOS, get_scenario, scenario_names
-from lpik.simulate import FULL_COMMAND_P
+from lpik.paper.scenarios import SCENARIOS, ArmRun, get_scenario, scenario_names
+from lpik.tolerances import FULL_P as FULL_COMMAND_P
 from paper_runs import (
     chosen_bound,
     edge_bounded,
@@ -39,13 +39,13 @@ def test_names_and_unknown_name() -> None:
 
 
 @pytest.mark.parametrize("name", list(SCENARIOS))
-def test_shared_data_of_design_md(name: str) -> None:
-    s = get_scenario(name)
-    arm = s.model()
-    assert s.link_lengths == (1.0, 1.0, 1.0, 1.0)
+def test_shared_data_of_the_paper(name: str) -> None:
+    s = get_scenario(name).setup()
+    arm = s.model
+    assert get_scenario(name).paper.link_lengths == (1.0, 1.0, 1.0, 1.0)
     np.testing.assert_allclose(s.q0, np.array([60, -30, -30, -30]) * DEG)
     np.testing.assert_allclose(arm.position(s.q0), [3.2321, 0.8660], atol=1e-4)
-    np.testing.assert_allclose(s.qd_max, 1.0)
+    np.testing.assert_allclose(arm.qd_max, 1.0)
     assert s.dt == 0.01 and s.v_max == 0.5
     np.testing.assert_allclose(s.weights["M"], 1.0)
     np.testing.assert_allclose(s.weights["f"], 0.0)
@@ -54,17 +54,26 @@ def test_shared_data_of_design_md(name: str) -> None:
 
 def test_pull_in_data() -> None:
     s = get_scenario("pull-in")
-    assert s.target == (0.2, 0.8660) and s.steps == 400
-    np.testing.assert_allclose(s.q_max, np.array([95, 180, 180, 180]) * DEG)
-    np.testing.assert_allclose(s.q_min, -180 * DEG)
+    assert s.paper.target == (0.2, 0.8660) and s.steps == 400
+    np.testing.assert_array_equal(s.setup().target, [0.2, 0.8660, 0.0])
+    np.testing.assert_allclose(s.paper.q_max, np.array([95, 180, 180, 180]) * DEG)
+    np.testing.assert_allclose(s.paper.q_min, -180 * DEG)
+    np.testing.assert_array_equal(s.setup().model.q_max, s.paper.q_max)
 
 
 def test_edge_singularity_data() -> None:
     s = get_scenario("edge-singularity")
-    assert s.target == (4.5, 0.3) and s.steps == 600
-    np.testing.assert_allclose(s.q_max, 180 * DEG)
-    np.testing.assert_allclose(s.q_min, -180 * DEG)
-    assert np.hypot(*s.target) > s.model().reach  # beyond the reach: the arm must stretch
+    assert s.paper.target == (4.5, 0.3) and s.steps == 600
+    np.testing.assert_allclose(s.paper.q_max, 180 * DEG)
+    np.testing.assert_allclose(s.paper.q_min, -180 * DEG)
+    assert np.hypot(*s.paper.target) > s.paper.reach == 4.0  # beyond the reach: it must stretch
+
+
+def test_unknown_robot_and_bad_arm_run() -> None:
+    with pytest.raises(ValueError, match="unknown robot 'r2d2'; available: planar, panda"):
+        get_scenario("pull-in").setup("r2d2")
+    with pytest.raises(ValueError, match="exactly one of reach, through_axis"):
+        ArmRun("pose")
 
 
 def test_overrides_and_lambda_bound() -> None:

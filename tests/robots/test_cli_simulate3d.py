@@ -38,8 +38,8 @@ def test_simulate_3d_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--robot", "nope"], "unknown robot 'nope'; available: panda, ur5e, iiwa14"),
-        (["--robot", "panda", "--animate", "x.gif"], "--animate: not available for 3-D runs"),
+        (["--robot", "nope"], "unknown robot 'nope'; available: planar, panda, ur5e, iiwa14"),
+        (["--robot", "panda", "--animate", "x.gif"], "--animate: draws the planar arm only"),
         (["--robot", "panda", "--method", "foo"], "--method: unknown method 'foo'"),
     ],
 )

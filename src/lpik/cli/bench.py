@@ -49,8 +49,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark and print it."""
-    from lpik.bench.runner import run_benchmark
-    from lpik.bench.table import text_report
+    from lpik_bench.runner import run_benchmark
+    from lpik_bench.table import text_report
 
     peers = None
     if args.peers is not None:

@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
-from lpik import __version__
+from lpik.version import __version__
 
 #: Subcommand modules under ``lpik.cli``, in the order ``--help`` lists them.
 SUBCOMMANDS = ("solve", "simulate", "reproduce", "robots", "bench", "compile")
@@ -70,7 +70,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("lpik: interrupted", file=sys.stderr)
         return 130
-    except Exception as exc:  # noqa: BLE001 - the contract is: never a traceback
+    except Exception as exc:  # the contract is: never a traceback
         if os.environ.get("LPIK_DEBUG"):
             raise
         print(

@@ -31,8 +31,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 def run(args: argparse.Namespace) -> int:
     """Run everything, write the files, and list them on stdout."""
-    from lpik.plots import require_backend
-    from lpik.reproduce import reproduce
+    from lpik.paper.reproduce import reproduce
+    from lpik.paper.style import require_backend
 
     require_backend()
     start = time.perf_counter()

@@ -1,4 +1,8 @@
-"""``lpik simulate SCENARIO --method METHOD --out RUN.csv``: one closed-loop run (DESIGN.md)."""
+"""``lpik simulate SCENARIO [--robot NAME] --method METHOD --out RUN.csv``: one closed-loop run.
+
+One path for every robot: :meth:`lpik.paper.scenarios.Scenario.setup` gives the
+run, :mod:`lpik.paper.run_figures` draws it.
+"""
 
 from __future__ import annotations
 
@@ -6,30 +10,33 @@ import argparse
 import math
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-#: Methods whose multipliers ``--lambda-bound`` bounds (sec. 3.2).
-BOUNDED_MULTIPLIER_METHODS = ("lp2",)
+if TYPE_CHECKING:
+    from lpik.control.log import SimulationLog
+    from lpik.paper.scenarios import Setup
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Register ``lpik simulate`` (light: the methods are imported only when it runs)."""
-    from lpik.scenarios import SCENARIOS
+    from lpik.paper.scenarios import PLANAR, SCENARIOS
 
     parser = sub.add_parser(
         "simulate",
         help="run a scenario in closed loop and write the log as CSV",
-        description="Run one of the paper's scenarios in closed loop. The CSV has one row per "
-        "step: t, q1..qn [rad], x, y [m], p, lam1..lamm (the state before the step, the "
-        "step's dexterity and multipliers), then status, binding, path, clamped, "
-        "solve_time_us. Scenarios: "
+        description="Run one of the paper's scenarios in closed loop, on the paper's planar arm "
+        "or a bundled 3-D arm. The CSV has one row per step: t, q1..qn [rad], x, y[, z] [m], "
+        "p, lam1..lamm (the state before the step, the step's dexterity and multipliers), "
+        "then status, binding, path, clamped, solve_time_us. Scenarios: "
         + "; ".join(f"{s.name}: {s.description}" for s in SCENARIOS.values())
         + ".",
     )
     parser.add_argument("scenario", metavar="SCENARIO", help=f"one of {', '.join(SCENARIOS)}")
-    parser.add_argument(  # 3-D scenarios: lpik.scenarios3d, lpik.cli.simulate3d
+    parser.add_argument(
         "--robot",
         metavar="NAME",
-        help="run the scenario on a bundled 3-D arm (see lpik robots) instead of the planar arm",
+        default=PLANAR,
+        help=f"'{PLANAR}' (the paper's 4-link arm, default) or a bundled 3-D arm (lpik robots)",
     )
     parser.add_argument(
         "--method",
@@ -75,12 +82,9 @@ def _writable(option: str, path: str | None) -> Path | None:
 
 def _check_options(args: argparse.Namespace) -> None:
     """Validate numbers and names before the run starts (one line, exit 2 on failure)."""
-    from lpik.methods import ALL_METHODS
+    from lpik.methods.registry import METHODS, get_method
 
-    if args.method not in ALL_METHODS:
-        raise ValueError(
-            f"--method: unknown method {args.method!r}; available: {', '.join(ALL_METHODS)}"
-        )
+    spec = get_method(args.method, field="--method")
     if args.steps is not None and args.steps <= 0:
         raise ValueError(f"--steps: must be > 0, got {args.steps}")
     if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
@@ -90,10 +94,11 @@ def _check_options(args: argparse.Namespace) -> None:
             raise ValueError(
                 f"--lambda-bound: must be a finite number > 0, got {args.lambda_bound}"
             )
-        if args.method not in BOUNDED_MULTIPLIER_METHODS:
+        if not spec.bounds_multipliers:
+            bounded = [name for name, s in METHODS.items() if s.bounds_multipliers]
             raise ValueError(
                 f"--lambda-bound: method {args.method!r} does not bound its multipliers; "
-                f"use {', '.join(BOUNDED_MULTIPLIER_METHODS)}"
+                f"use {', '.join(bounded)}"
             )
     if args.frames < 2:
         raise ValueError(f"--frames: must be >= 2, got {args.frames}")
@@ -112,25 +117,23 @@ def run_options(args: argparse.Namespace) -> dict[str, object]:
 def run(args: argparse.Namespace) -> int:
     """Run the scenario; write the CSV, figure and animation that were asked for."""
     from lpik.cli.progress import LazyProgress
+    from lpik.paper.scenarios import PLANAR, get_scenario
 
     _check_options(args)
     out = _writable("--out", args.out)
     fig = _writable("--plot", args.plot)
     gif = _writable("--animate", args.animate)
-    if args.robot is not None:  # 3-D scenarios: lpik.scenarios3d, lpik.cli.simulate3d
-        from lpik.cli.simulate3d import prepare_3d
-
-        label, simulate, draw = prepare_3d(args, fig, gif)
-    else:
-        label, simulate, draw = _prepare_planar(args, fig, gif)
+    setup = get_scenario(args.scenario).setup(args.robot)
+    if gif is not None and args.robot != PLANAR:
+        raise ValueError("--animate: draws the planar arm only; use --plot for 3-D runs")
     if fig is not None or gif is not None:
-        from lpik.plots import require_backend
+        from lpik.paper.style import require_backend
 
         require_backend(animation=gif is not None)  # fail before the run, not after it
-    with LazyProgress(label) as progress:
-        log = simulate(progress)
+    with LazyProgress(f"{setup.name} {args.method}") as progress:
+        log = setup.run(args.method, progress=progress, **run_options(args))
     written = [] if out is None else [log.to_csv(out)]
-    written += draw(log)
+    written += _draw(args, setup, log, fig, gif)
     m = log.metrics()
     position = ", ".join(f"{v:.4f}" for v in m.final_position)
     print(
@@ -144,24 +147,24 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _prepare_planar(args: argparse.Namespace, fig: Path | None, gif: Path | None):  # noqa: ANN202
-    """Label, run and drawing of a planar scenario (see :func:`run`)."""
-    from lpik.scenarios import get_scenario
+def _draw(
+    args: argparse.Namespace, setup: Setup, log: SimulationLog, fig: Path | None, gif: Path | None
+) -> list[Path]:
+    """The figure and animation asked for: x-y overview (planar) or 3-D tool path."""
+    from lpik.paper import run_figures
 
-    scenario = get_scenario(args.scenario)
-
-    def simulate(progress):  # noqa: ANN001, ANN202
-        return scenario.run(args.method, progress=progress, **run_options(args))
-
-    def draw(log) -> list[Path]:  # noqa: ANN001
-        from lpik import plots
-
-        model, target = scenario.model(), scenario.target
-        written = []
-        if fig is not None:
-            written.append(plots.run_overview(log, model, fig, target=target))
-        if gif is not None:
-            written.append(plots.animate(log, model, gif, frames=args.frames, target=target))
-        return written
-
-    return f"{scenario.name} {args.method}", simulate, draw
+    written = []
+    target = setup.target
+    if fig is not None and setup.model.position_dims == 2:
+        written.append(run_figures.run_overview(log, setup.model, fig, target=target))
+    elif fig is not None:
+        goal = target[:3, 3] if target.ndim == 2 else target
+        title = f"{setup.name} ({args.method})"
+        written.append(
+            run_figures.tool_path_figure(log, fig, model=setup.model, target=goal, title=title)
+        )
+    if gif is not None:
+        written.append(
+            run_figures.animate(log, setup.model, gif, frames=args.frames, target=target)
+        )
+    return written

@@ -1,4 +1,4 @@
-"""``lpik solve PROBLEM.json``: one step, printed as JSON (the contract of DESIGN.md)."""
+"""``lpik solve PROBLEM.json``: one step, printed as JSON (the contract the README documents)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Reproduce the paper's section 4: the runs, figures 3-9, their CSV logs and a summary.
 
-Five runs of the two scenarios (:mod:`lpik.scenarios`):
+Five runs of the two scenarios (:mod:`lpik.paper.scenarios`):
 
 ==================================  =====================================  =========
 run                                 method, multipliers                    figures
@@ -33,9 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
-from lpik import __version__
-from lpik.scenarios import get_scenario
-from lpik.simulate import FULL_COMMAND_P, RunMetrics, SimulationLog
+from lpik.control.log import RunMetrics, SimulationLog
+from lpik.paper.scenarios import SCENARIOS, get_scenario
+from lpik.tolerances import FULL_P
+from lpik.version import __version__
 
 #: The multiplier bound is this factor above the largest |lam| of the free motion.
 BOUND_MARGIN = 2.0
@@ -113,7 +114,7 @@ def choose_lambda_bound(log: SimulationLog, margin: float = BOUND_MARGIN) -> Bou
     if not np.isfinite(log.lam).any():
         raise ValueError(f"log: method {log.method!r} has no multipliers to derive a bound from")
     lam = np.nanmax(np.abs(log.lam), axis=1)
-    free = log.p >= FULL_COMMAND_P
+    free = log.p >= FULL_P
     if not free.any():
         raise ValueError("log: no step followed the command in full (p = 1)")
     peak = int(np.nanargmax(lam))
@@ -174,11 +175,11 @@ def run_all(
 
 def write_figures(out_dir: Path, logs: dict[str, SimulationLog], choice: BoundChoice) -> list[Path]:
     """Draw Figs. 3-9 from the runs into ``out_dir``."""
-    from lpik import plots
+    from lpik.paper import figures as plots
 
     pull, edge = get_scenario("pull-in"), get_scenario("edge-singularity")
-    arm_p, arm_e = pull.model(), edge.model()
-    q1_limit = (0, pull.q_max[0])
+    arm_p, arm_e = pull.setup().model, edge.setup().model
+    q1_limit = (0, pull.paper.q_max[0])
     lp1, lp2, warm = logs["pull-in-lp1"], logs["pull-in-lp2"], logs["pull-in-lp1-warm-start"]
     free, bounded = logs["edge-singularity-lp2-unbounded"], logs["edge-singularity-lp2-bounded"]
     lam = np.nanmax(np.abs(np.concatenate([free.lam, bounded.lam])), axis=1)
@@ -186,7 +187,11 @@ def write_figures(out_dir: Path, logs: dict[str, SimulationLog], choice: BoundCh
     f = {name: out_dir / name for name in FIGURES}
     return [
         plots.xy_figure(
-            lp1, arm_p, f["fig3-lp1-xy.png"], title="Fig. 3 - pull-in under LP1", target=pull.target
+            lp1,
+            arm_p,
+            f["fig3-lp1-xy.png"],
+            title="Fig. 3 - pull-in under LP1",
+            target=pull.paper.target,
         ),  # fmt: skip
         plots.joint_motion_figure(
             [("a) LP1", lp1), ("a') LP1, warm-started", warm), ("b) LP2", lp2)],
@@ -195,7 +200,11 @@ def write_figures(out_dir: Path, logs: dict[str, SimulationLog], choice: BoundCh
             q_limit=q1_limit,
         ),
         plots.xy_figure(
-            lp2, arm_p, f["fig5-lp2-xy.png"], title="Fig. 5 - pull-in under LP2", target=pull.target
+            lp2,
+            arm_p,
+            f["fig5-lp2-xy.png"],
+            title="Fig. 5 - pull-in under LP2",
+            target=pull.paper.target,
         ),  # fmt: skip
         plots.dexterity_figure(
             lp2,
@@ -207,8 +216,8 @@ def write_figures(out_dir: Path, logs: dict[str, SimulationLog], choice: BoundCh
             free,
             arm_e,
             f["fig7-edge-singularity-xy.png"],
-            target=edge.target,
-            reach=arm_e.reach,
+            target=edge.paper.target,
+            reach=edge.paper.reach,
             title="Fig. 7 - displacement to the edge singularity (LP2, unbounded multipliers)",
         ),  # fmt: skip
         plots.singularity_figure(
@@ -234,7 +243,7 @@ def reproduce(out_dir: str | Path, progress: Progress | None = None) -> Reproduc
         ValueError: When ``out_dir`` cannot be created or written.
         MissingBackendError: When matplotlib is not installed.
     """
-    from lpik.report import summary_markdown
+    from lpik.paper.report import summary_markdown
 
     out = Path(out_dir)
     try:
@@ -246,10 +255,51 @@ def reproduce(out_dir: str | Path, progress: Progress | None = None) -> Reproduc
     files = [log.to_csv(out / f"{name}.csv") for name, log in logs.items()]
     say("figures")
     files += write_figures(out, logs, choice)
-    from lpik.plots3d import reproduce_3d  # the 3-D scenarios on the Panda (issue #4)
-
     files += reproduce_3d(out, "panda", progress=say)
     summary = out / "summary.md"
     summary.write_text(summary_markdown(logs, choice, sweep, version=__version__), "utf-8")
     files.append(summary)
     return Reproduction(out_dir=out, logs=logs, choice=choice, sweep=sweep, files=files)
+
+
+def reproduce_3d(
+    out_dir: str | Path,
+    robot: str = "panda",
+    method: str = "lp2",
+    progress: Progress | None = None,
+) -> list[Path]:
+    """Run both 3-D scenarios on one arm; write their CSV logs and one figure each.
+
+    Part of ``lpik reproduce``: files ``<scenario>-3d-<robot>-<method>.csv`` and
+    ``fig3d-<scenario>-<robot>.png`` in ``out_dir``.
+
+    Args:
+        out_dir: Existing output directory.
+        robot: Bundled robot name.
+        method: Method of both runs.
+        progress: Called with a short stage description before each run.
+
+    Returns:
+        The files written.
+    """
+    from lpik.paper.run_figures import tool_path_figure
+
+    out = Path(out_dir)
+    files: list[Path] = []
+    for name, scenario in SCENARIOS.items():
+        if progress is not None:
+            progress(f"{name}, {robot} (3-D), {method}")
+        setup = scenario.setup(robot)
+        log = setup.run(method)
+        files.append(log.to_csv(out / f"{name}-3d-{robot}-{method}.csv"))
+        target = setup.target
+        files.append(
+            tool_path_figure(
+                log,
+                out / f"fig3d-{name}-{robot}.png",
+                model=setup.model,
+                target=target[:3, 3] if target.ndim == 2 else target,
+                title=f"3-D {name} on the {robot} ({method})",
+            )
+        )
+    return files

@@ -6,9 +6,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from lpik.reproduce import BOUND_MARGIN, FIGURES, BoundChoice
-from lpik.scenarios import get_scenario
-from lpik.simulate import FULL_COMMAND_P, RunMetrics, SimulationLog
+from lpik.control.log import RunMetrics, SimulationLog
+from lpik.paper.reproduce import BOUND_MARGIN, FIGURES, BoundChoice
+from lpik.paper.scenarios import get_scenario
+from lpik.tolerances import FULL_P
 
 #: Run name -> (method, multipliers) as shown in the table.
 RUN_LABELS = {
@@ -66,7 +67,7 @@ def findings(logs: Mapping[str, SimulationLog]) -> list[str]:
     j1, j2, jw = lp1.jitter(), lp2.jitter(), warm.jitter()
     out = [
         f"- **LP1 follows the pull-in command but jitters.** p = 1 on "
-        f"{int((lp1.p >= FULL_COMMAND_P).sum())} of {lp1.steps} steps; the end effector moves "
+        f"{int((lp1.p >= FULL_P).sum())} of {lp1.steps} steps; the end effector moves "
         f"from {_xy(lp1.position[0])} to {_xy(lp1.position_end)} m. Solving every step's LP on "
         f"its own, the joint velocities jump by more than 1 rad/s on {_jumps(lp1)} steps: "
         f"jitter {j1:.4g} rad/s (Figs. 3, 4a).",
@@ -119,13 +120,13 @@ def summary_markdown(
     """The ``summary.md`` of ``lpik reproduce``."""
     b = choice.bound
     edge = get_scenario("edge-singularity")
-    step = edge.v_max * edge.dt
+    step = edge.paper.v_max * edge.dt
     lines = [
         "# The paper's section 4, computed by `lpik reproduce`",
         "",
         f"lpik {version}. Planar 4-link arm (links 1 m), q0 = (60, -30, -30, -30) deg, "
         "joint velocity limit 1 rad/s, dt = 0.01 s, v_max = 0.5 m/s, M = I, f = 0, "
-        "Lambda = 0 (DESIGN.md). Every number below is computed from the runs.",
+        "Lambda = 0. Every number below is computed from the runs.",
         "",
         "## Runs",
         "",

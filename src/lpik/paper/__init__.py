@@ -1,0 +1,14 @@
+"""The paper's section 4: its scenarios, their reproduction, the report and the figures.
+
+- :mod:`lpik.paper.scenarios`: the experiments as data, on the planar arm or a 3-D arm;
+- :mod:`lpik.paper.reproduce`: ``lpik reproduce`` (runs, CSV logs, figures);
+- :mod:`lpik.paper.report`: its ``summary.md``;
+- :mod:`lpik.paper.figures`, :mod:`lpik.paper.run_figures`, :mod:`lpik.paper.style`:
+  the figures (matplotlib, ``pip install "lpik[plot]"``).
+
+This layer uses the core, the robots and the control loop; none of them uses it.
+"""
+
+from lpik.paper.scenarios import PLANAR, SCENARIOS, Scenario, Setup, get_scenario, scenario_names
+
+__all__ = ["PLANAR", "SCENARIOS", "Scenario", "Setup", "get_scenario", "scenario_names"]

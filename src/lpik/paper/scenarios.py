@@ -1,0 +1,327 @@
+"""The paper's experiments (sec. 4) as data: one scenario type, run on any robot.
+
+Each scenario runs on the paper's planar 4-link arm (robot :data:`PLANAR`,
+the default) or on a bundled 3-D arm (``robot="panda"``, ``"ur5e"``,
+``"iiwa14"``). :meth:`Scenario.setup` turns a scenario and a robot into a
+:class:`Setup`: the task model, start, target, command law, limits and
+weights of the run, which :meth:`Setup.run` simulates and from which
+:meth:`Setup.controller` builds the compiled controller that follows the
+same joint path.
+
+The planar runs (sec. 4, Fig. 2): links 1 m, relative joint angles, start
+``q0 = (60, -30, -30, -30)`` deg (end effector at (3.2321, 0.8660) m), joint
+velocity limit 1 rad/s, ``dt = 0.01`` s, ``v_max = 0.5`` m/s, ``M = I``,
+``f = 0``, ``Lambda = 0``.
+
+* ``pull-in``: pull the end effector in horizontally to (0.2, 0.8660) m with
+  ``q1 <= 95`` deg (Figs. 3-6). On a 3-D arm (pose task): pull the tool in
+  horizontally across the base's vertical axis, to :data:`PULL_BEYOND` past
+  it, holding its orientation, until a joint end-stop (Panda: joint 2; iiwa
+  14: joint A4) or, on the UR5e, the shoulder singularity stops it.
+* ``edge-singularity``: move toward (4.5, 0.3) m, beyond the 4 m reach, into
+  the edge singularity (Figs. 7-9). On a 3-D arm (position task): stretch the
+  tool horizontally :data:`STRETCH_BEYOND` further out, beyond its reach.
+
+3-D runs start at the arm's home configuration with its own end-stops and
+velocity limits, ``dt = 0.01`` s and ``v_max = 0.25`` m/s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from lpik.control.command import DEFAULT_W_MAX, ClampedTarget
+from lpik.limits import Limit, standard_limits
+from lpik.naming import lookup
+from lpik.robots.base import TaskModel
+from lpik.robots.planar import planar_arm
+from lpik.robots.registry import home_configuration, load_robot, robot_names
+from lpik.types import FloatArray
+
+if TYPE_CHECKING:
+    from lpik.control.controller import Lp2Controller
+    from lpik.control.log import SimulationLog
+    from lpik.control.simulate import Progress
+
+#: The robot name of the paper's planar 4-link arm.
+PLANAR = "planar"
+#: The 3-D pull-in target lies this far past the base's vertical axis [m].
+PULL_BEYOND = 0.3
+#: The 3-D edge-singularity target lies this far beyond the start, away from the base axis [m].
+STRETCH_BEYOND = 1.0
+
+
+def _deg(*values: float) -> tuple[float, ...]:
+    return tuple(float(v) for v in np.deg2rad(values))
+
+
+@dataclass(frozen=True)
+class PaperArm:
+    """A scenario on the paper's planar arm (sec. 4, Fig. 2).
+
+    Attributes:
+        q_min: Lower end-stops [rad].
+        q_max: Upper end-stops [rad].
+        target: End-effector target (x, y) [m].
+        link_lengths: Link lengths [m].
+        q0: Start configuration [rad].
+        qd_max: Joint velocity limit [rad/s].
+        v_max: Largest commanded end-effector speed [m/s].
+    """
+
+    q_min: tuple[float, ...]
+    q_max: tuple[float, ...]
+    target: tuple[float, float]
+    link_lengths: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
+    q0: tuple[float, ...] = _deg(60, -30, -30, -30)
+    qd_max: float = 1.0
+    v_max: float = 0.5
+
+    @property
+    def reach(self) -> float:
+        """Largest distance of the end effector from the base [m]."""
+        return float(sum(self.link_lengths))
+
+
+@dataclass(frozen=True)
+class ArmRun:
+    """A scenario on a bundled 3-D arm, from its home configuration.
+
+    Attributes:
+        task: ``"pose"`` or ``"position"``.
+        reach: Signed distance [m] of the target from the start along the
+            horizontal radial direction (negative pulls in); or None with
+            ``through_axis`` set.
+        through_axis: Put the target this far [m] past the base axis instead.
+        v_max: Largest commanded linear speed [m/s].
+    """
+
+    task: str
+    reach: float | None = None
+    through_axis: float | None = None
+    v_max: float = 0.25
+
+    def __post_init__(self) -> None:
+        if (self.reach is None) == (self.through_axis is None):
+            raise ValueError("ArmRun: give exactly one of reach, through_axis")
+
+    def target(self, model: TaskModel, q0: FloatArray) -> FloatArray:
+        """The task value to move to: a 4 x 4 pose (pose task) or a position [m]."""
+        pose = np.array(model.kinematics.fk(q0), dtype=float)  # type: ignore[attr-defined]
+        position = pose[:3, 3]
+        radial = np.array([position[0], position[1], 0.0])
+        length = float(np.linalg.norm(radial))
+        direction = radial / length if length > 1e-9 else np.array([1.0, 0.0, 0.0])
+        if self.through_axis is not None:
+            goal = position - (float(direction @ position) + self.through_axis) * direction
+        else:
+            goal = position + float(self.reach or 0.0) * direction
+        if self.task == "position":
+            return goal
+        pose[:3, 3] = goal
+        return pose
+
+
+@dataclass(frozen=True, eq=False)
+class Setup:
+    """One scenario on one robot: everything a run needs.
+
+    Attributes:
+        name: Name of the run (scenario, and robot when not planar).
+        robot: The robot's name.
+        model: The task model.
+        q0: Start configuration [rad].
+        target: Task value to move to (xyz point or 4 x 4 pose).
+        v_max: Largest commanded linear speed [m/s].
+        w_max: Largest commanded angular speed [rad/s].
+        dt: Control period [s].
+        steps: Number of control steps.
+        weights: ``M``, ``f``, ``Lambda`` of the criterion (eq. 3, sec. 3.1).
+    """
+
+    name: str
+    robot: str
+    model: TaskModel
+    q0: FloatArray
+    target: FloatArray
+    v_max: float
+    w_max: float
+    dt: float
+    steps: int
+    weights: Mapping[str, Any] = field(default_factory=dict)
+
+    def command(self) -> ClampedTarget:
+        """The command law: toward ``target`` at most ``v_max`` and ``w_max`` fast."""
+        return ClampedTarget(self.target, self.v_max, self.w_max)
+
+    def limits(self, lambda_bound: float | None = None) -> list[Limit]:
+        """End-stops, velocity limits and, when given, ``|lam_i| <= lambda_bound`` (sec. 3.2)."""
+        return standard_limits(self.model, lambda_bound=lambda_bound)
+
+    def run(
+        self,
+        method: str = "lp2",
+        *,
+        lambda_bound: float | None = None,
+        steps: int | None = None,
+        dt: float | None = None,
+        warm_start: bool = True,
+        progress: Progress | None = None,
+    ) -> SimulationLog:
+        """Simulate this setup with one method (:func:`lpik.control.simulate.simulate`).
+
+        Args:
+            method: A name from :data:`lpik.methods.METHODS`.
+            lambda_bound: Symmetric bound on every multiplier (sec. 3.2); ``None``: unbounded.
+            steps: Number of steps; default the scenario's.
+            dt: Control period [s]; default the scenario's.
+            warm_start: Reuse one HiGHS instance across steps.
+            progress: Called after every step with ``(done, steps)``.
+
+        Raises:
+            ValueError: For a bad method, step count, period or bound.
+        """
+        from lpik.control.simulate import simulate
+
+        label = self.name if lambda_bound is None else f"{self.name} |lam|<={lambda_bound:g}"
+        return simulate(
+            self.model,
+            self.command(),
+            self.q0,
+            self.steps if steps is None else steps,
+            method=method,
+            dt=self.dt if dt is None else dt,
+            limits=self.limits(lambda_bound),
+            weights=self.weights,
+            name=label,
+            warm_start=warm_start,
+            progress=progress,
+        )
+
+    def controller(self, lambda_bound: float | None = None) -> Lp2Controller:
+        """The compiled LP2 controller with this setup's limits, command law and weights."""
+        from lpik.control.controller import Lp2Controller
+
+        return Lp2Controller(
+            self.model, dt=self.dt, v_max=self.v_max, w_max=self.w_max,
+            lambda_bound=lambda_bound, **dict(self.weights),
+        )  # fmt: skip
+
+
+@dataclass(frozen=True, eq=False)
+class Scenario:
+    """One closed-loop experiment, on the paper's planar arm or a bundled 3-D arm.
+
+    Attributes:
+        name: Name used on the command line.
+        description: One line saying what it shows.
+        steps: Number of control steps.
+        paper: The run on the paper's planar arm.
+        arm: The same experiment on a bundled 3-D arm.
+        dt: Control period [s].
+        figures: The paper's figures the planar run reproduces.
+    """
+
+    name: str
+    description: str
+    steps: int
+    paper: PaperArm
+    arm: ArmRun
+    dt: float = 0.01
+    figures: str = ""
+
+    def setup(self, robot: str = PLANAR) -> Setup:
+        """This scenario on ``robot`` (:data:`PLANAR` or a bundled robot's name).
+
+        Raises:
+            ValueError: For an unknown robot (the message lists the names).
+        """
+        if robot == PLANAR:
+            arm = self.paper
+            n = len(arm.link_lengths)
+            model = planar_arm(
+                arm.link_lengths, arm.q_min, arm.q_max, arm.qd_max, name=f"planar-{self.name}"
+            )
+            return Setup(
+                name=self.name, robot=robot, model=model, q0=np.array(arm.q0),
+                target=np.array([*arm.target, 0.0]), v_max=arm.v_max, w_max=DEFAULT_W_MAX,
+                dt=self.dt, steps=self.steps,
+                weights={"M": np.ones(n), "f": np.zeros(n), "Lambda": np.zeros(n)},
+            )  # fmt: skip
+        lookup(dict.fromkeys((PLANAR, *robot_names())), robot, "robot: unknown robot")
+        model = load_robot(robot, task=self.arm.task)
+        q0 = home_configuration(robot)
+        n = model.n_joints
+        return Setup(
+            name=f"{self.name} {robot}", robot=robot, model=model, q0=q0,
+            target=self.arm.target(model, q0), v_max=self.arm.v_max, w_max=DEFAULT_W_MAX,
+            dt=self.dt, steps=self.steps, weights={"M": np.ones(n), "f": np.zeros(n)},
+        )  # fmt: skip
+
+    def run(
+        self,
+        method: str = "lp2",
+        *,
+        robot: str = PLANAR,
+        lambda_bound: float | None = None,
+        steps: int | None = None,
+        dt: float | None = None,
+        warm_start: bool = True,
+        progress: Progress | None = None,
+    ) -> SimulationLog:
+        """Simulate this scenario on ``robot`` with one method (see :meth:`Setup.run`)."""
+        return self.setup(robot).run(
+            method, lambda_bound=lambda_bound, steps=steps, dt=dt, warm_start=warm_start,
+            progress=progress,
+        )  # fmt: skip
+
+
+#: The scenarios by name.
+SCENARIOS: dict[str, Scenario] = {
+    s.name: s
+    for s in (
+        Scenario(
+            "pull-in",
+            "pull the end effector in horizontally until a joint end-stop (planar: joint 1 at "
+            "95 deg, paper Figs. 3-6) or a singularity stops it",
+            steps=400,
+            paper=PaperArm(
+                q_min=_deg(-180, -180, -180, -180),
+                q_max=_deg(95, 180, 180, 180),
+                target=(0.2, 0.8660),
+            ),  # fmt: skip
+            arm=ArmRun("pose", through_axis=PULL_BEYOND),
+            figures="3, 4, 5, 6",
+        ),
+        Scenario(
+            "edge-singularity",
+            "reach beyond the workspace into the edge singularity (planar: paper Figs. 7-9)",
+            steps=600,
+            paper=PaperArm(
+                q_min=_deg(-180, -180, -180, -180),
+                q_max=_deg(180, 180, 180, 180),
+                target=(4.5, 0.3),
+            ),  # fmt: skip
+            arm=ArmRun("position", reach=STRETCH_BEYOND),
+            figures="7, 8, 9",
+        ),
+    )
+}
+
+
+def scenario_names() -> Sequence[str]:
+    """Names of the available scenarios."""
+    return tuple(SCENARIOS)
+
+
+def get_scenario(name: str) -> Scenario:
+    """The scenario called ``name``.
+
+    Raises:
+        ValueError: For an unknown name; the message lists the available names.
+    """
+    return lookup(SCENARIOS, name, "scenario: unknown scenario")
