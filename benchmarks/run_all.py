@@ -8,7 +8,7 @@ quiet machine::
 
 It runs ``lpik bench --json`` (through this interpreter), keeps the records in
 ``benchmarks/results.json`` and writes ``docs/benchmarks.md`` with
-``tools/write_benchmarks_md.py``. Extra arguments go to ``lpik bench``, e.g.
+:mod:`lpik_bench.markdown`. Extra arguments go to ``lpik bench``, e.g.
 ``--rounds 400`` or ``--quick``.
 """
 
@@ -31,7 +31,7 @@ def main() -> int:
         print(f"lpik bench failed with exit status {done.returncode}", file=sys.stderr)
         return done.returncode
     RESULTS.write_text(done.stdout)
-    writer = ["tools/write_benchmarks_md.py", "benchmarks/results.json", "docs/benchmarks.md"]
+    writer = ["-m", "lpik_bench.markdown", "benchmarks/results.json", "docs/benchmarks.md"]
     subprocess.run([sys.executable, *writer], check=True, cwd=ROOT)
     return 0
 

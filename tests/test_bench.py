@@ -14,18 +14,18 @@ import pytest
 
 pytest.importorskip("numba")
 
-from lpik.bench import agreement as A  # noqa: E402
-from lpik.bench import peers as P  # noqa: E402
-from lpik.bench import runner as R  # noqa: E402
-from lpik.bench import table as T  # noqa: E402
-from lpik.bench.cases import Case  # noqa: E402
-from lpik.bench.workload import (  # noqa: E402
+from lpik.cli.main import main  # noqa: E402
+from lpik_bench import agreement as A  # noqa: E402
+from lpik_bench import peers as P  # noqa: E402
+from lpik_bench import runner as R  # noqa: E402
+from lpik_bench import table as T  # noqa: E402
+from lpik_bench.cases import Case  # noqa: E402
+from lpik_bench.workload import (  # noqa: E402
     TARGET_FRACTION,
     arm_only_urdf,
     make_workload,
     step_target,
 )
-from lpik.cli.main import main  # noqa: E402
 
 REQUIRED = ("library", "method", "what", "median_us", "p99_us")
 KINDS = {"timing", "first call", "agreement", "skipped", "environment"}

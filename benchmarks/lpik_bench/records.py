@@ -15,7 +15,7 @@ class Record:
     Attributes:
         library: ``"lpik"`` or a peer's name.
         method: The method or function.
-        what: What was timed or checked (see :mod:`lpik.bench.cases`).
+        what: What was timed or checked (see :mod:`lpik_bench.cases`).
         median_us: Median time per step [us]; ``None`` for non-timing records.
         p99_us: 99th percentile per step [us]; ``None`` for non-timing records.
         kind: ``"timing"``, ``"first call"``, ``"agreement"``, ``"skipped"`` or

@@ -9,13 +9,13 @@ call solves (the batch size), so that times can be reported per step.
 - ``full step``: forward kinematics, Jacobian, command, end-stops and velocity
   limits, the solve and the :class:`~lpik.result.Result`, from ``(q, target
   pose)``: the same work as a peer's step;
-- ``full step +acc``: the same with acceleration limits too (issue #5, item 3);
-- ``full step, planar 4-link``: the paper's arm (2-D task) with end-stops,
-  velocity and acceleration limits;
+- ``full step +acc``: the same with acceleration limits too;
+- ``full step, planar 4-link``: the paper's arm (2-D task, through the same
+  compiled chain step) with end-stops, velocity and acceleration limits;
 - ``solve``: the method alone on a prepared :class:`~lpik.problem.Problem`;
 - ``batch of B``: :func:`lpik.fast.lp2_batch` on prepared arrays, per step;
 - ``batch of B full steps +acc``: :meth:`Lp2Controller.step_batch
-  <lpik.fast.controller.Lp2Controller.step_batch>` over the workload's states, per step;
+  <lpik.control.controller.Lp2Controller.step_batch>` over the workload's states, per step;
 - ``FK + J``: forward kinematics and Jacobian alone.
 """
 
@@ -23,17 +23,25 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from lpik.bench.workload import Workload
-from lpik.lp import HighsSolver
+from lpik.highs import HighsSolver
 from lpik.methods import ALL_METHODS, solve
 from lpik.methods.l1 import l1
 from lpik.methods.lp1 import lp1
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
-from lpik.robots.planar import PlanarArm
+from lpik.robots.planar import planar_arm
+from lpik.robots.tasks import PositionTask
+from lpik_bench.workload import Workload
+
+if TYPE_CHECKING:  # numba is optional: the compiled path is imported on use
+    from lpik.control.controller import Lp2Controller
+    from lpik.fast.arrays import BatchArrays
+    from lpik.result import Result
+    from lpik_bench.peers import PeerStep
 
 FULL_STEP = "full step"
 FULL_STEP_ACC = "full step +acc"
@@ -42,10 +50,10 @@ SOLVE = "solve"
 FK_J = "FK + J"
 REFERENCE = "machine reference"
 
-#: The paper's 4-link arm and pull-in scenario (DESIGN.md), with acceleration limits.
+#: The paper's 4-link arm and pull-in scenario (sec. 4), with acceleration limits.
 PLANAR_LINKS = (1.0, 1.0, 1.0, 1.0)
 PLANAR_Q0_DEG = (60.0, -30.0, -30.0, -30.0)
-PLANAR_TARGET = (0.2, 0.8660)
+PLANAR_TARGET = (0.2, 0.8660, 0.0)
 PLANAR_DT = 0.01
 
 #: How :func:`lpik.methods.solve` runs each method (notes of the ``solve`` records).
@@ -85,9 +93,9 @@ class Case:
         return f"{self.library} / {self.method} / {self.what}"
 
 
-def controllers(workload: Workload):  # noqa: ANN201 - (Lp2Controller, Lp2Controller)
+def controllers(workload: Workload) -> tuple[Lp2Controller, Lp2Controller]:
     """The fused controllers of the workload: end-stops + velocity, and + acceleration."""
-    from lpik.fast.controller import Lp2Controller
+    from lpik.control.controller import Lp2Controller
 
     w = workload
     plain = Lp2Controller(w.model, dt=w.dt, v_max=w.v_max, w_max=w.w_max)
@@ -108,20 +116,20 @@ class PlanarWorkload:
     Attributes:
         model: The planar arm (position task).
         q: Configurations, (N, 4) [rad]. q_prev: One period before, (N, 4).
-        target: The commanded end-effector position (x, y) [m].
+        target: The commanded end-effector position (x, y, 0) [m].
         dt: Control period [s]. qdd_max: Acceleration limit [rad/s^2].
     """
 
-    model: PlanarArm
+    model: PositionTask
     q: np.ndarray
     q_prev: np.ndarray
     target: np.ndarray
     dt: float
     qdd_max: float
 
-    def controller(self):  # noqa: ANN201 - Lp2Controller
+    def controller(self) -> Lp2Controller:
         """The fused controller with end-stops, velocity and acceleration limits."""
-        from lpik.fast.controller import Lp2Controller
+        from lpik.control.controller import Lp2Controller
 
         return Lp2Controller(self.model, dt=self.dt, v_max=0.5, qdd_max=self.qdd_max)
 
@@ -129,7 +137,7 @@ class PlanarWorkload:
 def planar_workload(steps: int = 400, qdd_max: float = 10.0) -> PlanarWorkload:
     """The pull-in scenario's trajectory under LP2 with acceleration limits, ``steps`` long."""
     deg = np.pi / 180.0
-    model = PlanarArm(
+    model = planar_arm(
         PLANAR_LINKS,
         q_min=(-np.pi, -np.pi, -np.pi, -np.pi),
         q_max=(95 * deg, np.pi, np.pi, np.pi),
@@ -148,7 +156,7 @@ def planar_workload(steps: int = 400, qdd_max: float = 10.0) -> PlanarWorkload:
     return PlanarWorkload(model, np.array(qs), np.array(prevs), target, PLANAR_DT, qdd_max)
 
 
-def outcomes(results: list) -> str:  # noqa: ANN001 - list[Result]
+def outcomes(results: list[Result]) -> str:
     """How often the steps end optimal with ``p = 1``, with ``p < 1``, or infeasible."""
     total = len(results)
     infeasible = sum(r.status == "infeasible" for r in results)
@@ -162,18 +170,18 @@ def outcomes(results: list) -> str:  # noqa: ANN001 - list[Result]
 
 def fk_cases(workload: Workload) -> list[Case]:
     """Forward kinematics and Jacobian alone: the compiled kernel and the numpy chain."""
-    from lpik.fast import chain_kernels as CK
-    from lpik.fast.controller import _geometry
+    from lpik.control.inputs import chain_arrays
+    from lpik.fast.kinematics import chain_fk_jacobian
 
     q = workload.q
     N = len(workload)
     chain = workload.model.kinematics
-    _, (origins, axes, revolute, tip), _ = _geometry(workload.model)
+    origins, axes, revolute, tip = chain_arrays(workload.model)
     T, J6 = np.empty((4, 4)), np.empty((6, workload.n))
-    scratch = np.empty(CK.fk_scratch_size(workload.n))
+    joints = np.empty((2, workload.n, 3))
 
     def compiled(i: int) -> None:
-        CK.chain_fk_jacobian(origins, axes, revolute, tip, q[i % N], T, J6, scratch)
+        chain_fk_jacobian(origins, axes, revolute, tip, q[i % N], T, J6, joints)
 
     def numpy_fk(i: int) -> object:
         return chain.fk_jacobian(q[i % N])
@@ -262,8 +270,6 @@ def step_cases(workload: Workload, planar: PlanarWorkload) -> list[Case]:
 
 def solve_cases(workload: Workload, problems: list[Problem]) -> list[Case]:
     """Every method on prepared problems; the LPs also with one HiGHS model reused."""
-    from lpik.fast import lp2_compiled
-
     model = workload.model
     N = len(problems)
     cases = []
@@ -275,9 +281,10 @@ def solve_cases(workload: Workload, problems: list[Problem]) -> list[Case]:
         cases.append(Case("lpik", name, SOLVE, run, note=SOLVE_NOTES.get(name, "")))
 
     def compiled(i: int) -> object:
-        return lp2_compiled(problems[i % N])
+        return lp2(problems[i % N], path="compiled")
 
-    cases.append(Case("lpik", "lp2 compiled", SOLVE, compiled, note="lp2_compiled(problem)"))
+    note = 'lp2(problem, path="compiled")'
+    cases.append(Case("lpik", "lp2 compiled", SOLVE, compiled, note=note))
     reused = {"lp1": HighsSolver(), "l1": HighsSolver(), "lp2 highs": HighsSolver()}
 
     def lp1_reused(i: int) -> object:
@@ -302,7 +309,7 @@ def solve_cases(workload: Workload, problems: list[Problem]) -> list[Case]:
     return cases
 
 
-def batch_arrays(problems: list[Problem], size: int):  # noqa: ANN201 - BatchArrays
+def batch_arrays(problems: list[Problem], size: int) -> BatchArrays:
     """The problems stacked and repeated to ``size`` items, as :class:`lpik.fast.BatchArrays`."""
     from dataclasses import fields
 
@@ -358,14 +365,14 @@ def reference_case(seed: int = 0) -> Case:
     return Case("numpy", "linalg.solve 13x13", REFERENCE, run, note="the machine's yardstick")
 
 
-def peer_cases(peers, workload: Workload) -> list[Case]:  # noqa: ANN001 - list[PeerStep]
+def peer_cases(peers: list[PeerStep], workload: Workload) -> list[Case]:
     """A full-step case for every loaded peer, on the same workload items as lpik's."""
     q, targets = workload.q, workload.targets
     N = len(workload)
     cases = []
     for peer in peers:
 
-        def run(i: int, step=peer.step) -> object:  # noqa: ANN001
+        def run(i: int, step: Callable[..., object] = peer.step) -> object:
             return step(q[i % N], targets[i % N])
 
         cases.append(Case(peer.library, peer.method, FULL_STEP, run, peer=True, note=peer.note))

@@ -15,8 +15,8 @@ libraries and finds the caches cold (``cold_median_us``, ``cold_p99_us``); and
 the ratio of its median to the fastest peer's median full step.
 
 Agreement checks hold answers together where they must agree (see
-:func:`lpik.bench.agreement.agreement_checks`); first-call costs are timed in fresh processes
-(:mod:`lpik.bench.firstcall`).
+:func:`lpik_bench.agreement.agreement_checks`); first-call costs are timed in fresh processes
+(:mod:`lpik_bench.firstcall`).
 """
 
 from __future__ import annotations
@@ -34,15 +34,13 @@ from collections.abc import Callable, Sequence
 from importlib import metadata
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from lpik.bench import cases as C
-from lpik.bench.agreement import agreement_checks
-from lpik.bench.peers import ADAPTERS, PEER_PACKAGES, load_peers
-from lpik.bench.records import Record
-from lpik.bench.workload import Workload, make_workload
-
-FloatArray = NDArray[np.float64]
+from lpik_bench import cases as C
+from lpik_bench.agreement import agreement_checks
+from lpik_bench.peers import ADAPTERS, PEER_PACKAGES, load_peers
+from lpik_bench.records import Record
+from lpik_bench.workload import Workload, make_workload
 
 #: Packages whose versions the environment record lists (PyPI names).
 VERSIONED = (
@@ -169,7 +167,7 @@ def time_cases(
 
 
 def first_call(what: str, robot: str, cold: bool = False, timeout: float = 600.0) -> dict:
-    """Phases of :mod:`lpik.bench.firstcall` in a fresh process [s]; ``{"error": ...}`` on failure.
+    """Phases of :mod:`lpik_bench.firstcall` in a fresh process [s]; ``{"error": ...}`` on failure.
 
     Args:
         what: ``"lpik"`` or a peer's name.
@@ -183,7 +181,7 @@ def first_call(what: str, robot: str, cold: bool = False, timeout: float = 600.0
             env["NUMBA_CACHE_DIR"] = cache
         try:
             done = subprocess.run(
-                [sys.executable, "-m", "lpik.bench.firstcall", what, robot],
+                [sys.executable, "-m", "lpik_bench.firstcall", what, robot],
                 capture_output=True,
                 text=True,
                 env=env,
@@ -312,13 +310,13 @@ def run_benchmark(
     command: str = "lpik bench",
     quiet: bool = False,
 ) -> list[Record]:
-    """Run the whole benchmark and return its records (see :mod:`lpik.bench`).
+    """Run the whole benchmark and return its records (see :mod:`lpik_bench`).
 
     Args:
         robot: Bundled robot name.
         quick: A smoke test: a small workload, 3 rounds, small batch, no cold compile.
         rounds: Timing rounds (default 200, or 3 when quick).
-        peers: Peer names to try (default: all of :data:`lpik.bench.peers.ADAPTERS`).
+        peers: Peer names to try (default: all of :data:`lpik_bench.peers.ADAPTERS`).
         cold: Also time a cold compile of the kernels in a fresh process
             (default: unless quick).
         command: The command line, for the environment record.

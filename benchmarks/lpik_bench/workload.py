@@ -148,7 +148,7 @@ def make_workload(
     """
     if trajectories < 1 or steps < 1:
         raise ValueError("trajectories, steps: must be >= 1")
-    from lpik.fast.controller import Lp2Controller
+    from lpik.control.controller import Lp2Controller
 
     model = load_robot(robot, task="pose")
     controller = Lp2Controller(model, dt=dt, v_max=V_MAX, w_max=W_MAX)

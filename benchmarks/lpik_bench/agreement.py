@@ -13,10 +13,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from lpik.bench import cases as C
-from lpik.bench.peers import RTB_DAMPING, PeerSet
-from lpik.bench.records import Record
-from lpik.bench.workload import Workload
+from lpik_bench import cases as C
+from lpik_bench.peers import RTB_DAMPING, PeerSet
+from lpik_bench.records import Record
+from lpik_bench.workload import Workload
 
 FloatArray = NDArray[np.float64]
 
@@ -153,7 +153,7 @@ def agreement_checks(
       the same algorithm, so ``max |dq_fused - dq_numpy|`` [rad] <= 1e-12 and
       the same binding label;
     - LP2's ratio test equals the general HiGHS LP (relative ``|dq|``, 1e-7);
-    - :func:`lpik.fast.lp2_batch` equals :func:`lpik.fast.lp2_compiled` one by one
+    - :func:`lpik.fast.lp2_batch` equals ``lp2(problem, path="compiled")`` one by one
       (``max |dq|`` [rad] <= 1e-12), and ``Lp2Controller.step_batch`` equals
       ``step`` row by row (with acceleration limits; the same binding label);
     - each peer against LP2 with ``M = I`` on the steps where LP2 reaches
@@ -172,7 +172,7 @@ def agreement_checks(
       ``lambda^2 / sigma_min(J)^2`` relative, checked per step. Where a limit
       binds the libraries solve different problems and are not compared.
     """
-    from lpik.fast import lp2_batch, lp2_compiled
+    from lpik.fast import lp2_batch
     from lpik.methods.lp2 import lp2
 
     plain, acc = C.controllers(workload)
@@ -230,14 +230,14 @@ def agreement_checks(
             note=f"max |p_ratio - p_highs| = {p_err.max():.2e}",
         )
     )
-    single = np.array([lp2_compiled(p).dq for p in problems])
+    single = np.array([lp2(p, path="compiled").dq for p in problems])
     result = lp2_batch(batch)
     B = len(problems)
     out.append(
         check_agreement(
             "lpik",
             "lp2_batch (compiled)",
-            "max |dq_batch - dq_single| [rad] vs lp2_compiled one by one",
+            'max |dq_batch - dq_single| [rad] vs lp2(path="compiled") one by one',
             np.abs(result.dq[:B] - single).max(axis=1),
             np.ones(B, bool),
             TOL_SAME_ALGORITHM,
@@ -257,7 +257,7 @@ def _peer_agreement(workload: Workload, controller: Any, peers: PeerSet) -> list
     out = []
     checked = list(peers.steps)
     if any(p.library == "drake" for p in checked):
-        from lpik.bench.peers import drake_peer
+        from lpik_bench.peers import drake_peer
 
         at = next(i for i, p in enumerate(checked) if p.library == "drake")
         checked.insert(at, drake_peer(workload, tight=True)[0])

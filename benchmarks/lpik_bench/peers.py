@@ -2,7 +2,7 @@
 
 One small adapter per peer, imported only when asked for; a peer that is not
 installed (or fails to load the robot) is skipped with a note. Every adapter
-loads the same arm-only URDF (:func:`lpik.bench.workload.arm_only_urdf`),
+loads the same arm-only URDF (:func:`lpik_bench.workload.arm_only_urdf`),
 enforces the same end-stops and velocity limits as lpik's step and returns a
 function ``step(q, target) -> dq``: one full control step from the joint
 coordinates ``q`` [rad] towards the commanded pose ``target`` (4, 4) [m],
@@ -38,13 +38,14 @@ import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import metadata
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from lpik.bench.workload import Workload, arm_only_urdf
+from lpik.types import FloatArray
+from lpik_bench.workload import Workload, arm_only_urdf
 
-FloatArray = NDArray[np.float64]
 StepFn = Callable[[FloatArray, FloatArray], FloatArray]
 
 #: Peer names in the order they are tried, with the PyPI package that provides each.
@@ -279,7 +280,7 @@ def mink_peer(workload: Workload) -> list[PeerStep]:
     ]
 
 
-def _rtb_robot(text: str):  # noqa: ANN202 - the toolbox's Robot class
+def _rtb_robot(text: str) -> Any:  # the Robotics Toolbox's Robot class
     """A Robotics Toolbox ``Robot`` read from URDF text."""
     import roboticstoolbox as rtb
 
@@ -352,7 +353,7 @@ def load_peers(workload: Workload, names: tuple[str, ...] = tuple(ADAPTERS)) -> 
             reason = f"not installed ({exc}); pip install {PEER_PACKAGES[name]}"
             peers.skipped.append(Skipped(name, reason))
             continue
-        except Exception as exc:  # noqa: BLE001 - a broken peer must not stop the benchmark
+        except Exception as exc:  # a broken peer must not stop the benchmark
             peers.skipped.append(Skipped(name, f"failed to load: {type(exc).__name__}: {exc}"))
             continue
         for peer in loaded:

@@ -1,6 +1,6 @@
 """First-call cost in a fresh process: import, setup and the first step, each timed.
 
-Run by :mod:`lpik.bench.runner` as ``python -m lpik.bench.firstcall WHAT ROBOT``
+Run by :mod:`lpik_bench.runner` as ``python -m lpik_bench.firstcall WHAT ROBOT``
 (``WHAT`` is ``lpik`` or a peer's name); prints one JSON object with the
 phases in seconds. Only the standard library is imported before the clock
 starts. For lpik, run it with ``NUMBA_CACHE_DIR`` pointing to an empty folder
@@ -17,8 +17,8 @@ import time
 def lpik_phases(robot: str) -> dict[str, float]:
     """Import, controller setup, first and second fused step, first batches (LP2, full steps)."""
     t0 = time.perf_counter()
+    from lpik.control.controller import Lp2Controller
     from lpik.fast import lp2_batch
-    from lpik.fast.controller import Lp2Controller
     from lpik.robots.registry import home_configuration, load_robot
 
     t1 = time.perf_counter()
@@ -50,8 +50,8 @@ def lpik_phases(robot: str) -> dict[str, float]:
 
 def peer_phases(name: str, robot: str) -> dict[str, float]:
     """A peer's import + model load, and its first and second step (lpik's workload untimed)."""
-    from lpik.bench.peers import ADAPTERS
-    from lpik.bench.workload import make_workload
+    from lpik_bench.peers import ADAPTERS
+    from lpik_bench.workload import make_workload
 
     workload = make_workload(robot, trajectories=1, steps=2)
     t0 = time.perf_counter()
