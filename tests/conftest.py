@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
 
-from lpik.robots.planar import PlanarArm
+from lpik.robots.base import TaskModel
+from lpik.robots.planar import planar_arm
 
 settings.register_profile("ci", deadline=None, print_blob=True)
 settings.register_profile(
@@ -35,9 +36,9 @@ PAPER_Q0 = np.radians([60.0, -30.0, -30.0, -30.0])
 
 
 @pytest.fixture
-def paper_arm() -> PlanarArm:
+def paper_arm() -> TaskModel:
     """The paper's planar 4-link arm, links 1 m each, joints within +-180 deg."""
-    return PlanarArm([1.0, 1.0, 1.0, 1.0], q_min=-np.pi, q_max=np.pi, qd_max=1.0)
+    return planar_arm([1.0, 1.0, 1.0, 1.0], q_min=-np.pi, q_max=np.pi, qd_max=1.0)
 
 
 @pytest.fixture

@@ -18,7 +18,8 @@ from hypothesis import strategies as st
 from lpik.methods import solve
 from lpik.problem import Problem
 from lpik.result import Result
-from lpik.robots.planar import PlanarArm
+from lpik.robots.base import TaskModel
+from lpik.robots.planar import planar_arm
 
 
 def examples(n: int) -> int:
@@ -30,7 +31,7 @@ def examples(n: int) -> int:
 class Case:
     """A planar arm and one step's problem built from it."""
 
-    arm: PlanarArm
+    arm: TaskModel
     problem: Problem
 
     def solve(self, method: str) -> Result:
@@ -98,10 +99,11 @@ def cases(
     task = draw(st.sampled_from(tasks))
     m = 2 if task == "position" else 3
     n = draw(st.integers(m, max(m, max_links)))
-    arm = PlanarArm(draw(vectors(n, floats(0.2, 2.0))).tolist(), task=task)
+    lengths = draw(vectors(n, floats(0.2, 2.0)))
+    arm = planar_arm(lengths.tolist(), task=task)
     q0 = draw(vectors(n, offsets(np.pi) if well_posed else floats(-np.pi, np.pi)))
     J = arm.jacobian(q0)
-    dw = draw(directions(m)) * draw(dw_sizes) * arm.reach
+    dw = draw(directions(m)) * draw(dw_sizes) * float(lengths.sum())
     fields: dict[str, object] = {
         "q_min": q0 - draw(vectors(n, MARGINS)),
         "q_max": q0 + draw(vectors(n, MARGINS)),
@@ -153,7 +155,7 @@ def weight_fields(draw: st.DrawFn, n: int, q0: np.ndarray) -> dict[str, object]:
     return out
 
 
-def paper_problem(arm: PlanarArm, q0: np.ndarray, dw: np.ndarray, **fields: object) -> Problem:
+def paper_problem(arm: TaskModel, q0: np.ndarray, dw: np.ndarray, **fields: object) -> Problem:
     """A problem for the paper's arm at ``q0`` with its end-stops and a 1 rad/s, 10 ms bound."""
     defaults: dict[str, object] = {
         "q_min": arm.q_min,

@@ -16,7 +16,7 @@ from lpik.limits import (
     standard_limits,
 )
 from lpik.methods import lp2
-from lpik.robots.planar import PlanarArm
+from lpik.robots.planar import planar_arm
 
 J = [[1.0, 0.5, 0.25], [0.0, 1.0, 0.5]]
 Q0 = np.array([0.1, 0.2, 0.3])
@@ -107,12 +107,12 @@ def test_a_binding_acceleration_limit_is_named_by_lp2() -> None:
 
 
 def test_standard_limits_of_a_model() -> None:
-    arm = PlanarArm([1.0, 1.0], q_min=-1.0, q_max=1.0, qd_max=2.0)
+    arm = planar_arm([1.0, 1.0], q_min=-1.0, q_max=1.0, qd_max=2.0)
     limits = standard_limits(arm)
     P = build_problem(arm.jacobian([0.0, 0.5]), [0.0, 0.0], [0.0, 0.5], limits, dt=0.1)
     np.testing.assert_array_equal(P.q_min, [-1.0, -1.0])
     np.testing.assert_allclose(P.dq_max, [0.2, 0.2])
-    unlimited = PlanarArm([1.0, 1.0])
+    unlimited = planar_arm([1.0, 1.0])
     assert len(standard_limits(unlimited)) == 1
     assert len(standard_limits(arm, velocity=False)) == 1
 

@@ -11,8 +11,8 @@ from scipy.optimize import linprog
 
 from core_strategies import examples, floats, offsets, vectors
 from lpik import result
-from lpik.lp import HIGHS_STATUS, HighsSolver, LinearProgram
-from lpik.robots.planar import PlanarArm
+from lpik.highs import HIGHS_STATUS, HighsSolver, LinearProgram
+from lpik.robots.planar import planar_arm
 
 INF = np.inf
 
@@ -139,7 +139,7 @@ def test_coefficients_that_change_within_the_pattern_are_used() -> None:
 
 def aligned_arm_lp1(q: list[float], lengths: list[float], dw: list[float], lo, hi, G=None, h=None):  # type: ignore[no-untyped-def]
     """LP1 (eqs. 11-14) in dq for an arm whose last links are (nearly) aligned."""
-    J = PlanarArm(lengths).jacobian(q)
+    J = planar_arm(lengths).jacobian(q)
     n = J.shape[1]
     A = np.hstack([J, -np.asarray(dw)[:, None]])
     rows_lo, rows_hi = [0.0, 0.0], [0.0, 0.0]
@@ -213,7 +213,7 @@ def test_an_unknown_verdict_on_an_infeasible_program_becomes_infeasible(monkeypa
 def test_a_reused_solver_keeps_its_time_limit_per_solve() -> None:
     # HiGHS's time_limit counts the instance's whole life; a solver reused over a long
     # control run must not start answering "limit_reached" after SOLVE_TIME_LIMIT seconds.
-    import lpik.lp as lp_module
+    import lpik.highs as lp_module
 
     rng = np.random.default_rng(0)
     original = lp_module.SOLVE_TIME_LIMIT

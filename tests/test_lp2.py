@@ -8,10 +8,11 @@ import pytest
 from core_reference import lp2_reference, weighted_reference
 from core_strategies import paper_problem
 from lpik import result as st
+from lpik.labels import SINGULARITY
 from lpik.methods import affine_solution, lp1, lp2, ratio_test, weighted
-from lpik.methods._common import SINGULARITY
 from lpik.problem import Problem
-from lpik.robots.planar import PlanarArm
+from lpik.robots.base import TaskModel
+from lpik.robots.planar import planar_arm
 
 PULL_IN = np.array([-0.005, 0.0])  # one step of the paper's pull-in command [m]
 
@@ -46,7 +47,7 @@ def assert_matches_reference(P: Problem, res: st.Result, tol: float = 1e-7) -> N
 # --- the paper's arm -------------------------------------------------------------------
 
 
-def test_free_step_equals_eq7s_weighted_step(paper_arm: PlanarArm, paper_q0: np.ndarray) -> None:
+def test_free_step_equals_eq7s_weighted_step(paper_arm: TaskModel, paper_q0: np.ndarray) -> None:
     P = paper_problem(paper_arm, paper_q0, PULL_IN)
     res = assert_paths_agree(P)
     assert res.status == st.OPTIMAL and res.p == 1.0 and res.binding is None
@@ -69,7 +70,7 @@ def test_free_step_equals_eq7s_weighted_step(paper_arm: PlanarArm, paper_q0: np.
     ids=["M", "M-f", "Lambda-midpoint", "Lambda-q_ref"],
 )
 def test_weighted_lp2_equals_eq7_when_no_bound_is_active(
-    paper_arm: PlanarArm, paper_q0: np.ndarray, weights: dict[str, object]
+    paper_arm: TaskModel, paper_q0: np.ndarray, weights: dict[str, object]
 ) -> None:
     P = paper_problem(
         paper_arm, paper_q0, PULL_IN, dq_min=-np.ones(4), dq_max=np.ones(4), **weights
@@ -84,7 +85,7 @@ def test_weighted_lp2_equals_eq7_when_no_bound_is_active(
 
 
 def test_joint_1_at_its_end_stop_stops_the_pull_in(
-    paper_arm: PlanarArm, paper_q0: np.ndarray
+    paper_arm: TaskModel, paper_q0: np.ndarray
 ) -> None:
     # Sec. 4: q1 <= 95 deg. With q1 already at 95 deg the pull-in is blocked by joint 1.
     q0 = paper_q0.copy()
@@ -103,7 +104,7 @@ def test_joint_1_at_its_end_stop_stops_the_pull_in(
 
 
 def test_a_large_command_is_scaled_by_the_velocity_limit(
-    paper_arm: PlanarArm, paper_q0: np.ndarray
+    paper_arm: TaskModel, paper_q0: np.ndarray
 ) -> None:
     P = paper_problem(paper_arm, paper_q0, 10 * PULL_IN)
     res = assert_paths_agree(P)
@@ -118,7 +119,7 @@ def test_a_large_command_is_scaled_by_the_velocity_limit(
 
 
 def test_multiplier_bounds_stop_the_step_near_the_edge_singularity(
-    paper_arm: PlanarArm,
+    paper_arm: TaskModel,
 ) -> None:
     q0 = np.radians([8.0, -1.0, -1.0, -1.0])
     dw = np.array([0.0048, -0.0014])
@@ -134,7 +135,7 @@ def test_multiplier_bounds_stop_the_step_near_the_edge_singularity(
 
 
 def test_the_stretched_arm_is_solved_by_highs_and_names_the_singularity(
-    paper_arm: PlanarArm,
+    paper_arm: TaskModel,
 ) -> None:
     q0 = np.zeros(4)  # the edge singularity: J has rank 1
     P = paper_problem(paper_arm, q0, np.array([0.005, 0.0]))
@@ -193,7 +194,7 @@ def test_a_degenerate_vertex_names_the_limit_that_blocks() -> None:
     # Regression (found by hypothesis): p = 0 with four joints on bounds. Joint 3 is
     # fixed and blocks; joint 1 sits on its lower end-stop but would move inward. At
     # this vertex HiGHS's duals of all four are zero, so the dual rule alone named joint 1.
-    a = PlanarArm([1.0, 1.0, 1.0, 0.5])
+    a = planar_arm([1.0, 1.0, 1.0, 0.5])
     q0 = np.array([1.0, 0.0, 0.0, 1.0])
     P = Problem(
         J=a.jacobian(q0),
@@ -423,7 +424,7 @@ def test_highs_names_the_limit_in_conflict_when_no_step_is_feasible() -> None:
 def test_a_singular_step_that_cannot_stop_in_time_names_the_acceleration_limit() -> None:
     from lpik.limits import AccelerationLimits, build_problem, standard_limits
 
-    arm = PlanarArm([1.0, 1.0, 1.0], qd_max=1.0)
+    arm = planar_arm([1.0, 1.0, 1.0], qd_max=1.0)
     q0 = np.zeros(3)  # stretched out: J has rank 1, K is singular, only HiGHS can answer
     limits = [*standard_limits(arm), AccelerationLimits(np.full(3, 0.5))]
     moving = q0 - np.array([0.0, 0.0, 1e-4])  # joint 3 at 0.01 rad/s; it may shed 0.005

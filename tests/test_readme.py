@@ -15,7 +15,7 @@ def test_readme_python_blocks_run(tmp_path, monkeypatch) -> None:
     assert len(blocks) >= 4
     namespace: dict = {}
     for block in blocks:
-        exec(compile(block, str(README), "exec"), namespace)  # noqa: S102
+        exec(compile(block, str(README), "exec"), namespace)
     assert 0.0 <= namespace["result"].p <= 1.0
     assert namespace["log"].binding[-1] == "joint 1 upper end-stop"
     assert (tmp_path / "pull-in-lp2.csv").is_file()

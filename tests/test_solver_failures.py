@@ -9,11 +9,12 @@ import pytest
 
 from core_strategies import paper_problem
 from lpik import result as st
-from lpik.lp import HighsSolver, LinearProgram, LpSolution
+from lpik.highs import HighsSolver, LinearProgram, LpSolution
 from lpik.methods import l1, lp1, lp2, solve
 from lpik.methods.lp2 import AffineSolution
 from lpik.problem import Problem
-from lpik.robots.planar import PlanarArm
+from lpik.robots.base import TaskModel
+from lpik.robots.planar import planar_arm
 
 Q0 = np.radians([60.0, -30.0, -30.0, -30.0])
 LP_CALLS = {
@@ -23,8 +24,8 @@ LP_CALLS = {
 }
 
 
-def arm() -> PlanarArm:
-    return PlanarArm([1.0, 1.0, 1.0, 1.0], q_min=-np.pi, q_max=np.pi, qd_max=1.0)
+def arm() -> TaskModel:
+    return planar_arm([1.0, 1.0, 1.0, 1.0], q_min=-np.pi, q_max=np.pi, qd_max=1.0)
 
 
 def problem() -> Problem:

@@ -5,11 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lpik.methods import ALL_METHODS, LIMIT_AWARE, solve
+from lpik.methods import ALL_METHODS, METHODS, solve
 from lpik.problem import Problem
 from lpik.result import STATUSES
 from lpik.robots.registry import home_configuration, load_robot
 from lpik.robots.rotations import rpy_to_matrix
+
+LIMIT_AWARE = frozenset(name for name, spec in METHODS.items() if spec.limit_aware)
+
 
 DT = 0.01  # [s]
 #: A command reachable in one step: 2 mm, and 0.005 rad about the task point.
