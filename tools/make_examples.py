@@ -8,16 +8,21 @@ from pathlib import Path
 
 import numpy as np
 
-from lpik.limits import EndStops, MultiplierBounds, VelocityLimits, build_problem
-from lpik.robots.planar import PlanarArm
+from lpik import (
+    ClampedTarget,
+    EndStops,
+    MultiplierBounds,
+    VelocityLimits,
+    build_problem,
+    planar_arm,
+)
 
 OUT = Path(__file__).resolve().parents[1] / "src" / "lpik" / "data" / "examples"
 
 
 def step(arm, q0, target, limits, method, dt=0.01, v_max=0.5):
-    """One step's problem document, with the paper's command law."""
-    dw = target - arm.pose(q0)
-    dw = dw * min(1.0, v_max * dt / np.linalg.norm(dw))
+    """One step's problem document, with lpik's command law toward ``target`` (x, y)."""
+    dw = ClampedTarget(np.append(target, 0.0), v_max)(arm, q0, dt)
     pb = build_problem(arm.jacobian(q0), dw, q0, limits, dt=dt)
     doc = {
         "method": method,
@@ -37,7 +42,7 @@ def step(arm, q0, target, limits, method, dt=0.01, v_max=0.5):
 def main():
     """Write every example problem."""
     OUT.mkdir(parents=True, exist_ok=True)
-    arm = PlanarArm([1, 1, 1, 1])
+    arm = planar_arm([1, 1, 1, 1])
     deg = np.deg2rad
     vel = VelocityLimits(np.ones(4))
     # First step of the pull-in scenario, joint 1 already at its 95 deg end-stop.
