@@ -41,7 +41,11 @@ METHOD = """## How it is measured
   the method alone on a prepared problem; `batch of B`: `lpik.fast.lp2_batch`
   on prepared arrays, per step; `batch of B full steps +acc`:
   `Lp2Controller.step_batch` over all the workload's (q, target, previous q)
-  at once, per step; `FK + J`: kinematics alone; `machine
+  at once, per step; `full step, planar 4-link`: the paper's planar arm, which
+  is a serial chain like the 3-D arms and runs through the same fused chain
+  step (it has no kernel of its own: a dedicated planar kernel measured no
+  faster, 2.85-2.92 us against 2.81-2.84 us median on one machine, and was
+  removed); `FK + J`: kinematics alone; `machine
   reference`: a bare 13x13 `numpy.linalg.solve` (the size of LP2's KKT system
   here), to tell a run on a slow or busy machine from a slow library (about
   8 us on this machine when it is idle).
