@@ -17,7 +17,7 @@ import numpy as np
 from lpik.control.log import SimulationLog
 from lpik.exceptions import MissingBackendError
 from lpik.paper.figures import draw_arm_motion, shade_binding
-from lpik.paper.style import DPI, LAMBDA_LABEL, STYLE, arm_points, new_figure, save, styled
+from lpik.paper.style import LAMBDA_LABEL, STYLE, arm_points, new_figure, save, styled
 from lpik.robots.base import TaskModel
 
 #: Arm outlines drawn on the 3-D path.
@@ -242,9 +242,4 @@ def tool_path_figure(
         ax_p.grid(True, alpha=0.3)
         ax_p.legend(loc="upper right")
         fig.suptitle(title or log.name)
-        out = Path(path)
-        try:
-            fig.savefig(out, dpi=DPI)
-        except OSError as exc:
-            raise ValueError(f"cannot write figure {str(out)!r}: {exc.strerror or exc}") from None
-    return out
+        return save(fig, path)
