@@ -163,6 +163,15 @@ def test_steady_and_cold_split_the_first_call_of_each_round() -> None:
     assert stats["cold_median_us"] == 25.0
 
 
+def test_steady_and_cold_report_the_worst_step() -> None:
+    samples = np.full((10, 4), 2000)
+    samples[:, 0] = 50_000
+    samples[3, 2] = 9000  # one slow steady-state step among 30
+    stats = R.steady_and_cold(samples, per_call=2)
+    assert stats["median_us"] == 1.0 and stats["max_us"] == 4.5
+    assert stats["cold_max_us"] == 25.0
+
+
 def test_time_cases_gives_every_case_the_same_items() -> None:
     seen: dict[str, list[int]] = {"a": [], "b": []}
     cases = [

@@ -58,11 +58,13 @@ METHOD = """## How it is measured
 - **Timing.** Interleaved: each of {rounds} rounds visits every case once in
   a seeded random order and times each call with `time.perf_counter_ns`
   (up to 20 calls per case and round, at least 2, fewer than 20 for slow
-  cases); garbage collection is off inside a round. `median` and `p99` are
-  per step over the steady-state calls (the 2nd and later of each round);
-  `cold median` is the median of each round's first call, made right after
-  the other libraries ran (cold caches, as in a control loop that does other
-  work between steps). `vs fastest peer` divides the fastest peer's median
+  cases); garbage collection is off inside a round. `median`, `p99` and
+  `max` (the worst step) are per step over the steady-state calls (the 2nd
+  and later of each round); `cold median` and `cold max` are over each round's
+  first call, made right after the other libraries ran (cold caches, as in a
+  control loop that does other work between steps). A single `max` on a shared
+  2-core machine includes the operating system's interruptions: read it with
+  the p99. `vs fastest peer` divides the fastest peer's median
   full step by the case's median; `n` counts the steady-state calls.
 - **First calls** are timed in fresh processes (OS file cache warm): lpik
   loading its compiled kernels from the disk cache, and compiling them from an

@@ -72,16 +72,16 @@ def summarize(samples_ns: ArrayLike, per_call: int = 1) -> tuple[float, float]:
 
 
 def steady_and_cold(samples_ns: ArrayLike, per_call: int = 1) -> dict[str, float]:
-    """Median and p99 [us per step] of the steady state and of the first calls of a round.
+    """Median, p99 and worst [us per step] of the steady state, and of the first calls of a round.
 
     Args:
         samples_ns: (rounds, calls) from :func:`time_cases`, at least 2 calls a round.
         per_call: Steps per call.
 
     Returns:
-        ``median_us``, ``p99_us`` over columns 1.. (the steady state) and
-        ``cold_median_us``, ``cold_p99_us`` over column 0 (the first call of each
-        round, after the other libraries ran).
+        ``median_us``, ``p99_us``, ``max_us`` over columns 1.. (the steady state)
+        and ``cold_median_us``, ``cold_p99_us``, ``cold_max_us`` over column 0 (the
+        first call of each round, after the other libraries ran).
     """
     t = np.asarray(samples_ns)
     median, p99 = summarize(t[:, 1:], per_call)
@@ -89,8 +89,10 @@ def steady_and_cold(samples_ns: ArrayLike, per_call: int = 1) -> dict[str, float
     return {
         "median_us": median,
         "p99_us": p99,
+        "max_us": float(t[:, 1:].max()) / (1e3 * per_call),
         "cold_median_us": cold_median,
         "cold_p99_us": cold_p99,
+        "cold_max_us": float(t[:, 0].max()) / (1e3 * per_call),
     }
 
 

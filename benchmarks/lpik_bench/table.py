@@ -30,7 +30,8 @@ def _us(value: float | None) -> str:
 
 
 def timing_rows(records: Sequence[Rec]) -> list[list[str]]:
-    """Cells of the timing table: library, method, what, median, p99, vs fastest peer, cold, n."""
+    """Cells of the timing table: library, method, what, median, p99, max, vs fastest peer, cold
+    median and max, n."""
     return [
         [
             r["library"],
@@ -38,8 +39,10 @@ def timing_rows(records: Sequence[Rec]) -> list[list[str]]:
             r["what"],
             _us(r["median_us"]),
             _us(r["p99_us"]),
+            _us(r.get("max_us")),
             speedup(r.get("ratio_to_fastest_peer")),
             _us(r.get("cold_median_us")),
+            _us(r.get("cold_max_us")),
             str(r.get("samples", "")),
         ]
         for r in _of(records, "timing")
@@ -93,8 +96,10 @@ TIMING_HEAD = [
     "what",
     "median [us]",
     "p99 [us]",
+    "max [us]",
     "vs fastest peer",
     "cold median [us]",
+    "cold max [us]",
     "n",
 ]
 FIRST_HEAD = ["library", "method", "what", "total [s]", "phases"]
