@@ -19,7 +19,7 @@ import numpy as np
 
 from lpik import labels
 from lpik.exceptions import InvalidProblemError
-from lpik.tolerances import PSD_RTOL, SYMMETRY_RTOL
+from lpik.tolerances import MAX_MAGNITUDE, PSD_RTOL, SYMMETRY_RTOL
 from lpik.types import FloatArray
 
 #: Default name of the limit that sets ``dq_min`` / ``dq_max`` (eq. 14).
@@ -58,7 +58,24 @@ def _vector(name: str, value: Any, size: int, *, allow_inf: bool = False) -> Flo
         raise InvalidProblemError(
             name, f"contains inf at index {int(np.argmax(~np.isfinite(arr)))}"
         )
+    _check_magnitude(name, arr, bound=allow_inf)
     return arr
+
+
+def _check_magnitude(name: str, arr: FloatArray, *, bound: bool = False) -> None:
+    """Raise naming ``name`` when a finite entry of ``arr`` exceeds ``MAX_MAGNITUDE`` in size."""
+    big = np.abs(arr) > MAX_MAGNITUDE
+    if bound:
+        big &= np.isfinite(arr)
+    if big.any():
+        index = np.unravel_index(int(np.argmax(big)), arr.shape)
+        at = index[0] if arr.ndim == 1 else tuple(int(i) for i in index)
+        hint = "; use null or inf for no bound" if bound else "; rescale the units"
+        raise InvalidProblemError(
+            name,
+            f"entry {arr[index]:g} at index {at} is larger than {MAX_MAGNITUDE:g} in size "
+            f"(the largest magnitude lpik accepts{hint})",
+        )
 
 
 def _bound_vector(name: str, value: Any, size: int, default: float) -> FloatArray:
@@ -92,6 +109,7 @@ def _matrix(name: str, value: Any, n: int, default_diag: float) -> FloatArray:
         )
     if not np.isfinite(arr).all():
         raise InvalidProblemError(name, "contains NaN or inf")
+    _check_magnitude(name, arr)
     scale = max(1.0, float(np.abs(arr).max()))
     if np.abs(arr - arr.T).max() > SYMMETRY_RTOL * scale:
         raise InvalidProblemError(name, "must be symmetric")
@@ -164,6 +182,7 @@ class Problem:
             raise InvalidProblemError("J", f"must be a non-empty m x n matrix, got shape {J.shape}")
         if not np.isfinite(J).all():
             raise InvalidProblemError("J", "contains NaN or inf")
+        _check_magnitude("J", J)
         m, n = J.shape
         set_(self, "J", J)
         set_(self, "dw", _vector("dw", self.dw, m))
@@ -209,8 +228,10 @@ class Problem:
                 k = float(self.k)
             except (TypeError, ValueError):
                 raise InvalidProblemError("k", f"must be a number, got {self.k!r}") from None
-            if not np.isfinite(k) or k < 0:
-                raise InvalidProblemError("k", f"must be a finite number >= 0, got {k}")
+            if not np.isfinite(k) or k < 0 or k > MAX_MAGNITUDE:
+                raise InvalidProblemError(
+                    "k", f"must be a finite number in [0, {MAX_MAGNITUDE:g}], got {k}"
+                )
             set_(self, "k", k)
         set_(self, "dq_min_kind", _labels("dq_min_kind", self.dq_min_kind, n, STEP_BOUND_KIND))
         set_(self, "dq_max_kind", _labels("dq_max_kind", self.dq_max_kind, n, STEP_BOUND_KIND))
@@ -240,6 +261,7 @@ class Problem:
             raise InvalidProblemError("G", f"must be an r x {n} matrix, got shape {G.shape}")
         if not np.isfinite(G).all():
             raise InvalidProblemError("G", "contains NaN or inf")
+        _check_magnitude("G", G)
         r = G.shape[0]
         set_(self, "G", G)
         set_(self, "h", _vector("h", self.h, r))
