@@ -2,18 +2,166 @@
 
 from __future__ import annotations
 
+import json
+import re
+import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from lpik import problem_json
+from lpik.cli.main import main
 from lpik.exceptions import InvalidProblemError
 from lpik.methods import solve
 from lpik.methods.registry import METHODS
 from lpik.problem import Problem
 from lpik.tolerances import MAX_MAGNITUDE
 
+ROOT = Path(__file__).resolve().parents[1]
+LPIK = Path(sys.executable).with_name("lpik")
+GOOD = {
+    "method": "lp2",
+    "J": [[-0.866, 0.0, 0.5, 0.5], [3.232, 2.732, 1.866, 0.866]],
+    "dw": [-0.005, 0.0],
+    "q0": [1.047, -0.524, -0.524, -0.524],
+    "q_min": [-3.14, -3.14, -3.14, -3.14],
+    "q_max": [1.658, 3.14, 3.14, 3.14],
+}
 PROBLEM_ONLY = [name for name, spec in METHODS.items() if not spec.needs_model]
+
+
+def doc(**changes: object) -> str:
+    return json.dumps({**GOOD, **changes})
+
+
+def run_solve(tmp_path: Path, text: str, capsys) -> tuple[int, str, str]:  # type: ignore[no-untyped-def]
+    path = tmp_path / "problem.json"
+    path.write_text(text, encoding="utf-8")
+    code = main(["solve", str(path)])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_refused(code: int, out: str, err: str, key: str) -> str:
+    assert code == 2, err
+    assert out == ""
+    lines = err.splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"lpik: error: {key}: "), lines[0]
+    return lines[0]
+
+
+# --- lpik solve: the document ------------------------------------------------------------------
+
+BIG_INT = "1" + "0" * 400
+HOSTILE = [
+    ("deep-nesting", "[" * 100_000 + "]" * 100_000, "problem", "MAX_JSON_DEPTH"),
+    ("deep-in-a-key", doc().replace('"dw": [', '"dw": ' + "[" * 20, 1) + "]" * 19, "dw", "8"),
+    ("integer-10**400", doc().replace('"dw": [-0.005', f'"dw": [{BIG_INT}'), "dw", "float64"),
+    ("integer-5000-digits", doc().replace('"q0": [1.047', '"q0": [' + "9" * 5000), "q0", ""),
+    ("float-1e400", doc().replace('"q_max": [1.658', '"q_max": [1e400'), "q_max", "float64"),
+    ("numeric-string", doc(dw=["1.0", 0.0]), "dw", "string"),
+    ("boolean", doc(dw=[True, 0.0]), "dw", "true"),
+    ("boolean-k", doc(method="robust", k=False), "k", "false"),
+    ("string-k", doc(method="robust", k="0.1"), "k", "string"),
+    ("object-in-a-vector", doc(q0=[{"a": 1}, 0, 0, 0]), "q0", "object"),
+    ("label-not-a-string", doc(G=[[1, 0, 0, 0]], h=[1], row_labels=[3]), "row_labels", "string"),
+    ("J-scaled-by-1e200", doc(J=[[1e200, 0, 0, 0], [0, 1e200, 0, 0]]), "J", "1e+12"),
+    ("bound-1e30", doc(q_max=[1e30, 1, 1, 1]), "q_max", "null or inf"),
+    ("k-1e200", doc(method="robust", k=1e200), "k", "1e+12"),
+    ("too-many-joints", doc(J=[[0.0] * 129] * 2, q0=[0.0] * 129), "J", "MAX_JOINTS"),
+    ("too-many-task-rows", doc(J=[[1.0, 0, 0, 0]] * 49), "J", "MAX_TASK_ROWS"),
+    ("too-many-extra-rows", doc(G=[[0.0] * 4] * 129, h=[1.0] * 129), "G", "MAX_EXTRA_ROWS"),
+]
+
+
+@pytest.mark.parametrize(
+    ("text", "key", "says"), [c[1:] for c in HOSTILE], ids=[c[0] for c in HOSTILE]
+)
+def test_hostile_documents_are_one_line_naming_the_key(tmp_path, capsys, text, key, says) -> None:  # type: ignore[no-untyped-def]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        line = assert_refused(*run_solve(tmp_path, text, capsys), key)
+    assert says in line
+
+
+def test_a_file_over_the_size_cap_is_refused_before_it_is_read(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    text = doc() + " " * problem_json.MAX_FILE_BYTES
+    line = assert_refused(*run_solve(tmp_path, text, capsys), "problem")
+    assert "MAX_FILE_BYTES" in line and str(problem_json.MAX_FILE_BYTES) in line
+
+
+def test_standard_input_is_read_up_to_the_cap_only(monkeypatch, capsys) -> None:  # type: ignore[no-untyped-def]
+    class Endless:
+        """A stdin that never ends: reading it all would never return."""
+
+        def __init__(self) -> None:
+            self.asked: list[int] = []
+
+        def read(self, size: int = -1) -> bytes:
+            assert size > 0, "stdin must be read with a limit"
+            self.asked.append(size)
+            return b" " * size
+
+    stream = Endless()
+    monkeypatch.setattr(sys, "stdin", type("Stdin", (), {"buffer": stream})())
+    assert_refused(main(["solve", "-"]), *capsys.readouterr(), "problem")
+    assert stream.asked == [problem_json.MAX_FILE_BYTES + 1]
+
+
+def test_the_largest_problem_the_caps_allow_solves_with_every_method(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    n, m, r = problem_json.MAX_JOINTS, problem_json.MAX_TASK_ROWS, problem_json.MAX_EXTRA_ROWS
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((n, n))
+    data = {
+        "J": rng.standard_normal((m, n)).tolist(),
+        "dw": (0.01 * rng.standard_normal(m)).tolist(),
+        "q0": [0.0] * n,
+        "q_min": [-1.0] * n,
+        "q_max": [1.0] * n,
+        "dq_min": [-0.1] * n,
+        "dq_max": [0.1] * n,
+        "M": (A @ A.T / n + np.eye(n)).tolist(),
+        "Lambda": [0.1] * n,
+        "G": rng.standard_normal((r, n)).tolist(),
+        "h": [10.0] * r,
+    }
+    text = json.dumps({"method": "lp2", **data})
+    assert len(text.encode()) <= problem_json.MAX_FILE_BYTES
+    path = tmp_path / "largest.json"
+    for method in PROBLEM_ONLY:
+        path.write_text(json.dumps({"method": method, **data}), encoding="utf-8")
+        assert main(["solve", str(path)]) == 0, method
+        assert len(json.loads(capsys.readouterr().out)["q"]) == n
+
+
+def test_the_readme_quotes_the_caps() -> None:
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    values = {
+        "MAX_FILE_BYTES": problem_json.MAX_FILE_BYTES,
+        "MAX_JSON_DEPTH": problem_json.MAX_JSON_DEPTH,
+        "MAX_JOINTS": problem_json.MAX_JOINTS,
+        "MAX_TASK_ROWS": problem_json.MAX_TASK_ROWS,
+        "MAX_EXTRA_ROWS": problem_json.MAX_EXTRA_ROWS,
+        "MAX_MAGNITUDE": MAX_MAGNITUDE,
+    }
+    for name, value in values.items():
+        row = re.search(rf"^\|[^|\n]*\| ([0-9.e+]+)[^|\n]*\| `{name}` \|$", text, re.M)
+        assert row, f"README: no row for {name} in the caps table of lpik solve"
+        assert float(row.group(1)) == value, name
+
+
+def test_the_real_command_refuses_deep_json_without_a_traceback(tmp_path) -> None:
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 100_000, encoding="utf-8")
+    run = subprocess.run(
+        [str(LPIK), "solve", str(path)], capture_output=True, text=True, check=False, timeout=60
+    )
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr.count("\n") == 1 and run.stderr.startswith("lpik: error: problem:")
 
 
 # --- Problem: the size of its numbers ----------------------------------------------------------
