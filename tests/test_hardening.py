@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from lpik import problem_json
+from lpik.cli import simulate as simulate_cli
 from lpik.cli.main import main
 from lpik.exceptions import InvalidProblemError
 from lpik.methods import solve
@@ -231,3 +232,72 @@ def test_the_python_api_refuses_numbers_beyond_the_cap(field: str, value) -> Non
 def test_infinite_bounds_are_still_unbounded() -> None:
     P = Problem(J=[[1.0, 0.0]], dw=[0.1], q0=[0.0, 0.0], q_min=[-np.inf, None], q_max=[np.inf, 1])
     assert np.isneginf(P.q_min).all() and P.q_max[0] == np.inf
+
+
+# --- lpik simulate: every option checked before the run -----------------------------------------
+
+
+@pytest.fixture
+def no_run(monkeypatch):  # type: ignore[no-untyped-def]
+    """Make any start of a run fail the test: the options must be refused before it."""
+    from lpik.paper import scenarios
+
+    def ran(*args, **kwargs):  # type: ignore[no-untyped-def]
+        raise AssertionError("the run started before the options were checked")
+
+    monkeypatch.setattr(scenarios, "get_scenario", ran)
+
+
+SIMULATE_BAD = [
+    (["--steps", "3000000000"], "--steps", "MAX_STEPS"),
+    (["--steps", str(simulate_cli.MAX_STEPS + 1)], "--steps", "MAX_STEPS"),
+    (["--dt", "1e300"], "--dt", ""),
+    (["--dt", str(2 * simulate_cli.MAX_DT)], "--dt", ""),
+    (["--frames", str(simulate_cli.MAX_FRAMES + 1)], "--frames", ""),
+    (["--lambda-bound", "1e300"], "--lambda-bound", ""),
+    (["--out", "{tmp}/absent/run.csv"], "--out", "not found"),
+    (["--out", "{tmp}/a-file/run.csv"], "--out", "not found"),
+    (["--plot", "{tmp}/absent/run.png"], "--plot", "not found"),
+]
+
+
+@pytest.mark.parametrize(("extra", "option", "says"), SIMULATE_BAD)
+def test_simulate_refuses_bad_options_before_the_run(
+    tmp_path, capsys, no_run, extra, option, says
+) -> None:  # type: ignore[no-untyped-def]
+    (tmp_path / "a-file").write_text("x", encoding="utf-8")
+    args = [a.replace("{tmp}", str(tmp_path)) for a in extra]
+    code = main(["simulate", "pull-in", *args])
+    line = assert_refused(code, *capsys.readouterr(), option)
+    assert says in line
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux /proc")
+def test_simulate_opens_the_output_before_the_run(capsys, no_run) -> None:  # type: ignore[no-untyped-def]
+    # /proc is a directory that the permission bits call writable (for root) but
+    # that holds no new files: only opening the file tells.
+    code = main(["simulate", "pull-in", "--out", "/proc/lpik-run.csv"])
+    assert_refused(code, *capsys.readouterr(), "--out")
+
+
+def test_simulate_leaves_no_empty_file_behind_and_keeps_an_existing_one(
+    tmp_path, capsys, monkeypatch
+) -> None:  # type: ignore[no-untyped-def]
+    from lpik.paper import scenarios
+
+    def stop(*args, **kwargs):  # type: ignore[no-untyped-def]
+        raise ValueError("scenario: stopped by the test")
+
+    monkeypatch.setattr(scenarios, "get_scenario", stop)
+    new, old = tmp_path / "new.csv", tmp_path / "old.csv"
+    old.write_text("kept", encoding="utf-8")
+    for path in (new, old):
+        assert main(["simulate", "pull-in", "--out", str(path)]) == 2
+    capsys.readouterr()
+    assert not new.exists() and old.read_text(encoding="utf-8") == "kept"
+
+
+def test_the_readme_quotes_the_simulate_caps() -> None:
+    text = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    assert f"at most {simulate_cli.MAX_STEPS:,} steps (`MAX_STEPS`)" in text
+    assert f"at most {simulate_cli.MAX_DT:g} s (`MAX_DT`" in text

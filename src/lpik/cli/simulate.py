@@ -12,9 +12,23 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from lpik.tolerances import MAX_MAGNITUDE
+
 if TYPE_CHECKING:
     from lpik.control.log import SimulationLog
     from lpik.paper.scenarios import Setup
+
+#: Most steps of one run: 10,000 s of robot time at the scenarios' dt = 0.01 s
+#: (1,000 s at 1 kHz). The log keeps every step in memory (about a kilobyte a
+#: step on the planar arm, hence about 1 GB here) and the CSV takes about 150
+#: bytes a step, so a run this long still fits a laptop.
+MAX_STEPS = 1_000_000
+#: Longest control period [s]: a period above a second is no control loop, and
+#: the step bounds (velocity limits times dt) stay far within the size cap of a
+#: problem (``lpik.tolerances.MAX_MAGNITUDE``).
+MAX_DT = 1.0
+#: Most frames of an animated GIF.
+MAX_FRAMES = 1000
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -50,12 +64,20 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         metavar="B",
         help="bound every Lagrange multiplier: -B <= lam_i <= B (lp2, sec. 3.2)",
     )
-    parser.add_argument("--steps", type=int, metavar="N", help="number of steps")
-    parser.add_argument("--dt", type=float, metavar="DT", help="control period [s]")
+    parser.add_argument(
+        "--steps", type=int, metavar="N", help=f"number of steps (at most {MAX_STEPS:,})"
+    )
+    parser.add_argument(
+        "--dt", type=float, metavar="DT", help=f"control period [s] (at most {MAX_DT:g})"
+    )
     parser.add_argument("--plot", metavar="FIG.png", help="draw an overview figure of the run")
     parser.add_argument("--animate", metavar="RUN.gif", help="write an animated GIF of the run")
     parser.add_argument(
-        "--frames", type=int, default=60, metavar="F", help="GIF frames (default 60)"
+        "--frames",
+        type=int,
+        default=60,
+        metavar="F",
+        help=f"GIF frames (default 60, at most {MAX_FRAMES})",
     )
     parser.add_argument(
         "--cold-start",
@@ -77,6 +99,15 @@ def _writable(option: str, path: str | None) -> Path | None:
         raise ValueError(f"{option}: cannot write {path!r}: directory {str(parent)!r} not found")
     if not os.access(parent, os.W_OK) or (out.exists() and not os.access(out, os.W_OK)):
         raise ValueError(f"{option}: cannot write {path!r}: permission denied")
+    # Open it (without truncating) before the run: the only sure test, e.g. under /proc.
+    existed = out.exists()
+    try:
+        with open(out, "a", encoding="utf-8"):
+            pass
+    except OSError as exc:
+        raise ValueError(f"{option}: cannot write {path!r}: {exc.strerror or exc}") from None
+    if not existed:
+        out.unlink(missing_ok=True)
     return out
 
 
@@ -85,14 +116,15 @@ def _check_options(args: argparse.Namespace) -> None:
     from lpik.methods.registry import METHODS, get_method
 
     spec = get_method(args.method, field="--method")
-    if args.steps is not None and args.steps <= 0:
-        raise ValueError(f"--steps: must be > 0, got {args.steps}")
-    if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
-        raise ValueError(f"--dt: must be a finite number > 0 [s], got {args.dt}")
+    if args.steps is not None and not 0 < args.steps <= MAX_STEPS:
+        raise ValueError(f"--steps: must be in 1..{MAX_STEPS:,} (MAX_STEPS), got {args.steps:,}")
+    if args.dt is not None and not (math.isfinite(args.dt) and 0 < args.dt <= MAX_DT):
+        raise ValueError(f"--dt: must be a number in (0, {MAX_DT:g}] [s], got {args.dt}")
     if args.lambda_bound is not None:
-        if not (math.isfinite(args.lambda_bound) and args.lambda_bound > 0):
+        if not (math.isfinite(args.lambda_bound) and 0 < args.lambda_bound <= MAX_MAGNITUDE):
             raise ValueError(
-                f"--lambda-bound: must be a finite number > 0, got {args.lambda_bound}"
+                f"--lambda-bound: must be a number in (0, {MAX_MAGNITUDE:g}], "
+                f"got {args.lambda_bound}"
             )
         if not spec.bounds_multipliers:
             bounded = [name for name, s in METHODS.items() if s.bounds_multipliers]
@@ -100,8 +132,8 @@ def _check_options(args: argparse.Namespace) -> None:
                 f"--lambda-bound: method {args.method!r} does not bound its multipliers; "
                 f"use {', '.join(bounded)}"
             )
-    if args.frames < 2:
-        raise ValueError(f"--frames: must be >= 2, got {args.frames}")
+    if not 2 <= args.frames <= MAX_FRAMES:
+        raise ValueError(f"--frames: must be in 2..{MAX_FRAMES}, got {args.frames}")
 
 
 def run_options(args: argparse.Namespace) -> dict[str, object]:
