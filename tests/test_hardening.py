@@ -301,3 +301,104 @@ def test_the_readme_quotes_the_simulate_caps() -> None:
     text = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
     assert f"at most {simulate_cli.MAX_STEPS:,} steps (`MAX_STEPS`)" in text
     assert f"at most {simulate_cli.MAX_DT:g} s (`MAX_DT`" in text
+
+
+# --- targets that are no rotation ----------------------------------------------------------------
+
+
+def _panda_case():  # type: ignore[no-untyped-def]
+    pytest.importorskip("numba")
+    from lpik.control.controller import Lp2Controller
+    from lpik.robots.registry import home_configuration, load_robot
+
+    panda = load_robot("panda", task="pose")
+    q = home_configuration("panda")
+    return panda, q, Lp2Controller(panda, dt=1e-3, qdd_max=10.0)
+
+
+def _with_rotation(pose: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    out = pose.copy()
+    out[:3, :3] = rotation
+    return out
+
+
+BAD_ROTATIONS = {
+    "zero": (lambda T: _with_rotation(T, np.zeros((3, 3))), "det"),
+    "reflection": (lambda T: _with_rotation(T, T[:3, :3] @ np.diag([1.0, 1.0, -1.0])), "det"),
+    "twice-a-rotation": (lambda T: _with_rotation(T, 2.0 * T[:3, :3]), "orthonormal"),
+    "sheared": (lambda T: _with_rotation(T, T[:3, :3] + 1e-3 * np.triu(np.ones((3, 3)))), "ROT"),
+    "bottom-row": (lambda T: T + np.array([[0.0] * 4] * 3 + [[0.5, 0.0, 0.0, 0.0]]), "bottom"),
+    "rotation-only-reflected": (lambda T: -T[:3, :3], "det"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_ROTATIONS))
+def test_a_target_that_is_no_rotation_is_refused_alike_everywhere(case: str) -> None:
+    from lpik.control.command import ClampedTarget
+
+    panda, q, controller = _panda_case()
+    make, says = BAD_ROTATIONS[case]
+    target = np.ascontiguousarray(make(panda.pose(q) @ _turn(0.1)))
+    messages = set()
+    calls = {
+        "ClampedTarget": lambda t: ClampedTarget(t),
+        "problem": lambda t: controller.problem(q, t),
+        "step": lambda t: controller.step(q, t),
+        "step list": lambda t: controller.step(q, t.tolist()),
+        "step Fortran order": lambda t: controller.step(q, np.asfortranarray(t)),
+        "step_into": lambda t: controller.step_into(q, t, out=np.empty(7)),
+    }
+    for name, call in calls.items():
+        with pytest.raises(ValueError) as info:
+            call(target)
+        messages.add(str(info.value))
+        assert str(info.value).startswith("target: "), name
+    assert len(messages) == 1, messages
+    assert says.replace("ROT", "ROTATION_TOL") in messages.pop()
+    stack = np.stack([np.eye(target.shape[0]), target])
+    with pytest.raises(ValueError, match=r"^targets: row 1: "):
+        controller.step_batch(np.stack([q, q]), stack)
+
+
+def _turn(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.eye(4)
+    out[:2, :2] = [[c, -s], [s, c]]
+    return out
+
+
+def test_rotations_within_the_tolerance_step_alike_in_both_paths() -> None:
+    from lpik.methods.lp2 import lp2
+    from lpik.tolerances import ROTATION_TOL
+
+    panda, q, controller = _panda_case()
+    target = panda.pose(q) @ _turn(0.2)
+    target[:3, 3] += 0.001
+    rounded = target.astype(np.float32).astype(np.float64)  # what a float32 message carries
+    nudged = target.copy()
+    nudged[:3, :3] *= 1.0 + ROTATION_TOL / 4
+    for t in (target, rounded, nudged):
+        compiled, numpy_path = controller.step(q, t), lp2(controller.problem(q, t))
+        np.testing.assert_allclose(compiled.dq, numpy_path.dq, atol=1e-12)
+
+
+def test_an_orientation_target_is_checked_too() -> None:
+    pytest.importorskip("numba")
+    from lpik.control.controller import Lp2Controller
+    from lpik.robots.registry import home_configuration, load_robot
+
+    model = load_robot("panda", task="orientation")
+    controller = Lp2Controller(model, dt=1e-3)
+    q = home_configuration("panda")
+    with pytest.raises(ValueError, match="^target: .*det"):
+        controller.step(q, -np.eye(3))
+    assert controller.step(q, model.pose(q)).status == "optimal"
+
+
+def test_clamped_target_names_a_target_that_is_not_numbers() -> None:
+    from lpik.control.command import ClampedTarget
+
+    with pytest.raises(ValueError, match="^target: must be numbers"):
+        ClampedTarget("home")
+    with pytest.raises(ValueError, match="^target: contains NaN"):
+        ClampedTarget([0.1, np.nan, 0.0])

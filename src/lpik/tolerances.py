@@ -21,6 +21,13 @@ PSD_RTOL = 1e-12
 #: entries above 1e15 and reads bounds from 1e20 on as infinite) still solves.
 MAX_MAGNITUDE = 1e12
 
+# ----------------------------------------------------------------- targets
+#: A rotation target R (or a pose's rotation part) must have max |R^T R - I| at
+#: most this and det(R) > 0; a pose's bottom row must be (0, 0, 0, 1) within it.
+#: Loose enough for rotations rounded to float32 (about 1e-7), tight enough that
+#: the numpy and compiled paths read the same rotation.
+ROTATION_TOL = 1e-6
+
 # ----------------------------------------------------- the independent check
 #: Absolute tolerance of the check on bounds and rows, scaled by ``max(1, |bound|)``.
 FEASIBILITY_TOL = 1e-7

@@ -17,6 +17,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from lpik.robots.base import TaskModel
+from lpik.robots.rotations import check_rotation
 from lpik.types import FloatArray
 
 #: Default largest commanded linear speed of the task point [m/s].
@@ -78,6 +79,17 @@ def _speed(name: str, value: float) -> float:
     return float(value)
 
 
+def _check_target(target: Any) -> None:
+    try:
+        t = np.asarray(target, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"target: must be numbers, got {type(target).__name__}") from None
+    if not np.isfinite(t).all():
+        raise ValueError("target: contains NaN or inf")
+    if t.shape in ((3, 3), (4, 4)):
+        check_rotation("target", t)
+
+
 @dataclass(frozen=True, eq=False)
 class ClampedTarget:
     """Straight toward a target, at most ``v_max`` [m/s] and ``w_max`` [rad/s] fast.
@@ -87,6 +99,12 @@ class ClampedTarget:
             xyz point [m], a rotation (3, 3) or a pose (4, 4).
         v_max: Largest commanded linear speed of the task point [m/s].
         w_max: Largest commanded angular speed of the task frame [rad/s].
+
+    Raises:
+        ValueError: Naming ``target`` when it is not finite numbers, or a
+            rotation or pose whose rotation part is not a rotation (within
+            :data:`lpik.tolerances.ROTATION_TOL`) or whose bottom row is not
+            (0, 0, 0, 1); naming ``v_max`` or ``w_max`` when not > 0.
     """
 
     target: Any
@@ -94,6 +112,7 @@ class ClampedTarget:
     w_max: float = DEFAULT_W_MAX
 
     def __post_init__(self) -> None:
+        _check_target(self.target)
         object.__setattr__(self, "v_max", _speed("v_max", self.v_max))
         object.__setattr__(self, "w_max", _speed("w_max", self.w_max))
 

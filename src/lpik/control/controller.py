@@ -24,6 +24,7 @@ from lpik.control.inputs import (
     TARGET_SHAPES,
     chain_arrays,
     joint_vector,
+    rotation_defect_kernel,
     stacked_rows,
     target_array,
     task_value,
@@ -40,6 +41,7 @@ from lpik.methods.lp2 import lp2
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OPTIMAL, Result
 from lpik.robots.base import TaskModel
+from lpik.tolerances import ROTATION_TOL
 from lpik.types import FloatArray
 
 #: The fields of an optimal compiled step that are the same on every step.
@@ -134,6 +136,7 @@ class Lp2Controller:
             G=template.G, h=template.h,
         )  # fmt: skip
         self._kernel = step_kernel()
+        self._defect = rotation_defect_kernel()  # checks rotation targets before the kernel
         self._out = self._state[layout.out_range(self._state)]  # the kernel writes here
         fields = layout.out_fields(self._state)
         self._q, self._dq, self._lam = fields["q"], fields["dq"], fields["lam"]
@@ -173,6 +176,8 @@ class Lp2Controller:
         start = perf_counter()
         prev = q0 if q_prev is None else q_prev
         try:
+            if getattr(target, "ndim", 0) == 2 and self._defect(target) > ROTATION_TOL:
+                q0, target, prev = self._converted(q0, target, q_prev, check_finite=True)
             code = self._kernel(self._state, q0, prev, target)
         except TypeError:  # not C-contiguous writable float64 arrays: convert them
             q0, target, prev = self._converted(q0, target, q_prev)
@@ -221,6 +226,8 @@ class Lp2Controller:
             )
         prev = q0 if q_prev is None else q_prev
         try:
+            if getattr(target, "ndim", 0) == 2 and self._defect(target) > ROTATION_TOL:
+                q0, target, prev = self._converted(q0, target, q_prev, check_finite=True)
             code = self._kernel(self._state, q0, prev, target)
         except TypeError:  # not C-contiguous writable float64 arrays: convert them
             q0, target, prev = self._converted(q0, target, q_prev)

@@ -13,11 +13,29 @@ import numpy as np
 
 from lpik.robots.base import TaskModel
 from lpik.robots.chain import SerialChain
+from lpik.robots.rotations import check_rotation, rotation_defect, rotation_defects
 from lpik.robots.tasks import OrientationTask, PositionTask
+from lpik.tolerances import ROTATION_TOL
 from lpik.types import FloatArray
 
 #: The shapes a target may have: xyz, a rotation, a pose.
 TARGET_SHAPES = ((3,), (3, 3), (4, 4))
+#: The one signature :func:`rotation_defect_kernel` is compiled for.
+ROTATION_SIGNATURE = "float64(float64[:, ::1])"
+_compiled_defect: list[Any] = []
+
+
+def rotation_defect_kernel() -> Any:
+    """:func:`lpik.robots.rotations.rotation_defect`, compiled (a numba dispatcher).
+
+    For :data:`ROTATION_SIGNATURE` only (C-contiguous float64 matrices), so that
+    another argument raises ``TypeError`` instead of compiling in a control loop.
+    """
+    if not _compiled_defect:
+        import numba
+
+        _compiled_defect.append(numba.njit([ROTATION_SIGNATURE], cache=True)(rotation_defect))
+    return _compiled_defect[0]
 
 
 def chain_arrays(model: TaskModel) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -61,8 +79,10 @@ def target_array(target: Any, check_finite: bool) -> FloatArray:
         raise ValueError(
             f"target: must be xyz (3,), a rotation (3, 3) or a pose (4, 4), got {t.shape}"
         )
-    if check_finite and not np.isfinite(t).all():
+    if (check_finite or t.ndim == 2) and not np.isfinite(t).all():
         raise ValueError("target: contains NaN or inf")
+    if t.ndim == 2:
+        check_rotation("target", t)
     return t
 
 
@@ -106,4 +126,9 @@ def stacked_rows(
     finite = np.isfinite(arr).reshape(arr.shape[0], -1).all(axis=1)
     if not finite.all():
         raise ValueError(f"{name}: row {int(np.argmin(finite))} contains NaN or inf")
+    if arr.ndim == 3:
+        bad = rotation_defects(arr) > ROTATION_TOL
+        if bad.any():
+            row = int(np.argmax(bad))
+            check_rotation(f"{name}: row {row}", arr[row])
     return arr

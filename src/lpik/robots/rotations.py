@@ -14,6 +14,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from lpik.tolerances import ROTATION_TOL
 from lpik.types import FloatArray
 
 # Below this angle [rad] the log map uses its Taylor series.
@@ -175,3 +176,86 @@ def left_jacobian_inverse(w: ArrayLike) -> FloatArray:
     else:
         c = 1.0 / theta**2 - (1.0 + math.cos(theta)) / (2.0 * theta * math.sin(theta))
     return np.eye(3) - 0.5 * k + c * (k @ k)
+
+
+def rotation_defect(t: FloatArray) -> float:
+    """How far a rotation (3, 3), or a pose's (4, 4) rotation part, is from a rotation.
+
+    Written in plain loops so that the compiled controller compiles this very
+    function (:func:`lpik.control.inputs.rotation_defect_kernel`).
+
+    Args:
+        t: A float array of shape (3, 3) or (4, 4), finite.
+
+    Returns:
+        The largest of ``|R^T R - I|`` and, for a pose, of its bottom row's
+        distance from (0, 0, 0, 1); ``inf`` when ``det(R) <= 0`` (a reflection,
+        or no rotation at all) or an entry is NaN.
+    """
+    worst = 0.0
+    for i in range(3):
+        for j in range(3):
+            s = t[0, i] * t[0, j] + t[1, i] * t[1, j] + t[2, i] * t[2, j]
+            if i == j:
+                s -= 1.0
+            s = abs(s)
+            if s != s:
+                return math.inf
+            worst = max(worst, s)
+    det = (
+        t[0, 0] * (t[1, 1] * t[2, 2] - t[1, 2] * t[2, 1])
+        - t[0, 1] * (t[1, 0] * t[2, 2] - t[1, 2] * t[2, 0])
+        + t[0, 2] * (t[1, 0] * t[2, 1] - t[1, 1] * t[2, 0])
+    )
+    if not det > 0.0:
+        return math.inf
+    if t.shape[0] == 4:
+        for j in range(4):
+            d = abs(t[3, j] - (1.0 if j == 3 else 0.0))
+            if d != d:
+                return math.inf
+            worst = max(worst, d)
+    return worst
+
+
+def rotation_problem(t: FloatArray) -> str | None:
+    """What keeps a finite (3, 3) or (4, 4) array from being a rotation or a pose, or ``None``.
+
+    Accepted within :data:`lpik.tolerances.ROTATION_TOL` (see :func:`rotation_defect`).
+    """
+    if rotation_defect(t) <= ROTATION_TOL:
+        return None
+    r = np.asarray(t, dtype=float)[:3, :3]
+    det = float(np.linalg.det(r))
+    if not det > 0.0:
+        return f"its rotation part has det {det:.3g}, not a rotation (a reflection or singular)"
+    gram = float(np.abs(r.T @ r - np.eye(3)).max())
+    if gram > ROTATION_TOL:
+        return (
+            f"its rotation part is not orthonormal: max |R^T R - I| = {gram:.3g} "
+            f"> {ROTATION_TOL:g} (ROTATION_TOL)"
+        )
+    row = np.asarray(t, dtype=float)[3]
+    return f"a pose's bottom row must be (0, 0, 0, 1), got {tuple(float(v) for v in row)}"
+
+
+def check_rotation(name: str, t: FloatArray) -> None:
+    """Raise naming ``name`` unless ``t`` (finite, (3, 3) or (4, 4)) is a rotation or a pose.
+
+    Raises:
+        ValueError: ``"<name>: <what is wrong>"``, as :func:`rotation_problem` words it.
+    """
+    problem = rotation_problem(t)
+    if problem is not None:
+        raise ValueError(f"{name}: {problem}")
+
+
+def rotation_defects(stack: FloatArray) -> FloatArray:
+    """:func:`rotation_defect` of every matrix of a stack (B, 3, 3) or (B, 4, 4), at once."""
+    r = stack[:, :3, :3]
+    gram = np.abs(np.einsum("bki,bkj->bij", r, r) - np.eye(3)).max(axis=(1, 2))
+    if stack.shape[1] == 4:
+        bottom = np.abs(stack[:, 3, :] - np.array([0.0, 0.0, 0.0, 1.0])).max(axis=1)
+        gram = np.maximum(gram, bottom)
+    det = np.linalg.det(r)
+    return np.where((det > 0.0) & ~np.isnan(gram), gram, np.inf)
