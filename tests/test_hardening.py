@@ -402,3 +402,48 @@ def test_clamped_target_names_a_target_that_is_not_numbers() -> None:
         ClampedTarget("home")
     with pytest.raises(ValueError, match="^target: contains NaN"):
         ClampedTarget([0.1, np.nan, 0.0])
+
+
+# --- Lp2Controller's arguments -------------------------------------------------------------------
+
+CONTROLLER_BAD = [
+    ({"qdd_max": -1.0}, "qdd_max"),
+    ({"qdd_max": 0.0}, "qdd_max"),
+    ({"qdd_max": [1.0, 2.0]}, "qdd_max"),
+    ({"qdd_max": np.nan}, "qdd_max"),
+    ({"qdd_max": "fast"}, "qdd_max"),
+    ({"dt": 0.0}, "dt"),
+    ({"dt": np.nan}, "dt"),
+    ({"dt": "1ms"}, "dt"),
+    ({"v_max": -1.0}, "v_max"),
+    ({"w_max": np.nan}, "w_max"),
+    ({"v_max": "fast"}, "v_max"),
+    ({"lambda_bound": -1.0}, "lambda_bound"),
+    ({"lambda_bound": [1.0, 2.0]}, "lambda_bound"),
+    ({"velocity_limits": "no"}, "velocity_limits"),
+    ({"M": -np.eye(4)}, "M"),
+    ({"f": [1.0]}, "f"),
+    ({"Lambda": [np.nan] * 4}, "Lambda"),
+    ({"q_ref": [0.0] * 3}, "q_ref"),
+    ({"G": np.ones((1, 4))}, "h"),
+    ({"h": [1.0]}, "G"),
+    ({"G": [["a"] * 4], "h": [1.0]}, "G"),
+    ({"G": np.ones((1, 3)), "h": [1.0]}, "G"),
+    ({"G": np.ones((1, 4)), "h": [1.0, 2.0]}, "h"),
+    ({"G": np.ones((1, 4)), "h": [1.0], "row_labels": 5}, "row_labels"),
+    ({"G": np.ones((1, 4)), "h": [1.0], "row_labels": ["a", "b"]}, "row_labels"),
+]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"), CONTROLLER_BAD, ids=[str(c[0])[:40] for c in CONTROLLER_BAD]
+)
+def test_every_controller_argument_error_names_the_argument(kwargs: dict, name: str) -> None:
+    pytest.importorskip("numba")
+    from lpik.control.controller import Lp2Controller
+    from lpik.robots.planar import planar_arm
+
+    arm = planar_arm([1.0] * 4, q_min=-np.pi, q_max=np.pi, qd_max=1.0)
+    with pytest.raises(ValueError) as info:
+        Lp2Controller(arm, **{"dt": 0.01, **kwargs})
+    assert str(info.value).startswith(f"{name}: "), str(info.value)

@@ -23,8 +23,12 @@ from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, clamp_command, ta
 from lpik.control.inputs import (
     TARGET_SHAPES,
     chain_arrays,
+    extra_rows,
+    joint_rates,
     joint_vector,
+    positive_number,
     rotation_defect_kernel,
+    row_names,
     stacked_rows,
     target_array,
     task_value,
@@ -91,20 +95,23 @@ class Lp2Controller:
         h: Any = None,
         row_labels: Any = None,
     ) -> None:
-        if not (np.isfinite(dt) and dt > 0):
-            raise ValueError(f"dt: must be a finite number > 0, got {dt}")
-        if not (v_max > 0 and w_max > 0):
-            raise ValueError("v_max, w_max: must be > 0")
         self.model = model
-        self.dt, self.v_max, self.w_max = float(dt), float(v_max), float(w_max)
+        self.dt = positive_number("dt", dt)
+        self.v_max, self.w_max = positive_number("v_max", v_max), positive_number("w_max", w_max)
+        if not isinstance(velocity_limits, bool | np.bool_):
+            raise ValueError(f"velocity_limits: must be True or False, got {velocity_limits!r}")
+        if lambda_bound is not None:
+            lambda_bound = positive_number("lambda_bound", lambda_bound)
         origins, axes, revolute, tip = chain_arrays(model)
         self._row_index = task_rows(model)
         n, m = model.n_joints, self._row_index.size
+        qdd_max = None if qdd_max is None else joint_rates("qdd_max", qdd_max, n)
         limits = standard_limits(model, velocity=velocity_limits, lambda_bound=lambda_bound)
         if qdd_max is not None:
-            limits.append(AccelerationLimits(np.broadcast_to(np.asarray(qdd_max, float), (n,))))
+            limits.append(AccelerationLimits(qdd_max))
         if G is not None or h is not None:
-            limits.append(LinearRows(G, h, tuple(row_labels or ())))
+            G, h = extra_rows(G, h, n)
+            limits.append(LinearRows(G, h, row_names(row_labels)))
         self.limits = tuple(limits)
         self._weights = {
             "M": M,

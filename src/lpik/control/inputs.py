@@ -7,6 +7,8 @@ the argument (and the row of a batch) that is wrong.
 
 from __future__ import annotations
 
+import math
+import numbers
 from typing import Any
 
 import numpy as np
@@ -15,7 +17,7 @@ from lpik.robots.base import TaskModel
 from lpik.robots.chain import SerialChain
 from lpik.robots.rotations import check_rotation, rotation_defect, rotation_defects
 from lpik.robots.tasks import OrientationTask, PositionTask
-from lpik.tolerances import ROTATION_TOL
+from lpik.tolerances import MAX_MAGNITUDE, ROTATION_TOL
 from lpik.types import FloatArray
 
 #: The shapes a target may have: xyz, a rotation, a pose.
@@ -36,6 +38,74 @@ def rotation_defect_kernel() -> Any:
 
         _compiled_defect.append(numba.njit([ROTATION_SIGNATURE], cache=True)(rotation_defect))
     return _compiled_defect[0]
+
+
+def positive_number(name: str, value: Any) -> float:
+    """``value`` as a float when it is a finite number in (0, MAX_MAGNITUDE], else a ValueError.
+
+    Raises:
+        ValueError: Naming ``name``.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name}: must be a number > 0, got {value!r}")
+    number = float(value)
+    if not (math.isfinite(number) and 0.0 < number <= MAX_MAGNITUDE):
+        raise ValueError(
+            f"{name}: must be a finite number > 0 (at most {MAX_MAGNITUDE:g}), got {value!r}"
+        )
+    return number
+
+
+def joint_rates(name: str, value: Any, n: int) -> FloatArray:
+    """Per-joint limits > 0 (``inf``: none) from a scalar or ``n`` numbers, or a ValueError.
+
+    Raises:
+        ValueError: Naming ``name``, for a wrong length, NaN, or a value <= 0 or too large.
+    """
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be a number or {n} numbers, got {value!r}") from None
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise ValueError(f"{name}: must be a number or {n} numbers, got shape {arr.shape}")
+    bad = np.isnan(arr) | (arr <= 0.0) | (np.isfinite(arr) & (arr > MAX_MAGNITUDE))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(
+            f"{name}: must be > 0 (inf: no limit, finite at most {MAX_MAGNITUDE:g}), "
+            f"got {arr[i]:g} at index {i}"
+        )
+    return arr
+
+
+def extra_rows(G: Any, h: Any, n: int) -> tuple[FloatArray, FloatArray]:
+    """Rows ``G q <= h`` as float arrays (r, n) and (r,), or a ValueError naming G or h.
+
+    Their shapes and values are checked further by :class:`~lpik.problem.Problem`.
+    """
+    if G is None or h is None:
+        raise ValueError(f"{'G' if G is None else 'h'}: G and h must be given together")
+    arrays = []
+    for name, value in (("G", G), ("h", h)):
+        try:
+            arrays.append(np.atleast_1d(np.array(value, dtype=np.float64)))
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}: must be numbers, got {value!r}"[:200]) from None
+    rows = arrays[0].reshape(1, n) if arrays[0].shape == (n,) else arrays[0]
+    return rows, arrays[1]
+
+
+def row_names(value: Any) -> tuple[str, ...]:
+    """Labels of the rows ``G q <= h`` as a tuple of strings (none: ``()``), or a ValueError."""
+    if value is None:
+        return ()
+    if isinstance(value, str) or not isinstance(value, list | tuple):
+        raise ValueError(f"row_labels: must be a list of strings, got {value!r}"[:200])
+    if not all(isinstance(label, str) for label in value):
+        raise ValueError("row_labels: must be a list of strings")
+    return tuple(value)
 
 
 def chain_arrays(model: TaskModel) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
