@@ -447,3 +447,21 @@ def test_every_controller_argument_error_names_the_argument(kwargs: dict, name: 
     with pytest.raises(ValueError) as info:
         Lp2Controller(arm, **{"dt": 0.01, **kwargs})
     assert str(info.value).startswith(f"{name}: "), str(info.value)
+
+
+# --- URDF files ----------------------------------------------------------------------------------
+
+
+def test_load_urdf_names_a_binary_a_malformed_and_a_missing_file(tmp_path) -> None:
+    from lpik.robots.urdf import load_urdf
+
+    binary, malformed = tmp_path / "robot.urdf", tmp_path / "broken.urdf"
+    binary.write_bytes(bytes(range(256)) * 4)
+    malformed.write_text('<robot name="r"><link name="a"></robot', encoding="utf-8")
+    cases = {binary: "UTF-8", malformed: "malformed XML", tmp_path / "absent.urdf": "No such"}
+    for path, says in cases.items():
+        with pytest.raises(ValueError) as info:
+            load_urdf(path, tip_link="a")
+        assert str(path.name) in str(info.value) and says in str(info.value)
+    with pytest.raises(ValueError, match="path or XML text"):
+        load_urdf(b"<robot/>", tip_link="a")  # type: ignore[arg-type]

@@ -48,15 +48,25 @@ def read_urdf_text(source: str | os.PathLike[str]) -> tuple[str, str]:
             whose first non-blank character is ``<``).
 
     Raises:
-        ValueError: If the file cannot be read.
+        ValueError: If the file cannot be read (missing, a directory, not
+            UTF-8 text such as a binary file), or ``source`` is neither a path
+            nor text; the message names the file.
     """
     if isinstance(source, str) and source.lstrip().startswith("<"):
         return source, "<URDF string>"
+    if not isinstance(source, str | os.PathLike):
+        raise ValueError(f"URDF: expected a path or XML text, got {type(source).__name__}")
     path = Path(source)
     try:
         return path.read_text(encoding="utf-8"), str(path)
     except OSError as exc:
         raise ValueError(f"URDF file '{path}' cannot be read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        byte = exc.object[exc.start]
+        raise ValueError(
+            f"URDF file '{path}' cannot be read: not UTF-8 text (byte 0x{byte:02x} at offset "
+            f"{exc.start}); a URDF is an XML text file"
+        ) from None
 
 
 def parse_urdf(source: str | os.PathLike[str]):
