@@ -69,6 +69,7 @@ HOSTILE = [
     ("boolean-k", doc(method="robust", k=False), "k", "false"),
     ("string-k", doc(method="robust", k="0.1"), "k", "string"),
     ("object-in-a-vector", doc(q0=[{"a": 1}, 0, 0, 0]), "q0", "object"),
+    ("J-null", doc(J=None), "J", "list of rows"),
     ("label-not-a-string", doc(G=[[1, 0, 0, 0]], h=[1], row_labels=[3]), "row_labels", "string"),
     ("J-scaled-by-1e200", doc(J=[[1e200, 0, 0, 0], [0, 1e200, 0, 0]]), "J", "1e+12"),
     ("bound-1e30", doc(q_max=[1e30, 1, 1, 1]), "q_max", "null or inf"),

@@ -130,6 +130,8 @@ def _check_names(key: str, value: Any) -> None:
 def _check_sizes(data: dict[str, Any]) -> None:
     """Raise naming the key when J or G is larger than the caps allow."""
     J = data["J"]
+    if not isinstance(J, list):
+        raise InvalidProblemError("J", "must be a list of rows (an m x n matrix)")
     if len(J) > MAX_TASK_ROWS:
         raise InvalidProblemError(
             "J", f"has {len(J)} rows; lpik solve takes at most {MAX_TASK_ROWS} (MAX_TASK_ROWS)"
