@@ -90,6 +90,12 @@ def test_hostile_documents_are_one_line_naming_the_key(tmp_path, capsys, text, k
     assert says in line
 
 
+@pytest.mark.parametrize("indent", ["-1", "100000000"])
+def test_solve_refuses_an_indent_out_of_range(capsys, indent: str) -> None:  # type: ignore[no-untyped-def]
+    code = main(["solve", "--example", "pull-in-step", "--indent", indent])
+    assert_refused(code, *capsys.readouterr(), "--indent")
+
+
 def test_a_file_over_the_size_cap_is_refused_before_it_is_read(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
     text = doc() + " " * problem_json.MAX_FILE_BYTES
     line = assert_refused(*run_solve(tmp_path, text, capsys), "problem")

@@ -8,6 +8,9 @@ import sys
 from importlib import resources
 from pathlib import Path
 
+#: Largest --indent of the JSON output (spaces).
+MAX_INDENT = 16
+
 
 def example_names() -> list[str]:
     """Names of the bundled example problems."""
@@ -40,7 +43,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     )
     parser.add_argument("--list-examples", action="store_true", help="list bundled examples")
     parser.add_argument("--method", help="override the file's method")
-    parser.add_argument("--indent", type=int, default=None, help="indent the JSON output")
+    parser.add_argument(
+        "--indent",
+        type=int,
+        default=None,
+        help=f"indent the JSON output by this many spaces (0 to {MAX_INDENT})",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -52,6 +60,8 @@ def run(args: argparse.Namespace) -> int:
     if args.list_examples:
         print("\n".join(example_names()))
         return 0
+    if args.indent is not None and not 0 <= args.indent <= MAX_INDENT:
+        raise ValueError(f"--indent: must be in 0..{MAX_INDENT}, got {args.indent}")
     if (args.problem is None) == (args.example is None):
         raise ValueError("problem: give exactly one of PROBLEM.json or --example NAME")
     path = example_path(args.example) if args.example else args.problem
