@@ -4,7 +4,10 @@ Everything here is written from the paper, in ABSOLUTE joint coordinates
 ``q``, with scipy.optimize.linprog (method="highs") or numpy: nothing calls
 lpik's LP assembly, its step bounds or its checker. End-stops (eq. 13) are
 variable bounds; the per-step bounds of eq. 14 and the extra rows
-``G q <= h`` are inequality rows.
+``G q <= h`` are inequality rows. One thing is taken from lpik: which joints
+LP2 pins (:meth:`lpik.problem.Problem.pinned`, a rule tested on its own in
+``test_recovery.py``); the reference then fixes them and drops their
+criterion rows, as eq. 18 over the free joints reads.
 """
 
 from __future__ import annotations
@@ -46,11 +49,17 @@ def _interval(lo: float, hi: float, margin: float) -> tuple[float | None, float 
     return (a if np.isfinite(a) else None, b if np.isfinite(b) else None)
 
 
-def _q_rows(P: Problem, extra_cols: int, margin: float) -> tuple[np.ndarray, np.ndarray]:
-    """Eq. 14 (``q0 + dq_min <= q <= q0 + dq_max``) and ``G q <= h`` as ``A q <= b`` rows."""
+def _q_rows(
+    P: Problem, extra_cols: int, margin: float, skip: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 14 (``q0 + dq_min <= q <= q0 + dq_max``) and ``G q <= h`` as ``A q <= b`` rows.
+
+    Joints in ``skip`` (fixed by their variable bounds) get no eq. 14 rows.
+    """
     eye = np.eye(P.n)
-    hi = np.isfinite(P.dq_max)
-    lo = np.isfinite(P.dq_min)
+    keep = np.ones(P.n, dtype=bool) if skip is None else ~skip
+    hi = np.isfinite(P.dq_max) & keep
+    lo = np.isfinite(P.dq_min) & keep
     A = np.vstack([eye[hi], -eye[lo], P.G])
     b = np.concatenate([(P.q0 + P.dq_max)[hi], -(P.q0 + P.dq_min)[lo], P.h]) + margin
     return np.hstack([A, np.zeros((A.shape[0], extra_cols))]), b
@@ -91,13 +100,20 @@ def lp2_reference(P: Problem, margin: float = 0.0) -> Reference:
     """
     n, m = P.n, P.m
     H = P.M + P.Lambda
+    pinned, d = P.pinned()
+    free = ~pinned
     A_eq = np.block([[H, P.J.T, np.zeros((n, 1))], [P.J, np.zeros((m, m)), -P.dw[:, None]]])
     b_eq = np.concatenate([P.M @ P.q0 + P.Lambda @ P.q_ref + P.f, P.J @ P.q0])
-    A_ub, b_ub = _q_rows(P, m + 1, margin)
+    keep = np.concatenate([free, np.ones(m, dtype=bool)])  # a pinned joint has no criterion row
+    A_ub, b_ub = _q_rows(P, m + 1, margin, skip=pinned)
     lam_bounds = [_interval(lo, hi, margin) for lo, hi in zip(P.lam_min, P.lam_max)]
+    stops = [
+        (float(P.q0[i] + d[i]),) * 2 if pinned[i] else bound
+        for i, bound in enumerate(_stops(P, margin))
+    ]
     c = np.zeros(n + m + 1)
     c[-1] = -1.0
-    res = _linprog(c, A_ub, b_ub, A_eq, b_eq, _stops(P, margin) + lam_bounds + [(0.0, 1.0)])
+    res = _linprog(c, A_ub, b_ub, A_eq[keep], b_eq[keep], stops + lam_bounds + [(0.0, 1.0)])
     if res.status != 0:
         return Reference(False)
     return Reference(True, res.x[:n], res.x[n : n + m], float(res.x[-1]), float(-res.fun))
@@ -224,9 +240,11 @@ def task_error(P: Problem, dq: np.ndarray, p: float) -> float:
 
 
 def kkt_condition(P: Problem) -> float:
-    """Condition number of ``[[M + Lambda, J^T], [J, 0]]`` (inf when singular)."""
+    """Condition number of ``[[M + Lambda, J^T], [J, 0]]`` over the free joints (inf: singular)."""
     m = P.m
-    K = np.block([[P.M + P.Lambda, P.J.T], [P.J, np.zeros((m, m))]])
+    free = ~P.pinned()[0]
+    H, J = (P.M + P.Lambda)[np.ix_(free, free)], P.J[:, free]
+    K = np.block([[H, J.T], [J, np.zeros((m, m))]])
     return float(np.linalg.cond(K))
 
 

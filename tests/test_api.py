@@ -111,9 +111,10 @@ def test_statuses_are_documented_and_moving_ones_are_few() -> None:
         st.LIMIT_REACHED,
         st.SOLVER_ERROR,
         st.CHECK_FAILED,
+        st.RECOVERING,
     ):
         assert st.STATUSES[word]
-    assert st.MOVING == {st.OPTIMAL, st.SCALED, st.VIOLATES_LIMITS}
+    assert st.MOVING == {st.OPTIMAL, st.SCALED, st.RECOVERING, st.VIOLATES_LIMITS}
 
 
 def test_safe_step_and_result_json() -> None:

@@ -173,12 +173,20 @@ def test_stdin_is_read_for_a_dash(monkeypatch, capsys) -> None:
     assert_result_json(out, 4, 2)
 
 
-def test_an_infeasible_step_is_still_exit_0(tmp_path, capsys) -> None:
+def test_a_recovering_step_is_exit_0(tmp_path, capsys) -> None:
     text = doc(q0=[3.0, -0.524, -0.524, -0.524])  # 1.3 rad past joint 1's end-stop
     assert main(arguments(tmp_path, text, [])) == 0
     out, _ = capsys.readouterr()
     data = assert_result_json(out, 4, 2)
-    assert data["status"] == "infeasible" and data["p"] == 0.0 and data["binding"]
+    assert data["status"] == "recovering" and data["binding"] == "joint 1 upper end-stop"
+
+
+def test_an_infeasible_step_is_still_exit_0(tmp_path, capsys) -> None:
+    text = doc(G=[[1.0, 0.0, 0.0, 0.0], [-1.0, 0.0, 0.0, 0.0]], h=[-1.0, -1.0])
+    assert main(arguments(tmp_path, text, [])) == 0
+    out, _ = capsys.readouterr()
+    data = assert_result_json(out, 4, 2)
+    assert data["status"] == "infeasible" and data["p"] == 0.0
 
 
 # --- fuzzing the input ---------------------------------------------------------------------

@@ -20,7 +20,7 @@ BENCH = ROOT / "benchmarks" / "lpik_bench"
 #: only modules of its own layer or below. The longest matching prefix decides.
 LAYERS = (
     ("lpik.types", "lpik.tolerances", "lpik.labels", "lpik.exceptions", "lpik.naming",
-     "lpik.robots.base", "lpik.version"),
+     "lpik.robots.base", "lpik.version", "lpik.bands"),
     ("lpik.problem", "lpik.result", "lpik.check", "lpik.limits", "lpik.highs", "lpik.methods",
      "lpik.problem_json"),
     ("lpik.robots",),

@@ -174,9 +174,8 @@ def test_p_equal_to_one_exactly_at_a_bound_names_nothing() -> None:
     [
         ([1.0, 0.0], [-5.0, -5.0], [1.0, 5.0], "joint 1 upper end-stop"),
         ([1.0, 0.0], [-5.0, 0.0], [1.0, 5.0], "joint 1 upper end-stop"),
-        ([0.0, -1.0], [-5.0, -1.0], [5.0, -1.0], "joint 2 upper end-stop"),
     ],
-    ids=["on-upper", "on-upper-other-on-lower", "fixed-joint"],
+    ids=["on-upper", "on-upper-other-on-lower"],
 )
 def test_starting_exactly_on_a_bound_gives_p_zero(
     q0: list[float], q_min: list[float], q_max: list[float], binding: str
@@ -190,10 +189,18 @@ def test_starting_exactly_on_a_bound_gives_p_zero(
     assert_matches_reference(P, res)
 
 
-def test_a_degenerate_vertex_names_the_limit_that_blocks() -> None:
-    # Regression (found by hypothesis): p = 0 with four joints on bounds. Joint 3 is
-    # fixed and blocks; joint 1 sits on its lower end-stop but would move inward. At
-    # this vertex HiGHS's duals of all four are zero, so the dual rule alone named joint 1.
+def test_a_fixed_joint_is_pinned_and_the_others_carry_the_command() -> None:
+    # Joint 2 cannot move (q_min = q_max): eq. 18 over all joints would tie it to p
+    # and give p = 0; pinned, the criterion is resolved over joint 1, which moves.
+    P = Problem(J=[[1.0, 1.0]], dw=[1.0], q0=[0.0, -1.0], q_min=[-5.0, -1.0], q_max=[5.0, -1.0])
+    res = assert_paths_agree(P)
+    assert (res.status, res.p, res.binding) == (st.OPTIMAL, 1.0, None)
+    np.testing.assert_allclose(res.q, [1.0, -1.0])
+    assert_matches_reference(P, res)
+
+
+def test_a_fixed_joint_in_a_planar_arm_no_longer_blocks() -> None:
+    # Found by hypothesis before joints were pinned: joint 3 fixed gave p = 0.
     a = planar_arm([1.0, 1.0, 1.0, 0.5])
     q0 = np.array([1.0, 0.0, 0.0, 1.0])
     P = Problem(
@@ -206,8 +213,9 @@ def test_a_degenerate_vertex_names_the_limit_that_blocks() -> None:
         dq_max=np.full(4, 0.125),
     )
     res = assert_paths_agree(P)
-    assert res.p == 0.0
-    assert res.binding == "joint 3 lower end-stop"
+    assert res.p == 1.0 and res.binding is None
+    assert res.q[2] == 0.0
+    assert_matches_reference(P, res)
 
 
 def test_starting_on_a_bound_and_moving_away_is_free() -> None:
@@ -249,7 +257,9 @@ def test_an_extra_row_binds_with_its_label() -> None:
     assert_matches_reference(P, res)
 
 
-def test_q0_outside_its_end_stops_by_more_than_a_step_is_infeasible() -> None:
+def test_q0_outside_its_end_stops_by_more_than_a_step_moves_back_at_full_speed() -> None:
+    # Joint 1 is 1.0 past its end-stop: pinned at its velocity limit back (-0.1); joint 2
+    # carries the command, dq2 = 0.1 - p within [-0.1, 0.1]: p = 0.2.
     P = Problem(
         J=[[1.0, 1.0]],
         dw=[-1.0],
@@ -258,17 +268,16 @@ def test_q0_outside_its_end_stops_by_more_than_a_step_is_infeasible() -> None:
         dq_min=[-0.1, -0.1],
         dq_max=[0.1, 0.1],
     )
-    fast, slow = both_paths(P)
-    for r in (fast, slow):
-        assert r.status == st.INFEASIBLE
-        assert r.p == 0.0 and r.lam is None
-        np.testing.assert_array_equal(r.q, P.q0)
-        assert r.binding == "joint 1 lower velocity limit / joint 1 upper end-stop"
-    assert not lp2_reference(P).feasible
+    assert P.recovering() == ("joint 1 upper end-stop",)
+    res = assert_paths_agree(P)
+    assert (res.status, res.binding) == (st.RECOVERING, "joint 1 upper end-stop")
+    assert res.p == pytest.approx(0.2)
+    np.testing.assert_allclose(res.q, [1.9, -0.1])
+    assert_matches_reference(P, res)
 
 
-def test_q0_outside_its_end_stops_by_less_than_a_step_is_repaired() -> None:
-    # dq = (-p/2, -p/2); joint 1 needs dq1 <= -0.05 (p >= 0.1) and allows dq1 >= -0.1 (p <= 0.2).
+def test_q0_outside_its_end_stops_by_less_than_a_step_returns_onto_it() -> None:
+    # Joint 1 returns exactly onto its end-stop (dq1 = -0.05); dq2 = 0.05 - p >= -0.1.
     P = Problem(
         J=[[1.0, 1.0]],
         dw=[-1.0],
@@ -278,10 +287,20 @@ def test_q0_outside_its_end_stops_by_less_than_a_step_is_repaired() -> None:
         dq_max=[0.1, 0.1],
     )
     res = assert_paths_agree(P)
-    assert res.status == st.OPTIMAL
-    assert res.p == pytest.approx(0.2)
-    assert res.q[0] <= 1.0
+    assert (res.status, res.binding) == (st.RECOVERING, "joint 1 upper end-stop")
+    assert res.p == pytest.approx(0.15)
+    assert res.q[0] == pytest.approx(1.0)
     assert_matches_reference(P, res)
+
+
+def test_q0_past_its_end_stop_within_the_tolerance_counts_as_on_it() -> None:
+    # on it, the joint may stay (p = 0 towards it) or leave (p = 1 away from it)
+    P = Problem(J=[[1.0, 1.0]], dw=[1.0], q0=[1.0 + 1e-12, 0.0], q_max=[1.0, 1.0])
+    assert P.recovering() == ()
+    res = assert_paths_agree(P)
+    assert (res.status, res.p, res.binding) == (st.OPTIMAL, 0.0, "joint 1 upper end-stop")
+    res = assert_paths_agree(P.replace(dw=[-1.0]))
+    assert (res.status, res.p) == (st.OPTIMAL, 1.0)
 
 
 def test_smoothing_that_pulls_past_a_bound_is_infeasible_on_both_paths() -> None:

@@ -311,14 +311,29 @@ def crossed_problem() -> Problem:
 
 
 @pytest.mark.parametrize("method", sorted(LIMIT_AWARE))
-def test_an_infeasible_problem_gives_a_safe_step(method: str) -> None:
+def test_a_state_past_an_end_stop_moves_back_with_every_method(method: str) -> None:
     P = crossed_problem()
     res = solve(P, method, model=arm())
-    assert res.status == st.INFEASIBLE
-    assert not res.moved
-    np.testing.assert_array_equal(res.q, P.q0)
+    assert res.status == st.RECOVERING and res.moved
+    assert res.binding == "joint 1 upper end-stop"
+    # back at joint 1's full speed (one step: 0.01 rad), never further out
+    assert res.q[0] == pytest.approx(P.q0[0] + P.dq_min[0])
+    lower, upper = P.step_bounds()[:2]
+    assert np.all(res.dq >= lower - 1e-12) and np.all(res.dq <= upper + 1e-12)
+
+
+@pytest.mark.parametrize("method", sorted(LIMIT_AWARE))
+def test_an_infeasible_problem_gives_the_safe_step(method: str) -> None:
+    # two rows that no q satisfies (joint 1 below q0 - 0.1 and above q0 + 0.1)
+    P = paper_problem(arm(), Q0, np.array([-0.005, 0.0])).replace(
+        G=[[1.0, 0.0, 0.0, 0.0], [-1.0, 0.0, 0.0, 0.0]],
+        h=[Q0[0] - 0.1, -Q0[0] - 0.1],
+        row_labels=None,
+    )
+    res = solve(P, method, model=arm())
+    assert res.status in (st.INFEASIBLE, st.SOLVER_ERROR) and not res.moved
+    np.testing.assert_array_equal(res.q, P.q0)  # at rest: the safe step does not move
     assert res.p == 0.0 and res.lam is None
-    assert res.binding == "joint 1 lower velocity limit / joint 1 upper end-stop"
 
 
 @pytest.mark.parametrize("method", CLASSICAL)

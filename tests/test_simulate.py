@@ -203,17 +203,18 @@ def test_one_solver_serves_every_step(monkeypatch) -> None:
 # --- what the loop applies -----------------------------------------------------------------
 
 
-def test_safe_step_keeps_q(paper_arm) -> None:
-    # q1 starts 2 rad above its end-stop: one 0.01 s step at 1 rad/s cannot get back inside
+def test_a_joint_past_its_end_stop_moves_back_at_its_speed_limit(paper_arm) -> None:
+    # q1 starts 2 rad above its end-stop: 0.01 s steps at 1 rad/s bring it back by 0.01 each
     q0 = np.array([1.0, 0.2, 0.2, 0.2])
     limits = [EndStops([-np.pi, -np.pi, -np.pi, -np.pi], [-1.0, np.pi, np.pi, np.pi]),
               VelocityLimits(np.ones(4))]  # fmt: skip
     log = simulate(paper_arm, ClampedTarget(np.array([1.0, 1.0, 0.0]), 0.5), q0, 4, dt=0.01,
                    limits=limits)  # fmt: skip
-    assert set(log.status) == {"infeasible"}
-    np.testing.assert_array_equal(log.q_end, q0)
-    assert (log.p == 0).all() and np.isnan(log.lam).all()
-    assert all("joint 1" in b for b in log.binding)
+    assert set(log.status) == {"recovering"}
+    assert set(log.binding) == {"joint 1 upper end-stop"}
+    np.testing.assert_allclose(log.q[:, 0], [1.0, 0.99, 0.98, 0.97])
+    assert log.q_end[0] == pytest.approx(0.96)
+    assert log.metrics().recovery_steps == 4
 
 
 def test_classical_step_is_clamped_to_the_end_stop_and_logged() -> None:

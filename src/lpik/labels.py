@@ -8,8 +8,6 @@ functions of this module, so that one limit has one label everywhere:
   ``"<joint> upper velocity limit"``, ``"<joint> lower acceleration limit"``;
 - a multiplier bound (sec. 3.2): ``"multiplier 2 upper bound"``;
 - an extra row ``G q <= h``: the row's own label (default ``"row 1"``);
-- a joint whose lower bound lies above its upper one (no step is feasible):
-  ``"<lower label> / <upper label>"``;
 - ``p < 1`` with no limit active (``J`` cannot produce ``dw``): ``"singularity"``.
 """
 
@@ -46,11 +44,6 @@ def multiplier_label(index: int, side: str) -> str:
     return f"multiplier {index + 1} {side} bound"
 
 
-def crossed_label(lower: str, upper: str) -> str:
-    """A joint whose lower bound lies above its upper one: both labels."""
-    return f"{lower} / {upper}"
-
-
 def multiplier_labels(m: int) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """Labels of the lower and of the upper bounds of ``m`` multipliers."""
     return tuple(multiplier_label(k, "lower") for k in range(m)), tuple(
@@ -82,18 +75,11 @@ def step_label_table(
 
     For each joint and side, one label per kind in :data:`BOUND_KINDS` (index
     ``3 (2 k + side) + kind``); then the multipliers' and rows' labels of
-    :func:`code_labels` (from ``6 n``); then, per joint, the nine crossed pairs
-    ``lower kind x upper kind`` (from ``6 n + 2 (m + r)``).
+    :func:`code_labels` (from ``6 n``).
     """
     joints: list[str] = []
     for name in joint_names:
         for side in SIDES:
             joints += [bound_label(name, side, kind) for kind in BOUND_KINDS]
     rest = code_labels((), (), m, row_labels)
-    crossed = [
-        crossed_label(bound_label(name, "lower", low), bound_label(name, "upper", high))
-        for name in joint_names
-        for low in BOUND_KINDS
-        for high in BOUND_KINDS
-    ]
-    return (*joints, *rest, *crossed)
+    return (*joints, *rest)

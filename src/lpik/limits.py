@@ -17,7 +17,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from lpik import labels
+from lpik import bands, labels
 from lpik.problem import Problem
 from lpik.types import FloatArray
 
@@ -46,6 +46,8 @@ class Piece:
     dq_min: FloatArray | None = None
     dq_max: FloatArray | None = None
     kind: str = ""
+    qdd_min: FloatArray | None = None
+    qdd_max: FloatArray | None = None
     lam_min: FloatArray | None = None
     lam_max: FloatArray | None = None
     G: FloatArray | None = None
@@ -105,7 +107,10 @@ class AccelerationLimits:
 
     With ``qd_prev = (q0 - q_prev) / dt`` and ``qd_new = dq / dt`` this bounds
     ``dq`` to ``(q0 - q_prev) + [qdd_min, qdd_max] dt^2``. On the first step
-    (no ``q_prev``) the arm is taken to be at rest.
+    (no ``q_prev``) the arm is taken to be at rest. These limits take precedence
+    over the velocity limits and the end-stops when they cannot all hold, and
+    add the braking distance to the end-stops as a bound on the speed now
+    (:mod:`lpik.bands`).
 
     Args:
         qdd_max: Upper acceleration limits [rad/s^2 or m/s^2].
@@ -116,12 +121,10 @@ class AccelerationLimits:
     qdd_min: Any = None
 
     def apply(self, context: StepContext) -> Piece:
-        """Bounds on ``dq`` given the previous step."""
+        """The acceleration limits, which :func:`build_problem` turns into bounds on ``dq``."""
         hi = _vec("qdd_max", self.qdd_max)
         lo = -hi if self.qdd_min is None else _vec("qdd_min", self.qdd_min)
-        last = 0.0 if context.q_prev is None else context.q0 - context.q_prev
-        dt2 = context.dt**2
-        return Piece(dq_min=last + lo * dt2, dq_max=last + hi * dt2, kind=labels.ACCELERATION_LIMIT)
+        return Piece(qdd_min=lo, qdd_max=hi, kind=labels.ACCELERATION_LIMIT)
 
 
 @dataclass(frozen=True, eq=False)
@@ -214,6 +217,7 @@ def build_problem(
     )
     q_min, q_max = np.full(n, -np.inf), np.full(n, np.inf)
     dq_min, dq_max = np.full(n, -np.inf), np.full(n, np.inf)
+    qdd_min, qdd_max = np.full(n, -np.inf), np.full(n, np.inf)
     lo_kind, hi_kind = [labels.VELOCITY_LIMIT] * n, [labels.VELOCITY_LIMIT] * n
     lam_min, lam_max = np.full(m, -np.inf), np.full(m, np.inf)
     rows, rhs, row_labels = [], [], []
@@ -231,6 +235,10 @@ def build_problem(
             new = np.broadcast_to(piece.dq_max, (n,))
             hi_kind = [piece.kind if b < a else k for a, b, k in zip(dq_max, new, hi_kind)]
             dq_max = np.minimum(dq_max, new)
+        if piece.qdd_min is not None:
+            qdd_min = np.maximum(qdd_min, np.broadcast_to(piece.qdd_min, (n,)))
+        if piece.qdd_max is not None:
+            qdd_max = np.minimum(qdd_max, np.broadcast_to(piece.qdd_max, (n,)))
         if piece.lam_min is not None:
             lam_min = np.maximum(lam_min, np.broadcast_to(piece.lam_min, (m,)))
         if piece.lam_max is not None:
@@ -239,6 +247,12 @@ def build_problem(
             rows.append(piece.G)
             rhs.append(piece.h)
             row_labels.extend(piece.row_labels)
+    names = weights.get("joint_names") or labels.default_joint_names(n)
+    last = np.zeros(n) if context.q_prev is None else context.q0 - context.q_prev
+    outside: list[str] = []
+    if np.isfinite(qdd_min).any() or np.isfinite(qdd_max).any():
+        _rate_bands(q0, last, (q_min, q_max, dq_min, dq_max, qdd_min, qdd_max), dt,
+                    (lo_kind, hi_kind), names, outside)  # fmt: skip
     extra: dict[str, Any] = {}
     if rows:
         extra = {"G": np.vstack(rows), "h": np.concatenate(rhs), "row_labels": row_labels}
@@ -254,6 +268,40 @@ def build_problem(
         dq_max_kind=hi_kind,
         lam_min=lam_min,
         lam_max=lam_max,
+        outside_limits=outside,
         **extra,
         **weights,
     )
+
+
+def _rate_bands(
+    q0: FloatArray,
+    last: FloatArray,
+    bounds: tuple[FloatArray, ...],
+    dt: float,
+    kinds: tuple[list[str], list[str]],
+    names: Sequence[str],
+    outside: list[str],
+) -> None:
+    """Fold the acceleration limits into ``dq_min``/``dq_max`` by :func:`lpik.bands.rate_band`.
+
+    ``bounds`` is ``(q_min, q_max, dq_min, dq_max, qdd_min, qdd_max)``; the step
+    bounds and ``kinds`` are updated in place, and the labels of limits the
+    motion is outside of are appended to ``outside``.
+    """
+    q_min, q_max, dq_min, dq_max, qdd_min, qdd_max = bounds
+    lo_kind, hi_kind = kinds
+    for i in range(q0.size):
+        lo, hi, k_lo, k_hi, verdict = bands.rate_band(
+            float(last[i]), float(q_min[i] - q0[i]), float(q_max[i] - q0[i]),
+            float(dq_min[i]), float(dq_max[i]),
+            float(qdd_min[i]), float(qdd_max[i]), dt,
+        )  # fmt: skip
+        # kind code 1 is the step bound given (velocity limit or a custom kind)
+        lo_kind[i] = lo_kind[i] if k_lo == 1 else labels.BOUND_KINDS[k_lo]
+        hi_kind[i] = hi_kind[i] if k_hi == 1 else labels.BOUND_KINDS[k_hi]
+        dq_min[i], dq_max[i] = lo, hi
+        if verdict != bands.MET:
+            side = "upper" if verdict == bands.UPPER_YIELDED else "lower"
+            kind = hi_kind[i] if verdict == bands.UPPER_YIELDED else lo_kind[i]
+            outside.append(labels.bound_label(str(names[i]), side, kind))

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik import labels
+from lpik import bands, labels
 from lpik.exceptions import InvalidProblemError
 from lpik.tolerances import MAX_MAGNITUDE, PSD_RTOL, SYMMETRY_RTOL
 from lpik.types import FloatArray
@@ -145,6 +145,11 @@ class Problem:
         dq_min_kind: Which limit set each entry of ``dq_min`` (e.g. ``"velocity limit"``).
         dq_max_kind: Which limit set each entry of ``dq_max``.
         joint_names: Names used in binding labels; default ``"joint 1"`` ... ``"joint n"``.
+        outside_limits: Labels of the rate limits the joints' motion is already
+            outside of (a speed above its limit that the acceleration limits
+            cannot bring back in one step), as :func:`lpik.limits.build_problem`
+            finds them; the step is then ``recovering``. End-stops the state is
+            outside of are found from ``q0`` (:meth:`recovering`).
 
     Raises:
         InvalidProblemError: (a ``ValueError``) naming the field that is wrong.
@@ -170,6 +175,7 @@ class Problem:
     dq_min_kind: Sequence[str] | None = None
     dq_max_kind: Sequence[str] | None = None
     joint_names: Sequence[str] | None = None
+    outside_limits: Sequence[str] | None = None
     _cache: dict[str, Any] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -237,6 +243,10 @@ class Problem:
         set_(self, "dq_max_kind", _labels("dq_max_kind", self.dq_max_kind, n, STEP_BOUND_KIND))
         names = labels.default_joint_names(n)
         set_(self, "joint_names", _labels("joint_names", self.joint_names, n, None) or names)
+        outside = () if self.outside_limits is None else self.outside_limits
+        if isinstance(outside, str):
+            outside = (outside,)
+        set_(self, "outside_limits", tuple(str(v) for v in outside))
 
     def _init_rows(self, n: int) -> None:
         set_ = object.__setattr__
@@ -279,33 +289,60 @@ class Problem:
         return int(self.J.shape[0])
 
     def step_bounds(self) -> tuple[FloatArray, FloatArray, tuple[str, ...], tuple[str, ...]]:
-        """Effective bounds on ``dq = q - q0`` from end-stops and step bounds (eqs. 13-14).
+        """Bounds on ``dq = q - q0`` from end-stops and step bounds (eqs. 13-14).
+
+        Normally the tighter of ``q_min - q0`` and ``dq_min`` (and of
+        ``q_max - q0`` and ``dq_max``). A joint outside its end-stops moves back
+        towards them within its step bounds: :func:`lpik.bands.stop_band`.
 
         Returns:
-            ``(lower, upper, lower_labels, upper_labels)``: the tighter of
-            ``q_min - q0`` and ``dq_min`` (and of ``q_max - q0`` and ``dq_max``),
-            with the label of the limit that is tighter, e.g.
-            ``"joint 1 upper end-stop"``.
+            ``(lower, upper, lower_labels, upper_labels)``, with the label of the
+            limit that sets each bound, e.g. ``"joint 1 upper end-stop"``.
         """
         if "bounds" not in self._cache:
-            lo_stop = self.q_min - self.q0
-            hi_stop = self.q_max - self.q0
-            lower = np.maximum(lo_stop, self.dq_min)
-            upper = np.minimum(hi_stop, self.dq_max)
-            lower_labels = tuple(
-                labels.bound_label(name, "lower", labels.END_STOP if s >= d else kind)
-                for name, s, d, kind in zip(
-                    self.joint_names, lo_stop, self.dq_min, self.dq_min_kind
+            n = self.n
+            lower, upper = np.empty(n), np.empty(n)
+            lower_labels, upper_labels, outside = [], [], []
+            for i, name in enumerate(self.joint_names):
+                lo, hi, lo_stop, hi_stop, out = bands.stop_band(
+                    float(self.q0[i]),
+                    float(self.q_min[i]),
+                    float(self.q_max[i]),
+                    float(self.dq_min[i]),
+                    float(self.dq_max[i]),
                 )
-            )
-            upper_labels = tuple(
-                labels.bound_label(name, "upper", labels.END_STOP if s <= d else kind)
-                for name, s, d, kind in zip(
-                    self.joint_names, hi_stop, self.dq_max, self.dq_max_kind
-                )
-            )
-            self._cache["bounds"] = (lower, upper, lower_labels, upper_labels)
+                lower[i], upper[i] = lo, hi
+                lo_kind = labels.END_STOP if lo_stop else self.dq_min_kind[i]
+                hi_kind = labels.END_STOP if hi_stop else self.dq_max_kind[i]
+                lower_labels.append(labels.bound_label(name, "lower", lo_kind))
+                upper_labels.append(labels.bound_label(name, "upper", hi_kind))
+                if out:
+                    side = "upper" if out > 0 else "lower"
+                    outside.append(labels.bound_label(name, side, labels.END_STOP))
+            self._cache["bounds"] = (lower, upper, tuple(lower_labels), tuple(upper_labels))
+            self._cache["outside"] = tuple(outside)
         return self._cache["bounds"]  # type: ignore[no-any-return]
+
+    def recovering(self) -> tuple[str, ...]:
+        """Labels of the limits the state is outside of: end-stops past ``q0``, then rate limits.
+
+        Empty for a state within its limits. A step from such a state has status
+        ``recovering`` and names the first of them as its binding limit.
+        """
+        self.step_bounds()
+        return self._cache["outside"] + tuple(self.outside_limits)
+
+    def pinned(self) -> tuple[np.ndarray, FloatArray]:
+        """Joints whose step is fixed, and that step: ``(mask, dq)``.
+
+        A joint whose lower and upper bound on ``dq`` coincide (one outside its
+        end-stops, :func:`lpik.bands.stop_band`, or with coinciding limits) can
+        move by that amount only. LP2 resolves its criterion over the other
+        joints (eqs. 15-18 over the free joints). ``dq`` is 0 where free.
+        """
+        lower, upper = self.step_bounds()[:2]
+        mask = lower == upper
+        return mask, np.where(mask, lower, 0.0)
 
     def multiplier_labels(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
         """Labels of the lower and upper multiplier bounds (sec. 3.2)."""

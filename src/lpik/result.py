@@ -18,6 +18,7 @@ from lpik.types import FloatArray
 
 OPTIMAL = "optimal"
 SCALED = "scaled"
+RECOVERING = "recovering"
 VIOLATES_LIMITS = "violates_limits"
 INFEASIBLE = "infeasible"
 SINGULAR = "singular"
@@ -32,16 +33,29 @@ STATUSES: dict[str, str] = {
     "achieving the largest feasible fraction p (binding names the limit)",
     VIOLATES_LIMITS: "classical methods only: the returned (unclamped) step breaks the limit "
     "named in binding",
-    INFEASIBLE: "no step satisfies the limits, not even p = 0; safe no-motion step",
-    SINGULAR: "the method's linear system is singular; safe no-motion step",
-    LIMIT_REACHED: "the solver stopped at an iteration or time limit; safe no-motion step",
-    SOLVER_ERROR: "the solver failed; safe no-motion step",
+    RECOVERING: "the state was outside a limit (binding names it: a joint past its end-stop, "
+    "a speed above its limit); the step moves it back as fast as the limits allow and p is "
+    "the fraction of the command the other joints achieve (J dq = p dw); where they cannot "
+    "hold the task even at p = 0, the step is the safe step (p = 0, residual = |J dq|)",
+    INFEASIBLE: "no step meets the method's conditions and every limit, not even p = 0; "
+    "the safe step",
+    SINGULAR: "the method's linear system is singular; the safe step",
+    LIMIT_REACHED: "the solver stopped at an iteration or time limit; the safe step",
+    SOLVER_ERROR: "the solver failed; the safe step",
     CHECK_FAILED: "the solver claimed success but lpik's own check of the answer failed; "
-    "safe no-motion step",
+    "the safe step",
 }
 
+#: What every method returns when it cannot answer (:func:`safe_step`).
+SAFE_STEP = (
+    "p = 0 and each joint comes to rest as fast as its limits allow: the step within the "
+    "step's bounds nearest to no motion (no motion for a joint at rest within its limits; "
+    "full deceleration for a joint moving under acceleration limits; a joint outside its "
+    "end-stops moves back towards them)"
+)
+
 #: Statuses whose step moves the robot as the method intends.
-MOVING = frozenset({OPTIMAL, SCALED, VIOLATES_LIMITS})
+MOVING = frozenset({OPTIMAL, SCALED, RECOVERING, VIOLATES_LIMITS})
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,16 +127,29 @@ def safe_step(
     solve_time: float = 0.0,
     path: str = "",
 ) -> Result:
-    """The no-motion step ``q = q0, p = 0`` returned whenever a method cannot answer."""
+    """The step returned whenever a method cannot answer: :data:`SAFE_STEP`.
+
+    ``dq`` is 0 clipped to the step's bounds (:meth:`~lpik.problem.Problem.step_bounds`,
+    which hold the acceleration limits and the precedence of :mod:`lpik.bands`),
+    so the safe step never breaks an acceleration limit: it is a controlled stop,
+    not an instant one. ``J dq`` need not be 0 while joints brake. An infeasible
+    step from a state outside its limits is reported as ``recovering``, naming
+    the limit the state is outside of.
+    """
+    lower, upper = problem.step_bounds()[:2]
+    dq = np.clip(0.0, lower, upper)
+    outside = problem.recovering()
+    if status == INFEASIBLE and outside:
+        status, binding = RECOVERING, outside[0]
     return Result(
-        q=problem.q0.copy(),
-        dq=np.zeros(problem.n),
+        q=problem.q0 + dq,
+        dq=dq,
         p=0.0,
         lam=None,
         status=status,
         binding=binding,
         method=method,
         solve_time=solve_time,
-        residual=0.0,
+        residual=float(np.abs(problem.J @ dq).max()),
         path=path,
     )

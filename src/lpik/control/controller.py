@@ -43,7 +43,7 @@ from lpik.labels import step_label_table
 from lpik.limits import AccelerationLimits, LinearRows, build_problem, standard_limits
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem, reference_configuration
-from lpik.result import INFEASIBLE, OPTIMAL, Result
+from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import ROTATION_TOL
 from lpik.types import FloatArray
@@ -149,6 +149,9 @@ class Lp2Controller:
         self._q, self._dq, self._lam = fields["q"], fields["dq"], fields["lam"]
         self._p, self._label_at = fields["p"].start, fields["label"].start
         self._residual = fields["residual"].start
+        self._outside = fields["outside"].start
+        at = int(self._state[layout.JACOBIAN])
+        self._jacobian = self._state[at : at + m * n].reshape(m, n)  # the last step's J
         self._n, self._m = n, m
         self._labels = step_label_table(model.joint_names, m, template.row_labels)
         self._q_view = self._out[self._q]  # the kernel's q, for step_into
@@ -171,10 +174,6 @@ class Lp2Controller:
 
         Returns:
             The same :class:`~lpik.result.Result` as ``lp2(self.problem(q0, target, q_prev))``.
-            One case differs: when ``q_prev`` implies a last step the acceleration
-            limits cannot bring back within the velocity limits in one period,
-            :meth:`problem` rejects the crossed bounds (``ValueError``) while this
-            returns the infeasible safe step naming both limits.
 
         Raises:
             ValueError: For a ``q0``, ``q_prev`` or ``target`` of the wrong shape, or
@@ -189,7 +188,7 @@ class Lp2Controller:
         except TypeError:  # not C-contiguous writable float64 arrays: convert them
             q0, target, prev = self._converted(q0, target, q_prev)
             code = self._kernel(self._state, q0, prev, target)
-        if code == OK:
+        if code == OK and self._out.item(self._outside) < 0:
             out = self._out.copy()
             label = out.item(self._label_at)
             fields = _OPTIMAL_FIELDS.copy()  # a Result without the dataclass __init__
@@ -239,7 +238,7 @@ class Lp2Controller:
         except TypeError:  # not C-contiguous writable float64 arrays: convert them
             q0, target, prev = self._converted(q0, target, q_prev)
             code = self._kernel(self._state, q0, prev, target)
-        if code == OK:
+        if code == OK and self._out.item(self._outside) < 0:
             self._last_code = code
             out[...] = self._q_view
             return self._out.item(self._p)
@@ -306,11 +305,12 @@ class Lp2Controller:
         lam, p = outs[:, self._lam].copy(), outs[:, self._p].copy()
         labels = outs[:, self._label_at].astype(np.int64)
         infeasible = codes == KERNEL_INFEASIBLE
-        q[infeasible], dq[infeasible], p[infeasible], lam[infeasible] = Q0[infeasible], 0, 0, np.nan
+        p[infeasible], lam[infeasible] = 0, np.nan  # q, dq: the kernel's safe step
         fallback: dict[int, Result] = {}
-        for b in np.nonzero((codes != OK) & ~infeasible)[0].tolist():  # the HiGHS path
-            prev_b = None if q_prev is None else Qp[b]
-            res = self._not_optimal(int(codes[b]), Q0[b], T[b], prev_b, perf_counter())
+        outside = outs[:, self._outside] >= 0
+        # rows from outside the limits, and those the HiGHS path takes: one by one
+        for b in np.nonzero((codes != OK) & ~infeasible | outside)[0].tolist():
+            res = self.step(Q0[b], T[b], None if q_prev is None else Qp[b])
             fallback[b] = res
             q[b], dq[b], p[b] = res.q, res.dq, res.p
             lam[b] = np.nan if res.lam is None else res.lam
@@ -320,19 +320,38 @@ class Lp2Controller:
 
     def _not_optimal(self, code: int, q0: Any, target: Any, q_prev: Any, start: float) -> Result:
         """The Result of a kernel outcome other than OK: infeasible, bad input or the HiGHS path."""
-        if code == KERNEL_INFEASIBLE:
-            label = self._out.item(self._label_at)
+        outside = int(self._out.item(self._outside))
+        if code == OK:  # a step from a state outside its limits
+            out = self._out.copy()
             return Result.trusted(
                 {
-                    "q": np.array(q0, dtype=np.float64),
-                    "dq": np.zeros(self._n),
-                    "p": 0.0,
-                    "lam": None,
-                    "status": INFEASIBLE,
-                    "binding": self._labels[int(label)],
+                    "q": out[self._q],
+                    "dq": out[self._dq],
+                    "p": out.item(self._p),
+                    "lam": out[self._lam],
+                    "status": RECOVERING,
+                    "binding": self._labels[outside],
                     "method": "lp2",
                     "solve_time": perf_counter() - start,
-                    "residual": 0.0,
+                    "residual": out.item(self._residual),
+                    "path": "compiled",
+                }
+            )
+        if code == KERNEL_INFEASIBLE:  # the kernel wrote the safe step
+            out = self._out.copy()
+            label = outside if outside >= 0 else int(out.item(self._label_at))
+            dq = out[self._dq]
+            return Result.trusted(
+                {
+                    "q": out[self._q],
+                    "dq": dq,
+                    "p": 0.0,
+                    "lam": None,
+                    "status": RECOVERING if outside >= 0 else INFEASIBLE,
+                    "binding": self._labels[label],
+                    "method": "lp2",
+                    "solve_time": perf_counter() - start,
+                    "residual": float(np.abs(self._jacobian @ dq).max()),
                     "path": "compiled",
                 }
             )

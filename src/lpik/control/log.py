@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from lpik.result import RECOVERING
 from lpik.types import FloatArray
 
 
@@ -33,7 +34,10 @@ class RunMetrics:
         max_abs_lambda: Largest ``|lam_i|`` over the run (NaN when the method has none).
         median_solve_time: Median solve time of a step [s].
         p99_solve_time: 99th percentile of the solve time [s].
+        max_solve_time: The slowest step's solve time [s].
         statuses: How many steps ended with each status.
+        recovery_steps: Steps taken from a state outside its limits (status
+            ``recovering``): how long recovery took.
     """
 
     steps: int
@@ -44,7 +48,9 @@ class RunMetrics:
     max_abs_lambda: float
     median_solve_time: float
     p99_solve_time: float
+    max_solve_time: float
     statuses: Mapping[str, int]
+    recovery_steps: int
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,7 +124,7 @@ class SimulationLog:
         return float(np.abs(np.diff(self.joint_velocities(), axis=0)).sum())
 
     def metrics(self) -> RunMetrics:
-        """The run's summary numbers (jitter, extremes, final state, solve times)."""
+        """The run's summary numbers (jitter, extremes, final state, solve times, recovery)."""
         lam = np.abs(self.lam)
         has_lam = bool(np.isfinite(lam).any())
         values, counts = np.unique(self.status, return_counts=True)
@@ -131,7 +137,9 @@ class SimulationLog:
             max_abs_lambda=float(np.nanmax(lam)) if has_lam else float("nan"),
             median_solve_time=float(np.median(self.solve_time)) if self.steps else 0.0,
             p99_solve_time=float(np.percentile(self.solve_time, 99)) if self.steps else 0.0,
+            max_solve_time=float(self.solve_time.max()) if self.steps else 0.0,
             statuses={str(v): int(c) for v, c in zip(values, counts)},
+            recovery_steps=int(np.count_nonzero(self.status == RECOVERING)),
         )
 
     def header(self) -> list[str]:

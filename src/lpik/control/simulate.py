@@ -18,8 +18,9 @@ What the loop applies, and why:
   status, its binding and ``clamped = True`` (never silently). Step bounds
   (velocity, acceleration) are *not* clamped: the log shows what the
   classical law demands of the drives.
-* A safe step (``infeasible``, ``singular``, ``check_failed``, ...) does not
-  move the robot: ``q`` stays, ``p = 0`` and the multipliers are NaN.
+* A safe step (``infeasible``, ``singular``, ``check_failed``, ...) is applied
+  as it is: ``p = 0``, the multipliers are NaN, and each joint comes to rest as
+  fast as its limits allow (:func:`lpik.result.safe_step`; no motion at rest).
 """
 
 from __future__ import annotations
@@ -157,8 +158,6 @@ def simulate(
 
 def _applied(problem: Problem, result: Result) -> tuple[FloatArray, bool]:
     """The configuration the machine reaches, and whether it was clamped to the end-stops."""
-    if not result.moved:
-        return problem.q0.copy(), False
     if result.status == VIOLATES_LIMITS:
         q = np.clip(result.q, problem.q_min, problem.q_max)
         return q, bool(np.any(q != result.q))

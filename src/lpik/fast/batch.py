@@ -26,7 +26,7 @@ from lpik.highs import HighsSolver
 from lpik.labels import code_labels
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
-from lpik.result import INFEASIBLE, OPTIMAL, Result, safe_step
+from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result, safe_step
 from lpik.types import FloatArray
 
 __all__ = ["BatchArrays", "BatchResult", "lp2_batch", "solve_compiled"]
@@ -47,14 +47,19 @@ def solve_compiled(problem: Problem, solver: HighsSolver | None = None) -> Resul
     dq, lam = np.empty(problem.n), np.empty(problem.m)
     code, p, binding, _ = K.lp2_kernel(*kernel_args(problem), dq, lam)
     if code == K.OK:
+        outside = problem.recovering()
         return Result.trusted(
             {
                 "q": problem.q0 + dq,
                 "dq": dq,
                 "p": float(p),
                 "lam": lam,
-                "status": OPTIMAL,
-                "binding": None if binding < 0 else problem_labels(problem)[binding],
+                "status": RECOVERING if outside else OPTIMAL,
+                "binding": outside[0]
+                if outside
+                else None
+                if binding < 0
+                else problem_labels(problem)[binding],
                 "method": "lp2",
                 "solve_time": time.perf_counter() - start,
                 "residual": task_residual(problem, dq, p),
@@ -207,12 +212,15 @@ def lp2_batch(problems: Sequence[Problem] | BatchArrays) -> BatchResult:
     )
     problem_list = None if isinstance(problems, BatchArrays) else list(problems)
     infeasible = codes == K.INFEASIBLE
-    if infeasible.any():
-        dq[infeasible], ps[infeasible], lam[infeasible] = 0.0, 0.0, np.nan
+    if infeasible.any():  # dq: the kernel's safe step
+        ps[infeasible], lam[infeasible] = 0.0, np.nan
     fallback: dict[int, Result] = {}
-    for i in np.nonzero((codes != K.OK) & ~infeasible)[0].tolist():
+    one_by_one = (codes != K.OK) & ~infeasible
+    if problem_list is not None:  # steps from outside the limits say so: solved one by one
+        one_by_one |= np.array([bool(P.recovering()) for P in problem_list])
+    for i in np.nonzero(one_by_one)[0].tolist():
         problem = problem_list[i] if problem_list is not None else raw_problem(arrays, i)
-        res = lp2(problem, path="highs")
+        res = lp2(problem, path="highs" if codes[i] != K.OK and not infeasible[i] else "compiled")
         fallback[i] = res
         dq[i], ps[i] = res.dq, res.p
         lam[i] = np.nan if res.lam is None else res.lam

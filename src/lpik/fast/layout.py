@@ -38,12 +38,12 @@ N, M, R, H_DIAG, DT, V_MAX, W_MAX = range(7)
 REVOLUTE, ROW_INDEX, ORIGINS, AXES, TIP = range(7, 12)
 LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H = range(12, 19)
 # out: what a step reports
-Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL = range(19, 27)
+Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, OUTSIDE = range(19, 28)
 # scratch of the step
-GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(27, 34)
-LOWER, UPPER, C, G_RHS, LP2_WS = range(34, 39)
+GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(28, 35)
+LOWER, UPPER, KINDS, C, G_RHS, LP2_WS = range(35, 41)
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 39
+END = 41
 #: Length of the header.
 HEADER = END + 1
 
@@ -90,6 +90,7 @@ BLOCKS = (
     Block(P, "p", (1,), "the affine dexterity"),
     Block(LABEL, "label", (1,), "the binding limit's index in the label table (-1: none)"),
     Block(RESIDUAL, "residual", (1,), "max |J dq - p dw|"),
+    Block(OUTSIDE, "outside", (1,), "the label index of the limit the state is outside of (-1)"),
     Block(GOAL, "goal", (4, 4), "the commanded pose"),
     Block(FRAME, "frame", (4, 4), "the task frame at q0"),
     Block(JACOBIAN6, "jacobian6", (6, "n"), "the world-aligned Jacobian [v; omega]"),
@@ -99,12 +100,13 @@ BLOCKS = (
     Block(LOG_SCRATCH, "log_scratch", (POSE_ERROR_SCRATCH,), "scratch of the pose error"),
     Block(LOWER, "lower", ("n",), "lower bounds on dq"),
     Block(UPPER, "upper", ("n",), "upper bounds on dq"),
+    Block(KINDS, "kinds", (2, "n"), "which limit sets each bound: 0 end-stop, 1 velocity, 2 acc."),
     Block(C, "c", ("n",), "f + Lambda (q_ref - q0)"),
     Block(G_RHS, "g", ("r",), "the rows' right-hand side in dq: h - G q0"),
     Block(LP2_WS, "lp2_ws", (workspace_size,), "the LP2 kernel's workspace"),
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.
-OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual")
+OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "outside")
 #: The blocks :func:`pack` fills from its arguments (the others start at zero).
 INPUT_BLOCKS = tuple(b.name for b in BLOCKS if b.slot < Q)
 
@@ -160,7 +162,7 @@ def pack(
 
 def out_range(state: FloatArray) -> slice:
     """Where :data:`OUT_BLOCKS` lie in ``state``."""
-    return slice(int(state[Q]), int(state[RESIDUAL + 1]))
+    return slice(int(state[Q]), int(state[OUTSIDE + 1]))
 
 
 def out_fields(state: FloatArray) -> dict[str, slice]:
@@ -198,5 +200,5 @@ def tensor_at(state, slot, d0, d1, d2):
 def copy_out(state, outs, b):
     """Row ``b`` of ``outs`` = the out blocks a step left in ``state``."""
     start = int(state[Q])
-    for k in range(int(state[RESIDUAL + 1]) - start):
+    for k in range(int(state[OUTSIDE + 1]) - start):
         outs[b, k] = state[start + k]

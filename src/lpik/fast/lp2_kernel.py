@@ -16,11 +16,10 @@ means none (:func:`lpik.labels.code_labels` spells them).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit, prange
 
+from lpik.fast.linalg import cho_solve, cho_solve2, cholesky
 from lpik.fast.views import matrix
 from lpik.tolerances import (
     EQUALITY_RTOL,
@@ -39,64 +38,6 @@ SINGULAR = 2  # K singular or ill-conditioned: the caller solves the LP with HiG
 CHECK_FAILED = 3
 
 
-@njit(cache=True)
-def cholesky(A, L):
-    """Lower Cholesky factor of the SPD matrix ``A`` into ``L``; False if not SPD."""
-    n = A.shape[0]
-    for j in range(n):
-        s = A[j, j]
-        for k in range(j):
-            s -= L[j, k] * L[j, k]
-        if not s > 0.0:
-            return False
-        d = math.sqrt(s)
-        L[j, j] = d
-        for i in range(j + 1, n):
-            t = A[i, j]
-            for k in range(j):
-                t -= L[i, k] * L[j, k]
-            L[i, j] = t / d
-        for i in range(j):
-            L[i, j] = 0.0
-    return True
-
-
-@njit(cache=True)
-def cho_solve(L, b, x):
-    """Solve ``L L^T x = b`` (vectors)."""
-    n = L.shape[0]
-    for i in range(n):
-        s = b[i]
-        for k in range(i):
-            s -= L[i, k] * x[k]
-        x[i] = s / L[i, i]
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, n):
-            s -= L[k, i] * x[k]
-        x[i] = s / L[i, i]
-
-
-@njit(cache=True)
-def cho_solve2(L, b, c, x, y):
-    """Solve ``L L^T x = b`` and ``L L^T y = c`` in one sweep (two independent chains)."""
-    n = L.shape[0]
-    for i in range(n):
-        s, t = b[i], c[i]
-        for k in range(i):
-            s -= L[i, k] * x[k]
-            t -= L[i, k] * y[k]
-        d = L[i, i]
-        x[i], y[i] = s / d, t / d
-    for i in range(n - 1, -1, -1):
-        s, t = x[i], y[i]
-        for k in range(i + 1, n):
-            s -= L[k, i] * x[k]
-            t -= L[k, i] * y[k]
-        d = L[i, i]
-        x[i], y[i] = s / d, t / d
-
-
 def workspace_size(n: int, m: int, r: int) -> int:
     """Length of the float workspace :func:`lp2_core` needs (``r`` extra rows)."""
     return n * m + n * n + 5 * n + 2 * m * m + 4 * m + 4 * (n + m + r)
@@ -104,6 +45,20 @@ def workspace_size(n: int, m: int, r: int) -> int:
 
 #: :func:`workspace_size` for the kernels.
 _workspace_size = njit(cache=True)(workspace_size)
+
+
+@njit(cache=True)
+def safe_step_into(lower, upper, dq):
+    """The safe step (:func:`lpik.result.safe_step`): 0 clipped to the bounds, into ``dq``."""
+    for i in range(lower.shape[0]):
+        dq[i] = min(max(0.0, lower[i]), upper[i])
+
+
+@njit(cache=True)
+def _safe_step(lower, upper, dq, binding):
+    """The outcome :data:`INFEASIBLE` with the safe step in ``dq``."""
+    safe_step_into(lower, upper, dq)
+    return INFEASIBLE, 0.0, binding, 0.0
 
 
 @njit(cache=True)
@@ -143,7 +98,8 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
         ``(code, p, binding, residual)``: the outcome (:data:`OK`,
         :data:`INFEASIBLE`, :data:`SINGULAR` or :data:`CHECK_FAILED`), the
         affine dexterity, the binding code (``-1``: none) and
-        ``max |J dq - p dw|`` (0 unless the step was computed).
+        ``max |J dq - p dw|`` (0 unless the step was computed). On
+        :data:`INFEASIBLE`, ``dq`` holds the safe step.
     """
     m, n = J.shape
     r = G.shape[0]
@@ -175,23 +131,50 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
         ws[o + 3 * total : o + 4 * total],
     )
     # --- affine solution: dq = a_q + p b_q, lam = a_l + p b_l (Schur complement) ---
+    # A pinned joint (lower == upper: lpik.methods.lp2.pinned_system) keeps dq = d: its
+    # criterion row is dropped, its column of J leaves the Schur complement (H' is the
+    # identity there), and c' = c - H_FP d on the free joints, d on the pinned ones.
+    pins = False
+    for i in range(n):
+        if lower[i] == upper[i]:
+            pins = True
     if h_diag:
         for i in range(n):
+            if lower[i] == upper[i]:
+                for k in range(m):
+                    HinvJt[i, k] = 0.0
+                Hinvc[i] = lower[i]
+                continue
             if not H[i, i] > 0.0:
                 return SINGULAR, 0.0, -1, 0.0
             for k in range(m):
                 HinvJt[i, k] = J[k, i] / H[i, i]
             Hinvc[i] = c[i] / H[i, i]
     else:
-        if not cholesky(H, LH):
+        for i in range(n):  # LH = H', factorised in place
+            for j in range(n):
+                LH[i, j] = H[i, j]
+                if pins and (lower[i] == upper[i] or lower[j] == upper[j]):
+                    LH[i, j] = 1.0 if i == j else 0.0
+        if not cholesky(LH, LH):
             return SINGULAR, 0.0, -1, 0.0
         for k in range(m):
             for i in range(n):
-                col[i] = J[k, i]
+                col[i] = 0.0 if lower[i] == upper[i] else J[k, i]
             cho_solve(LH, col, out)
             for i in range(n):
                 HinvJt[i, k] = out[i]
-        cho_solve(LH, c, Hinvc)
+        for i in range(n):
+            if lower[i] == upper[i]:
+                col[i] = lower[i]
+            else:
+                s = c[i]
+                if pins:
+                    for j in range(n):
+                        if lower[j] == upper[j]:
+                            s -= H[i, j] * lower[j]
+                col[i] = s
+        cho_solve(LH, col, Hinvc)
     for a in range(m):
         for b in range(a, m):
             s = 0.0
@@ -268,9 +251,9 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
             if stuck_lo < 0 and s_lo < 0:
                 stuck_lo = 2 * k
     if stuck_hi >= 0:
-        return INFEASIBLE, 0.0, stuck_hi, 0.0
+        return _safe_step(lower, upper, dq, stuck_hi)
     if stuck_lo >= 0:
-        return INFEASIBLE, 0.0, stuck_lo, 0.0
+        return _safe_step(lower, upper, dq, stuck_lo)
     if up_hi <= up_lo:
         p_up, up_code = up_hi, 2 * i_up_hi + 1
     else:
@@ -282,7 +265,7 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
     p_hi = min(1.0, p_up)
     p_lo = max(0.0, p_down)
     if p_hi < p_lo - INTERVAL_TOL:
-        return INFEASIBLE, 0.0, down_code if p_lo > 1.0 else up_code, 0.0
+        return _safe_step(lower, upper, dq, down_code if p_lo > 1.0 else up_code)
     p = max(p_hi, p_lo)
     binding = up_code if p < FULL_P else -1
     p = min(1.0, max(0.0, p))

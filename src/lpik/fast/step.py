@@ -19,14 +19,17 @@ states, in parallel.
 from __future__ import annotations
 
 import math
+import types
+from collections.abc import Callable
 from typing import Any
 
 from numba import njit, prange
 
+from lpik import bands
 from lpik.control.command import clamp_command as _clamp_command
 from lpik.fast import layout as L
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
-from lpik.fast.lp2_kernel import INFEASIBLE, lp2_core
+from lpik.fast.lp2_kernel import lp2_core
 
 #: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
 BAD_INPUT = 4
@@ -35,26 +38,63 @@ BAD_INPUT = 4
 clamp_command = njit(cache=True)(_clamp_command)
 
 
+def _compiled_rule(rule: Callable[..., Any], **helpers: Any) -> Any:
+    """A rule of :mod:`lpik.bands`, compiled, with the helpers it calls bound to compiled twins.
+
+    The rule's own code object is compiled (not a copy of its source), so the
+    numpy layers and the fused step run the same rule.
+    """
+    scope = dict(rule.__globals__)
+    scope.update(helpers)
+    clone = types.FunctionType(rule.__code__, scope, rule.__name__, rule.__defaults__)
+    return njit(cache=True)(clone)
+
+
+_yield_to = njit(cache=True)(bands.yield_to)
+rate_band = _compiled_rule(
+    bands.rate_band, yield_to=_yield_to, braking_room=njit(cache=True)(bands.braking_room)
+)
+stop_band = _compiled_rule(
+    bands.stop_band,
+    yield_to=_yield_to,
+    outside_tolerance=njit(cache=True)(bands.outside_tolerance),
+)
+
+
 @njit(cache=True)
-def step_bounds(limits, dt, q0, q_prev, lower, upper):
+def step_bounds(limits, dt, q0, q_prev, lower, upper, kinds):
     """Bounds on ``dq`` from end-stops, velocity and acceleration limits (eqs. 13-14).
 
-    ``limits`` is (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max (inf
-    when none); the last step is ``q0 - q_prev`` (``q_prev = q0``: at rest).
-    Writes ``lower`` and ``upper`` (n,); returns the first joint whose lower
-    bound lies above its upper one, or -1.
+    The rule of :mod:`lpik.bands`, as :func:`lpik.limits.build_problem` and
+    :meth:`lpik.problem.Problem.step_bounds` apply it. ``limits`` is (6, n):
+    q_min, q_max, qd_min, qd_max, qdd_min, qdd_max (inf when none); the last
+    step is ``q0 - q_prev`` (``q_prev = q0``: at rest). Writes ``lower`` and
+    ``upper`` (n,) and, in ``kinds`` (2, n), which limit sets each bound (0
+    end-stop, 1 velocity, 2 acceleration).
+
+    Returns:
+        The label index (:func:`lpik.labels.step_label_table`) of the first limit
+        the state is outside of (an end-stop past ``q0``, then a rate limit the
+        motion exceeds), or -1 when the state is within its limits.
     """
     n = q0.shape[0]
+    stop_outside, rate_outside = -1, -1
     for i in range(n):
-        lo = max(limits[0, i] - q0[i], limits[2, i] * dt)
-        hi = min(limits[1, i] - q0[i], limits[3, i] * dt)
-        last = q0[i] - q_prev[i]
-        lower[i] = max(lo, last + limits[4, i] * dt * dt)
-        upper[i] = min(hi, last + limits[5, i] * dt * dt)
-    for i in range(n):
-        if lower[i] > upper[i]:
-            return i
-    return -1
+        q_min, q_max = limits[0, i], limits[1, i]
+        lo, hi, k_lo, k_hi, verdict = rate_band(
+            q0[i] - q_prev[i], q_min - q0[i], q_max - q0[i], limits[2, i] * dt,
+            limits[3, i] * dt, limits[4, i], limits[5, i], dt,
+        )  # fmt: skip
+        if rate_outside < 0 and verdict != 0:
+            side = 1 if verdict > 0 else 0
+            rate_outside = 3 * (2 * i + side) + (k_hi if verdict > 0 else k_lo)
+        lo, hi, lo_stop, hi_stop, out = stop_band(q0[i], q_min, q_max, lo, hi)
+        lower[i], upper[i] = lo, hi
+        kinds[0, i] = 0 if lo_stop else k_lo
+        kinds[1, i] = 0 if hi_stop else k_hi
+        if stop_outside < 0 and out != 0:
+            stop_outside = 3 * (2 * i + (1 if out > 0 else 0))
+    return stop_outside if stop_outside >= 0 else rate_outside
 
 
 @njit(cache=True)
@@ -79,73 +119,51 @@ def criterion_and_rows(f_ref, Lam, G, h, q0, c, g):
 
 
 @njit(cache=True)
-def _bound_kind(k, upper, q0, q_prev, limits, dt):
-    """What sets joint ``k``'s bound on ``dq`` on one side: 0 end-stop, 1 velocity, 2 acceleration.
+def binding_label_index(code, kinds, constraints):
+    """Where the LP2 kernel's binding limit ``code`` (``2 k + side``) sits in the label table.
 
-    The tightest, named as :meth:`lpik.problem.Problem.step_bounds` names it
-    (kinds in the order of :data:`lpik.labels.BOUND_KINDS`).
+    The table is :func:`lpik.labels.step_label_table`; ``kinds`` (2, n) says
+    which limit sets each joint's bounds (:func:`step_bounds`), and
+    ``constraints`` is the number of multipliers and rows.
     """
-    last = q0[k] - q_prev[k]
-    if upper:
-        stop, vel, acc = limits[1, k] - q0[k], limits[3, k] * dt, last + limits[5, k] * dt * dt
-        kind = 2 if acc < vel else 1
-        return 0 if stop <= min(vel, acc) else kind
-    stop, vel, acc = limits[0, k] - q0[k], limits[2, k] * dt, last + limits[4, k] * dt * dt
-    kind = 2 if acc > vel else 1
-    return 0 if stop >= max(vel, acc) else kind
-
-
-@njit(cache=True)
-def binding_label_index(code, q0, q_prev, limits, dt, constraints):
-    """Where the binding limit ``code`` sits in :func:`lpik.labels.step_label_table`.
-
-    ``code >= 0`` is the LP2 kernel's binding code (``2 k + side``) and
-    ``code <= -2`` marks joint ``-2 - code`` whose lower step bound lies above
-    its upper one. ``constraints`` is the number of multipliers and rows.
-    """
-    n = q0.shape[0]
-    if code <= -2:
-        k = -2 - code
-        lower = _bound_kind(k, False, q0, q_prev, limits, dt)
-        upper = _bound_kind(k, True, q0, q_prev, limits, dt)
-        return 6 * n + 2 * constraints + 9 * k + 3 * lower + upper
+    n = kinds.shape[1]
     if code >= 2 * n:
         return 4 * n + code
-    return 3 * code + _bound_kind(code // 2, code % 2 == 1, q0, q_prev, limits, dt)
+    return 3 * code + int(kinds[code % 2, code // 2])
 
 
 @njit(cache=True)
 def limit_and_solve(state, q0, q_prev, J, dw):
     """Bounds, criterion and rows, then LP2; returns the LP2 kernel's outcome.
 
-    Fills the out blocks ``q``, ``dq``, ``lam``, ``p``, ``label`` and
-    ``residual`` of ``state``; ``J`` and ``dw`` are the step's task rows.
+    Fills the out blocks ``q``, ``dq``, ``lam``, ``p``, ``label``, ``residual``
+    and ``outside`` of ``state``; ``J`` and ``dw`` are the step's task rows.
+    On an infeasible step ``dq`` is the safe step (:func:`lpik.result.safe_step`).
     """
     n, m, r = q0.shape[0], J.shape[0], int(state[L.R])
     dt = state[L.DT]
     limits = L.matrix_at(state, L.LIMITS, 6, n)
     lower, upper = L.vector(state, L.LOWER), L.vector(state, L.UPPER)
+    kinds = L.matrix_at(state, L.KINDS, 2, n)
     dq, lam = L.vector(state, L.DQ), L.vector(state, L.LAM)
-    crossed = step_bounds(limits, dt, q0, q_prev, lower, upper)
-    if crossed >= 0:  # no step is feasible (as lp2's crossed_joint)
-        code, p, binding, residual = INFEASIBLE, 0.0, -2 - crossed, 0.0
-    else:
-        G = L.matrix_at(state, L.ROWS_G, r, n)
-        c, g = L.vector(state, L.C), L.vector(state, L.G_RHS)
-        criterion_and_rows(L.matrix_at(state, L.F_REF, 2, n), L.matrix_at(state, L.LAMBDA, n, n),
-                           G, L.vector(state, L.ROWS_H), q0, c, g)  # fmt: skip
-        lam_bounds = L.matrix_at(state, L.LAM_BOUNDS, 2, m)
-        code, p, binding, residual = lp2_core(
-            J, dw, L.matrix_at(state, L.CRITERION, n, n), state[L.H_DIAG] != 0.0, c, lower,
-            upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam, L.vector(state, L.LP2_WS),
-        )  # fmt: skip
+    outside = step_bounds(limits, dt, q0, q_prev, lower, upper, kinds)
+    G = L.matrix_at(state, L.ROWS_G, r, n)
+    c, g = L.vector(state, L.C), L.vector(state, L.G_RHS)
+    criterion_and_rows(L.matrix_at(state, L.F_REF, 2, n), L.matrix_at(state, L.LAMBDA, n, n),
+                       G, L.vector(state, L.ROWS_H), q0, c, g)  # fmt: skip
+    lam_bounds = L.matrix_at(state, L.LAM_BOUNDS, 2, m)
+    code, p, binding, residual = lp2_core(
+        J, dw, L.matrix_at(state, L.CRITERION, n, n), state[L.H_DIAG] != 0.0, c, lower,
+        upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam, L.vector(state, L.LP2_WS),
+    )  # fmt: skip
     q = L.vector(state, L.Q)
     for i in range(n):
         q[i] = q0[i] + dq[i]
     state[int(state[L.P])] = p
-    label = -1 if binding == -1 else binding_label_index(binding, q0, q_prev, limits, dt, m + r)
+    label = -1 if binding == -1 else binding_label_index(binding, kinds, m + r)
     state[int(state[L.LABEL])] = label
     state[int(state[L.RESIDUAL])] = residual
+    state[int(state[L.OUTSIDE])] = outside
     return code
 
 

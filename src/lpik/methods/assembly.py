@@ -5,8 +5,7 @@
   as one :class:`~lpik.highs.LinearProgram`;
 - :func:`finish`: clip, re-check independently (:mod:`lpik.check`), build the
   :class:`~lpik.result.Result`;
-- :func:`crossed_joint`, :func:`unsolved_step`: the safe steps of a problem no
-  step can satisfy and of a solve that did not end optimal.
+- :func:`unsolved_step`: the safe step of a solve that did not end optimal.
 """
 
 from __future__ import annotations
@@ -15,11 +14,11 @@ import time
 
 import numpy as np
 
-from lpik import check, labels
+from lpik import check
 from lpik.highs import HighsSolver, LinearProgram
 from lpik.methods.duals import conflict_label, extra_rows
 from lpik.problem import Problem
-from lpik.result import CHECK_FAILED, INFEASIBLE, OPTIMAL, Result, safe_step
+from lpik.result import CHECK_FAILED, INFEASIBLE, OPTIMAL, RECOVERING, Result, safe_step
 from lpik.types import FloatArray
 
 
@@ -77,7 +76,9 @@ def finish(
     """Clip solver-tolerance excursions, re-check independently, and build the result.
 
     A step that fails :func:`lpik.check.check_step` is never returned: the
-    result is the safe no-motion step with status ``check_failed``.
+    result is the safe step with status ``check_failed``. A step from a state
+    outside its limits has status ``recovering`` and names the first such limit
+    (:meth:`lpik.problem.Problem.recovering`).
     """
     dq = check.clip_to_bounds(problem, dq)
     p = float(min(1.0, max(0.0, p)))
@@ -85,6 +86,9 @@ def finish(
     elapsed = time.perf_counter() - start
     if failure is not None:
         return safe_step(problem, method, CHECK_FAILED, failure, solve_time=elapsed, path=path)
+    outside = problem.recovering()
+    if outside:
+        status, binding = RECOVERING, outside[0]
     return Result(
         q=problem.q0 + dq,
         dq=dq,
@@ -97,20 +101,6 @@ def finish(
         residual=check.task_residual(problem, dq, p),
         path=path,
     )
-
-
-def crossed_joint(problem: Problem) -> str | None:
-    """Label of the first joint whose lower step bound lies above its upper one, if any.
-
-    That happens when ``q0`` is outside its end-stops by more than one step can
-    repair: no step, not even ``p = 0``, is feasible.
-    """
-    lower, upper, lower_labels, upper_labels = problem.step_bounds()
-    crossed = lower > upper
-    if not crossed.any():
-        return None
-    i = int(np.argmax(crossed))
-    return labels.crossed_label(lower_labels[i], upper_labels[i])
 
 
 def solver_for(solver: HighsSolver | None) -> HighsSolver:

@@ -6,8 +6,9 @@ import time
 
 import numpy as np
 
+from lpik import check
 from lpik.highs import HighsSolver
-from lpik.methods.assembly import crossed_joint, finish, lp_over, solver_for
+from lpik.methods.assembly import finish, lp_over, solver_for
 from lpik.methods.lp1 import lp1
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, OPTIMAL, SCALED, Result, safe_step
@@ -34,9 +35,6 @@ def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
     """
     start = time.perf_counter()
     n = problem.n
-    crossed = crossed_joint(problem)
-    if crossed is not None:
-        return safe_step(problem, "l1", INFEASIBLE, crossed, path="highs")
     solver = solver_for(solver)
     sol, x = _least_l1(problem, solver, 1.0, 1.0)
     if sol == OPTIMAL:
@@ -44,11 +42,12 @@ def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
     if sol != INFEASIBLE:
         return safe_step(problem, "l1", sol, solve_time=time.perf_counter() - start, path="highs")
     best = lp1(problem, solver=solver)
-    if not best.moved:
+    if not best.moved or check.check_step(problem, best.dq, best.p, None) is not None:
+        # LP1 had no answer (its safe step, e.g. while recovering): neither has Ho's LP
         return safe_step(
             problem,
             "l1",
-            best.status,
+            best.status if not best.moved else INFEASIBLE,
             best.binding,
             solve_time=time.perf_counter() - start,
             path="highs",

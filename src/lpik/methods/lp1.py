@@ -7,10 +7,10 @@ import time
 import numpy as np
 
 from lpik.highs import HighsSolver
-from lpik.methods.assembly import crossed_joint, finish, lp_over, solver_for, unsolved_step
+from lpik.methods.assembly import finish, lp_over, solver_for, unsolved_step
 from lpik.methods.duals import binding_from_duals
 from lpik.problem import Problem
-from lpik.result import INFEASIBLE, OPTIMAL, Result, safe_step
+from lpik.result import OPTIMAL, Result
 
 
 def lp1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
@@ -37,9 +37,6 @@ def lp1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
     A_eq = np.hstack([problem.J, -problem.dw[:, None]])
     c = np.zeros(n + 1)
     c[-1] = -1.0
-    crossed = crossed_joint(problem)
-    if crossed is not None:
-        return safe_step(problem, "lp1", INFEASIBLE, crossed, path="highs")
     lp = lp_over(
         problem, c, A_eq, np.zeros(problem.m), np.append(lower, 0.0), np.append(upper, 1.0)
     )

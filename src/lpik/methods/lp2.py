@@ -30,14 +30,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from lpik.highs import HighsSolver
-from lpik.methods.assembly import (
-    criterion,
-    crossed_joint,
-    finish,
-    lp_over,
-    solver_for,
-    unsolved_step,
-)
+from lpik.methods.assembly import criterion, finish, lp_over, solver_for, unsolved_step
 from lpik.methods.duals import binding_from_duals
 from lpik.problem import Problem
 from lpik.result import CHECK_FAILED, INFEASIBLE, OPTIMAL, Result, safe_step
@@ -65,20 +58,45 @@ class AffineSolution:
     b_l: FloatArray
 
 
+def pinned_system(problem: Problem) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Eq. 18's data with the pinned joints fixed: ``(J', H', c', w_fixed)``.
+
+    A pinned joint (:meth:`~lpik.problem.Problem.pinned`: outside its end-stops,
+    or with coinciding bounds) moves by its fixed ``d``; the criterion is
+    minimised over the free joints ``F`` alone (its rows for pinned joints are
+    dropped), subject to ``J_F dq_F = p dw - J_P d``. Written over all joints:
+    ``J'`` is ``J`` with the pinned columns zeroed, ``H'`` is ``H`` with the
+    pinned rows and columns replaced by the identity, ``c'`` is
+    ``c_F - H_FP d`` on the free joints and ``d`` on the pinned ones, and
+    ``w_fixed = J_P d``. Then ``H' dq + J'^T lam = c'`` and
+    ``J' dq + w_fixed = p dw`` are eq. 18 over the free joints, and give
+    ``dq_P = d``. Without pinned joints this is ``(J, H, c, 0)``.
+    """
+    H, c = criterion(problem)
+    mask, d = problem.pinned()
+    if not mask.any():
+        return problem.J, H, c, np.zeros(problem.m)
+    free = ~mask
+    c = np.where(free, c - H @ d, d)
+    H = np.where(free[:, None] & free[None, :], H, np.diag(mask.astype(np.float64)))
+    J = np.where(free[None, :], problem.J, 0.0)
+    return J, H, c, problem.J @ d
+
+
 def affine_solution(problem: Problem) -> AffineSolution | None:
     """Solve eq. 18's equality rows for ``dq`` and ``lam`` as affine functions of ``p``.
 
     With ``H = M + Lambda`` (positive definite) and ``c = f + Lambda (q_ref - q0)``,
     the rows read ``H dq + J^T lam = c`` and ``J dq = p dw``. Eliminating ``dq``
     leaves the Schur complement ``S lam = J H^-1 c - p dw`` with
-    ``S = J H^-1 J^T`` (one factorisation, two right-hand sides).
+    ``S = J H^-1 J^T`` (one factorisation, two right-hand sides). Pinned joints
+    enter through :func:`pinned_system` (``S lam = J' H'^-1 c' + w_fixed - p dw``).
 
     Returns:
         The affine solution, or ``None`` when ``S`` is singular or its condition
         number exceeds :data:`MAX_SCHUR_CONDITION`.
     """
-    H, c = criterion(problem)
-    J = problem.J
+    J, H, c, w_fixed = pinned_system(problem)
     H_factor = sla.cho_factor(H)
     HinvJt = sla.cho_solve(H_factor, J.T)
     Hinvc = sla.cho_solve(H_factor, c)
@@ -88,7 +106,7 @@ def affine_solution(problem: Problem) -> AffineSolution | None:
     if eig[-1] <= 0 or eig[0] <= eig[-1] / MAX_SCHUR_CONDITION:
         return None
     S_factor = sla.cho_factor(S)
-    rhs = np.column_stack([J @ Hinvc, -problem.dw])
+    rhs = np.column_stack([J @ Hinvc + w_fixed, -problem.dw])
     lam_ab = sla.cho_solve(S_factor, rhs)
     a_l, b_l = lam_ab[:, 0], lam_ab[:, 1]
     return AffineSolution(a_q=Hinvc - HinvJt @ a_l, b_q=-HinvJt @ b_l, a_l=a_l, b_l=b_l)
@@ -156,6 +174,10 @@ def ratio_test(
 def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = None) -> Result:
     """Solve LP2 (eqs. 15-18) with the smoothing term (sec. 3.1) and multiplier bounds (sec. 3.2).
 
+    Joints outside their end-stops, and joints whose bounds coincide, are
+    pinned (:func:`pinned_system`): the criterion is resolved over the others,
+    which carry the command as far as they can.
+
     Args:
         problem: The step to solve. ``M``, ``f``, ``Lambda``, ``q_ref`` weight the
             criterion; ``lam_min``/``lam_max`` bound the multipliers.
@@ -178,15 +200,6 @@ def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = No
     if path not in PATHS:
         raise ValueError(f"path: unknown LP2 path {path!r}; available: {', '.join(PATHS)}")
     start = time.perf_counter()
-    crossed = crossed_joint(problem)
-    if crossed is not None:  # every path names the same conflict
-        return safe_step(
-            problem,
-            "lp2",
-            INFEASIBLE,
-            crossed,
-            path=path if path in ("highs", "compiled") else "ratio-test",
-        )
     if path == "compiled":
         from lpik.fast.batch import solve_compiled  # numba is optional: import on use
 
@@ -239,13 +252,17 @@ def _highs_path(problem: Problem, solver: HighsSolver | None, start: float) -> R
     n, m = problem.n, problem.m
     H, c = criterion(problem)
     lower, upper = problem.step_bounds()[:2]
+    pinned, d = problem.pinned()
+    free = ~pinned
+    lower, upper = np.where(pinned, d, lower), np.where(pinned, d, upper)
+    # eq. 18's criterion rows for the free joints only (a pinned joint is fixed)
     A_eq = np.block(
         [
-            [H, problem.J.T, np.zeros((n, 1))],
+            [H[free], problem.J[:, free].T, np.zeros((int(free.sum()), 1))],
             [problem.J, np.zeros((m, m)), -problem.dw[:, None]],
         ]
     )
-    b_eq = np.concatenate([c, np.zeros(m)])
+    b_eq = np.concatenate([c[free], np.zeros(m)])
     cost = np.zeros(n + m + 1)
     cost[-1] = -1.0
     col_lower = np.concatenate([lower, problem.lam_min, [0.0]])
@@ -255,7 +272,7 @@ def _highs_path(problem: Problem, solver: HighsSolver | None, start: float) -> R
     if sol.status != OPTIMAL:
         return unsolved_step(problem, "lp2", sol.status, A_eq, b_eq, m, start)
     dq, lam, p = sol.x[:n], sol.x[n : n + m], float(sol.x[-1])
-    failure = _criterion_failure(problem, H, c, dq, lam)
+    failure = _criterion_failure(problem, H[free], c[free], dq, lam, free)
     if failure is not None:
         return safe_step(
             problem,
@@ -265,21 +282,29 @@ def _highs_path(problem: Problem, solver: HighsSolver | None, start: float) -> R
             solve_time=time.perf_counter() - start,
             path="highs",
         )
-    binding = binding_from_duals(problem, sol, lp, p, n + m, lam_slice=slice(n, n + m))
+    binding = binding_from_duals(problem, sol, lp, p, A_eq.shape[0], lam_slice=slice(n, n + m))
     return finish(problem, "lp2", dq, p, lam, binding, start, "highs")
 
 
 def _criterion_failure(
-    problem: Problem, H: FloatArray, c: FloatArray, dq: FloatArray, lam: FloatArray
+    problem: Problem,
+    H: FloatArray,
+    c: FloatArray,
+    dq: FloatArray,
+    lam: FloatArray,
+    free: FloatArray,
 ) -> str | None:
     """Re-check eq. 18's criterion rows ``H dq + J^T lam = c``, which :func:`finish` does not.
 
     Without them a solver's answer could be any LP1 step: the rows are what
-    resolve the redundancy. Tolerance as for ``J dq = p dw`` (``EQUALITY_RTOL``).
+    resolve the redundancy. ``H`` and ``c`` hold the free joints' rows only.
+    Tolerance as for ``J dq = p dw`` (``EQUALITY_RTOL``).
     """
     if not (np.isfinite(dq).all() and np.isfinite(lam).all()):
         return "non-finite step"
-    residual = float(np.abs(H @ dq + problem.J.T @ lam - c).max())
+    if not H.size:
+        return None
+    residual = float(np.abs(H @ dq + problem.J[:, free].T @ lam - c).max())
     scale = (
         np.abs(H).max() * np.abs(dq).max()
         + np.abs(problem.J).max() * np.abs(lam).max(initial=0.0)

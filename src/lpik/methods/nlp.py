@@ -15,9 +15,17 @@ from scipy.optimize import minimize
 
 from lpik.check import clip_to_bounds, worst_violation
 from lpik.labels import SINGULARITY
-from lpik.methods.assembly import criterion, crossed_joint
+from lpik.methods.assembly import criterion
 from lpik.problem import Problem
-from lpik.result import CHECK_FAILED, INFEASIBLE, OPTIMAL, SOLVER_ERROR, Result, safe_step
+from lpik.result import (
+    CHECK_FAILED,
+    INFEASIBLE,
+    OPTIMAL,
+    RECOVERING,
+    SOLVER_ERROR,
+    Result,
+    safe_step,
+)
 from lpik.robots.base import TaskModel
 from lpik.tolerances import FEASIBILITY_TOL, FULL_P, NONLINEAR_TOL, SLSQP_TOL
 from lpik.types import FloatArray
@@ -48,9 +56,6 @@ def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Res
             f"model: {model.name} has {model.n_joints} joints and {model.task_dim} task "
             f"coordinates, the problem {problem.n} and {problem.m}"
         )
-    crossed = crossed_joint(problem)
-    if crossed is not None:
-        return safe_step(problem, "nlp", INFEASIBLE, crossed, path="slsqp")
     n = problem.n
     q0, dw = problem.q0, problem.dw
     w0 = model.pose(q0)
@@ -91,10 +96,11 @@ def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Res
         options=options,
     )
     if not first.success:
+        # from a state outside its limits the program is often infeasible: recover
         return safe_step(
             problem,
             "nlp",
-            SOLVER_ERROR,
+            INFEASIBLE if problem.recovering() else SOLVER_ERROR,
             str(first.message),
             solve_time=time.perf_counter() - start,
             path="slsqp",
@@ -122,13 +128,16 @@ def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Res
     if residual > NONLINEAR_TOL or violation.amount > FEASIBILITY_TOL:
         reason = violation.label if violation.amount > FEASIBILITY_TOL else "phi(q) - w0 != p dw"
         return safe_step(problem, "nlp", CHECK_FAILED, reason, solve_time=elapsed, path="slsqp")
+    status, outside = OPTIMAL, problem.recovering()
+    if outside:
+        status, binding = RECOVERING, outside[0]
     return Result(
         q=q0 + dq,
         dq=dq,
         p=p,
         lam=None,
-        status=OPTIMAL,
-        binding=binding if p < FULL_P else None,
+        status=status,
+        binding=binding if p < FULL_P or outside else None,
         method="nlp",
         solve_time=elapsed,
         residual=residual,

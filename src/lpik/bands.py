@@ -1,0 +1,167 @@
+"""How a joint's limits combine into one step's bounds on ``dq``: the rule of precedence.
+
+Each limit allows a band of steps ``dq = q - q0`` for one joint: the end-stops
+``[q_min - q0, q_max - q0]`` (eq. 13), the velocity limits ``[qd_min, qd_max] dt``
+and the acceleration limits ``last + [qdd_min, qdd_max] dt^2`` (eq. 14, with
+``last = q0 - q_prev``, the previous step). Normally the step's band is their
+intersection. When the intersection is empty, the state is already outside a
+limit (a joint past its end-stop, a speed above its limit, a joint too fast to
+stop before its end-stop): then a lower limit *yields* to a higher one, which
+is met exactly, and the lower one as closely as it allows. Precedence:
+
+1. acceleration limits (what the drives can do: never broken);
+2. velocity limits, and the braking distance to the end-stops under the
+   acceleration limits (an end-stop that cannot be reached at full
+   deceleration is a bound on the speed now: :func:`braking_room`);
+3. the end-stops themselves.
+
+A joint outside its end-stops is *pinned* for the step: it returns onto the
+end-stop if its velocity and acceleration limits allow, else as far towards it
+as they allow, and never further out unless its acceleration limit forces it
+(it was already moving out). Every joint whose band is a single point is
+pinned: LP2 then resolves its criterion over the other joints
+(:func:`lpik.methods.lp2.pinned_system`), and the methods without a criterion
+simply move it by that amount.
+
+The functions work on scalars, so that the numpy layers
+(:func:`lpik.limits.build_problem`, :meth:`lpik.problem.Problem.step_bounds`)
+and the compiled fused step (:mod:`lpik.fast.step`) run the same rule. As for
+:mod:`lpik.tolerances`, numba's disk cache does not notice an edit here: delete
+the ``__pycache__`` folders under ``lpik`` afterwards.
+"""
+
+from __future__ import annotations
+
+import math
+
+from lpik.tolerances import FEASIBILITY_TOL, SLACK_TOL
+
+#: :func:`yield_to`'s verdicts: the bands meet, or the soft band's lower or upper
+#: bound had to give way (the state is outside it on that side).
+MET, LOWER_YIELDED, UPPER_YIELDED = 0, -1, 1
+
+
+def yield_to(hard_lo: float, hard_hi: float, soft_lo: float, soft_hi: float) -> tuple:
+    """The intersection of two bands, or, when it is empty, the hard band's edge nearest the soft.
+
+    Bands apart by at most :data:`~lpik.tolerances.SLACK_TOL` (relative) still
+    meet, at the hard edge: rounding does not make a state outside its limits.
+
+    Returns:
+        ``(lo, hi, verdict)``: the bounds and :data:`MET`, :data:`LOWER_YIELDED`
+        (the soft band lies above the hard one: the hard upper edge is taken)
+        or :data:`UPPER_YIELDED` (the soft band lies below: the hard lower edge).
+    """
+    lo = max(hard_lo, soft_lo)
+    hi = min(hard_hi, soft_hi)
+    if lo <= hi:
+        return lo, hi, MET
+    met = lo - hi <= SLACK_TOL * max(1.0, abs(lo))
+    if soft_hi < hard_lo:
+        return hard_lo, hard_lo, MET if met else UPPER_YIELDED
+    return hard_hi, hard_hi, MET if met else LOWER_YIELDED
+
+
+def braking_room(room: float, decel_step: float) -> float:
+    """The largest step towards an end-stop ``room`` away after which the joint can still stop.
+
+    With deceleration ``decel_step = |qdd| dt^2`` per step, a step ``u`` followed
+    by steps ``u - decel_step``, ``u - 2 decel_step``, ... travels at most
+    ``u + (u - decel_step / 2)^2 / (2 decel_step)``; the bound keeps that within
+    ``room``, and a step that can stop at once (``u <= decel_step``) may use all
+    of ``room``. After a step at the bound, a full-deceleration step is again
+    within the next step's bound, so the joint can always stop in time.
+
+    Returns:
+        ``+inf`` when there is no acceleration limit (``decel_step`` infinite);
+        0 for a joint at or past the end-stop (it may not move further towards it).
+    """
+    if not decel_step < math.inf:
+        return math.inf
+    if not room > 0.0:
+        return 0.0
+    return max(min(room, decel_step), math.sqrt(2.0 * decel_step * room) - 0.5 * decel_step)
+
+
+def rate_band(
+    last: float,
+    room_lo: float,
+    room_hi: float,
+    vel_lo: float,
+    vel_hi: float,
+    qdd_min: float,
+    qdd_max: float,
+    dt: float,
+) -> tuple:
+    """One joint's band from its velocity and acceleration limits and its braking distance.
+
+    Args:
+        last: The previous step ``q0 - q_prev`` (0 at rest).
+        room_lo: ``q_min - q0`` (``-inf``: no lower end-stop).
+        room_hi: ``q_max - q0`` (``+inf``: no upper end-stop).
+        vel_lo: Lower velocity limit times ``dt`` (``-inf``: none).
+        vel_hi: Upper velocity limit times ``dt`` (``+inf``: none).
+        qdd_min: Lower acceleration limit (``-inf``: none).
+        qdd_max: Upper acceleration limit (``+inf``: none).
+        dt: Control period.
+
+    Returns:
+        ``(lo, hi, lo_kind, hi_kind, verdict)``: the bounds on ``dq``; which
+        limit sets each (0 end-stop by braking distance, 1 velocity, 2
+        acceleration: :data:`lpik.labels.BOUND_KINDS`); and :func:`yield_to`'s
+        verdict of the acceleration band over the others. When a side yielded,
+        both kinds name the limit the motion is outside of on that side.
+    """
+    dt2 = dt * dt
+    acc_lo, acc_hi = last + qdd_min * dt2, last + qdd_max * dt2
+    brake_hi = braking_room(room_hi, -qdd_min * dt2)
+    brake_lo = -braking_room(-room_lo, qdd_max * dt2)
+    soft_lo, lo_kind = (brake_lo, 0) if brake_lo > vel_lo else (vel_lo, 1)
+    soft_hi, hi_kind = (brake_hi, 0) if brake_hi < vel_hi else (vel_hi, 1)
+    lo, hi, verdict = yield_to(acc_lo, acc_hi, soft_lo, soft_hi)
+    if verdict == UPPER_YIELDED:
+        return lo, hi, hi_kind, hi_kind, verdict
+    if verdict == LOWER_YIELDED:
+        return lo, hi, lo_kind, lo_kind, verdict
+    if acc_lo > soft_lo:
+        lo_kind = 2
+    if acc_hi < soft_hi:
+        hi_kind = 2
+    return lo, hi, lo_kind, hi_kind, MET
+
+
+def outside_tolerance(bound: float) -> float:
+    """How far past an end-stop a joint may be and still count as on it (the check's tolerance)."""
+    return FEASIBILITY_TOL * max(1.0, abs(bound)) if math.isfinite(bound) else 0.0
+
+
+def stop_band(q0: float, q_min: float, q_max: float, rate_lo: float, rate_hi: float) -> tuple:
+    """One joint's bounds on ``dq``: its end-stops (eq. 13) within its rate band.
+
+    A joint past an end-stop by at most :func:`outside_tolerance` counts as on
+    it (it may stay, not go further). One past it by more is *outside* and
+    pinned: both bounds become the end-stop if the rate band reaches it, else
+    the rate band's edge nearest to it.
+
+    Returns:
+        ``(lo, hi, lo_is_stop, hi_is_stop, outside)``: the bounds; whether the
+        end-stop (rather than the rate band) sets each; and -1 (below
+        ``q_min``), +1 (above ``q_max``) or 0.
+    """
+    room_lo, room_hi = q_min - q0, q_max - q0
+    outside = 0
+    if room_hi < 0.0:
+        if room_hi < -outside_tolerance(q_max):
+            outside = 1
+        else:
+            room_hi = 0.0
+    if room_lo > 0.0:
+        if room_lo > outside_tolerance(q_min):
+            outside = -1
+        else:
+            room_lo = 0.0
+    if outside:
+        back = min(max(room_hi if outside > 0 else room_lo, rate_lo), rate_hi)
+        return back, back, outside < 0, outside > 0, outside
+    lo, hi, _ = yield_to(rate_lo, rate_hi, room_lo, room_hi)
+    return lo, hi, room_lo >= rate_lo, room_hi <= rate_hi, outside

@@ -1,0 +1,208 @@
+"""States outside their limits, and stops: the rule of :mod:`lpik.bands` on every path.
+
+A joint past its end-stop (or a speed above its limit) moves back as fast as
+its limits allow and never further out; the safe step of an infeasible problem
+is a controlled stop that keeps the acceleration limits; the numpy layers and
+the compiled controller take the same steps.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from core_strategies import examples
+from lpik import ClampedTarget, bands, planar_arm, simulate
+from lpik.limits import AccelerationLimits, standard_limits
+from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING
+from lpik.robots.registry import home_configuration, load_robot
+
+DT = 0.001
+
+# --------------------------------------------------------------------- the rule itself
+
+
+def test_yield_to_takes_the_hard_edge_nearest_the_soft_band() -> None:
+    assert bands.yield_to(-1.0, 1.0, -0.5, 2.0) == (-0.5, 1.0, bands.MET)
+    assert bands.yield_to(0.2, 0.4, -1.0, 0.1) == (0.2, 0.2, bands.UPPER_YIELDED)
+    assert bands.yield_to(-0.4, -0.2, 0.0, 1.0) == (-0.2, -0.2, bands.LOWER_YIELDED)
+
+
+@settings(max_examples=examples(300), deadline=None)
+@given(
+    room=st.floats(0.0, 1.0),
+    speed=st.floats(0.0, 1.0),
+    qdd=st.floats(0.1, 100.0),
+    dt=st.sampled_from([1e-3, 1e-2]),
+)
+def test_braking_room_always_leaves_a_stop_before_the_end_stop(room, speed, qdd, dt) -> None:
+    """From any state the bound allows, full deceleration stops before the end-stop."""
+    decel = qdd * dt * dt
+    u = min(speed * dt, bands.braking_room(room, decel))  # a step within the bound
+    travelled, left = 0.0, room
+    for _ in range(100_000):
+        if u <= 0.0:
+            break
+        assert u <= bands.braking_room(left, decel) + 1e-12  # within every later bound (SLACK_TOL)
+        travelled, left = travelled + u, left - u
+        u -= decel
+    assert travelled <= room + 1e-12
+    assert bands.braking_room(room, math.inf) == math.inf
+    assert bands.braking_room(0.0, decel) == 0.0 and bands.braking_room(-0.1, decel) == 0.0
+
+
+def test_a_joint_outside_its_end_stop_is_pinned_back_towards_it() -> None:
+    # 0.05 past q_max, 0.01 back per step: pinned at -0.01; 0.005 past: pinned onto it
+    assert bands.stop_band(1.05, -1.0, 1.0, -0.01, 0.01)[:2] == (-0.01, -0.01)
+    lo, hi, _, _, outside = bands.stop_band(1.005, -1.0, 1.0, -0.01, 0.01)
+    assert lo == hi == pytest.approx(-0.005) and outside == 1
+    assert bands.stop_band(-1.5, -1.0, 1.0, -0.01, 0.01)[4] == -1
+    # within the check's tolerance it counts as on the end-stop: it may stay
+    assert bands.stop_band(1.0 + 1e-12, -1.0, 1.0, -0.01, 0.01)[:2] == (-0.01, 0.0)
+
+
+# ------------------------------------------------------------- closed loops from outside
+
+
+def planar():
+    """The paper's 4-link arm, with velocity limits of 1 rad/s."""
+    return planar_arm([1.0, 1.0, 1.0, 1.0], q_min=np.full(4, -2.5), q_max=np.full(4, 2.5),
+                      qd_max=1.0)  # fmt: skip
+
+
+def starts():
+    """(model, start past an end-stop, target) for the planar arm and the Panda."""
+    cases = []
+    arm = planar()
+    q_arm = np.array([0.3, 0.4, 0.5, 0.6])
+    panda = load_robot("panda")
+    q_panda = home_configuration("panda")
+    for model, q, joint in ((arm, q_arm, 1), (panda, q_panda, 3)):
+        target = model.pose(q)
+        for past in (1e-12, 1e-3, 0.05, 0.1):
+            for side in (1, -1):
+                start = q.copy()
+                start[joint] = (model.q_max if side > 0 else model.q_min)[joint] + side * past
+                name = f"{model.kinematics.name}-{side:+d}-{past:g}"
+                cases.append(pytest.param(model, start, target, joint, side, id=name))
+    return cases
+
+
+def outside_by(model, q: np.ndarray) -> np.ndarray:
+    """How far each joint is past its end-stops (0 inside)."""
+    return np.maximum(q - model.q_max, 0.0) + np.maximum(model.q_min - q, 0.0)
+
+
+@pytest.mark.parametrize(("model", "start", "target", "joint", "side"), starts())
+@pytest.mark.parametrize("qdd_max", [None, 10.0])
+def test_a_start_past_an_end_stop_recovers_on_every_path(
+    model, start, target, joint, side, qdd_max
+) -> None:
+    from lpik.control.controller import Lp2Controller
+
+    steps = 120 if qdd_max is None else 400
+    limits = standard_limits(model)
+    if qdd_max is not None:
+        limits.append(AccelerationLimits(np.full(model.n_joints, qdd_max)))
+    log = simulate(model, ClampedTarget(target), start, steps, dt=DT, limits=limits)
+    controller = Lp2Controller(model, dt=DT, qdd_max=qdd_max)
+    q, prev = start.copy(), None
+    for k in range(steps):
+        res = controller.step(q, target, prev)
+        np.testing.assert_allclose(res.q, log.q[k + 1] if k + 1 < steps else log.q_end,
+                                   rtol=0, atol=1e-12)  # fmt: skip
+        assert (res.status, res.binding or "") == (log.status[k], log.binding[k]), k
+        prev, q = q, res.q
+    past = np.array([outside_by(model, q)[joint] for q in [*log.q, log.q_end]])
+    assert np.all(np.diff(past) <= 1e-15)  # never further out
+    assert past[-1] <= 1e-7  # back within the check's tolerance
+    recovering = log.status == RECOVERING
+    assert log.metrics().recovery_steps == int(recovering.sum())
+    if past[0] > 1e-7:
+        limit = "upper" if side > 0 else "lower"
+        assert recovering[0] and log.binding[0].endswith(f"{limit} end-stop")
+        # recovery takes as many steps as the joint's speed limit needs, within the accel.
+        qd = model.qd_max[joint] * DT
+        assert log.metrics().recovery_steps <= math.ceil(past[0] / qd) + (
+            0 if qdd_max is None else math.ceil(2 * math.sqrt(past[0] / (qdd_max * DT**2)))
+        )  # fmt: skip
+    else:
+        assert not recovering.any()
+    assert set(log.status) <= {RECOVERING, OPTIMAL, INFEASIBLE}
+    assert np.isfinite(log.q).all()
+
+
+def test_a_speed_above_its_limit_is_brought_down_at_the_acceleration_limit() -> None:
+    arm = planar()
+    q = np.array([0.3, 0.4, 0.5, 0.6])
+    prev = q - np.array([0.003, 0.0, 0.0, 0.0])  # 3 rad/s against 1 rad/s
+    limits = [*standard_limits(arm), AccelerationLimits(np.full(4, 100.0))]
+    from lpik.limits import build_problem
+
+    problem = build_problem(arm.jacobian(q), np.zeros(2), q, limits, dt=DT, q_prev=prev,
+                            joint_names=arm.joint_names)  # fmt: skip
+    assert problem.recovering() == ("joint 1 upper velocity limit",)
+    lower, upper = problem.step_bounds()[:2]
+    assert lower[0] == upper[0] == pytest.approx(0.003 - 100.0 * DT**2)
+
+
+# -------------------------------------------------------------------- random states
+
+
+@st.composite
+def moving_states(draw: st.DrawFn):
+    """A planar arm with all three kinds of limit and a state that may be outside them:
+    past an end-stop by up to 0.1 rad, or moving at up to three times its speed limit."""
+    from lpik.control.controller import Lp2Controller
+
+    n = draw(st.integers(3, 5))
+    unit = st.floats(-1.0, 1.0, allow_nan=False)
+    arm = planar_arm([draw(st.floats(0.3, 1.2)) for _ in range(n)], q_min=np.full(n, -1.5),
+                     q_max=np.full(n, 1.5), qd_max=draw(st.floats(0.3, 2.0)))  # fmt: skip
+    dt = draw(st.sampled_from([1e-3, 1e-2]))
+    qdd = draw(st.sampled_from([2.0, 10.0, 100.0]))
+    controller = Lp2Controller(arm, dt=dt, v_max=0.5, qdd_max=qdd,
+                               lambda_bound=draw(st.sampled_from([None, 1.0])))  # fmt: skip
+    q0 = np.array([1.6 * draw(unit) for _ in range(n)])  # up to 0.1 past either end-stop
+    speed = draw(st.sampled_from([0.0, 0.5, 1.0, 3.0]))  # in units of qd_max
+    q_prev = q0 - speed * arm.qd_max * dt * np.array([draw(unit) for _ in range(n)])
+    goal = arm.pose(q0) + np.append([0.3 * draw(unit), 0.3 * draw(unit)], 0.0)
+    return controller, q0, goal, q_prev
+
+
+@settings(max_examples=examples(300), deadline=None)
+@given(state=moving_states())
+def test_every_step_from_any_state_keeps_the_contract(state) -> None:
+    from lpik.methods import solve
+
+    controller, q0, goal, q_prev = state
+    arm, dt = controller.model, controller.dt
+    qdd = controller.limits[-1].qdd_max
+    problem = controller.problem(q0, goal, q_prev)
+    fast = controller.step(q0, goal, q_prev)
+    reference = solve(problem, "lp2")
+    if fast.path == "compiled" and reference.path == "ratio-test":  # (else near a singularity)
+        assert fast.status == reference.status
+        if fast.status != INFEASIBLE:  # an infeasible step's conflict may be a tie
+            assert fast.binding == reference.binding
+        np.testing.assert_allclose(fast.q, reference.q, rtol=0, atol=1e-12)
+    last = q0 - q_prev
+    tol = 1e-9
+    for res in (fast, solve(problem, "lp1"), solve(problem, "l1")):
+        assert np.isfinite(res.q).all() and 0.0 <= res.p <= 1.0
+        assert (np.abs(res.dq - last) <= qdd * dt * dt + tol).all()  # never broken
+        before, after = outside_by(arm, q0), outside_by(arm, res.q)
+        if res.status == RECOVERING:
+            assert res.binding in problem.recovering()
+            # never further out, unless it brakes at its acceleration limit (it was moving out)
+            braking = np.abs(res.dq - last) >= qdd * dt * dt - tol
+            assert ((after <= before + tol) | braking).all()
+        else:
+            assert not problem.recovering()
+            assert (after <= tol).all() and (np.abs(res.dq) <= arm.qd_max * dt + tol).all()
+        if res.moved and not (res.status == RECOVERING and res.p == 0.0):  # a safe step may not
+            np.testing.assert_allclose(problem.J @ res.dq, res.p * problem.dw, atol=1e-7)
