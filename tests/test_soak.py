@@ -1,0 +1,43 @@
+"""The soak of docs/reliability.md, sized for CI: a random walk with acceleration limits.
+
+Every step is checked independently (:mod:`lpik_bench.soak`): no acceleration
+limit broken on any step, no end-stop or velocity limit broken from a state
+within its limits, never further out while recovering from a glitch past an
+end-stop, no NaN. The long run's figures are in docs/reliability.md.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from lpik_bench.soak import soak
+
+pytest.importorskip("numba")
+
+
+@pytest.mark.parametrize(("path", "steps", "glitch_every"), [("compiled", 30_000, 5_000),
+                                                             ("numpy", 1_500, 500)])  # fmt: skip
+def test_a_random_walk_with_acceleration_limits_breaks_no_limit(path, steps, glitch_every) -> None:
+    report = soak(steps, path=path, seed=3, glitch_every=glitch_every)
+    assert report.broken() == 0, report
+    assert report.worst_acceleration_ratio <= 1.0 + 1e-9
+    assert report.glitches == (steps - 1) // glitch_every
+    assert report.statuses.get("recovering", 0) > 0  # each glitch was recovered from
+    assert report.statuses.get("optimal", 0) > 0
+
+
+def test_the_long_soak_is_in_the_reliability_page() -> None:
+    """docs/reliability.md holds the generated soak block, with nothing broken."""
+    from pathlib import Path
+
+    from lpik_bench.soak import BEGIN, END
+
+    text = (Path(__file__).parent.parent / "docs" / "reliability.md").read_text(encoding="utf-8")
+    block = text.split(BEGIN, 1)[1].split(END, 1)[0]
+    assert "Produced by `python -m lpik_bench.soak --steps 1000000" in block
+    rows = [line for line in block.splitlines() if line.startswith(("| compiled", "| numpy"))]
+    assert len(rows) == 2
+    for row in rows:
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        assert cells[2].startswith("0 (") and cells[3] == "0 / 0"  # acceleration, stops/speed
+        assert cells[4:7] == ["0", "0", "0"]  # further out, NaN, p outside [0, 1]
