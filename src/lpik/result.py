@@ -103,7 +103,7 @@ class Result:
 
     @property
     def moved(self) -> bool:
-        """True when the step is the method's answer, not a safe no-motion step."""
+        """True when the step is the method's answer (or a recovery), not the safe step."""
         return self.status in MOVING
 
     def to_dict(self) -> dict[str, Any]:
