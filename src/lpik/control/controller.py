@@ -150,8 +150,6 @@ class Lp2Controller:
         self._p, self._label_at = fields["p"].start, fields["label"].start
         self._residual = fields["residual"].start
         self._outside = fields["outside"].start
-        at = int(self._state[layout.JACOBIAN])
-        self._jacobian = self._state[at : at + m * n].reshape(m, n)  # the last step's J
         self._n, self._m = n, m
         self._labels = step_label_table(model.joint_names, m, template.row_labels)
         self._q_view = self._out[self._q]  # the kernel's q, for step_into
@@ -340,18 +338,17 @@ class Lp2Controller:
         if code == KERNEL_INFEASIBLE:  # the kernel wrote the safe step
             out = self._out.copy()
             label = outside if outside >= 0 else int(out.item(self._label_at))
-            dq = out[self._dq]
             return Result.trusted(
                 {
                     "q": out[self._q],
-                    "dq": dq,
+                    "dq": out[self._dq],
                     "p": 0.0,
                     "lam": None,
                     "status": RECOVERING if outside >= 0 else INFEASIBLE,
                     "binding": self._labels[label],
                     "method": "lp2",
                     "solve_time": perf_counter() - start,
-                    "residual": float(np.abs(self._jacobian @ dq).max()),
+                    "residual": out.item(self._residual),
                     "path": "compiled",
                 }
             )

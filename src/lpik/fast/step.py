@@ -29,7 +29,7 @@ from lpik import bands
 from lpik.control.command import clamp_command as _clamp_command
 from lpik.fast import layout as L
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
-from lpik.fast.lp2_kernel import lp2_core
+from lpik.fast.lp2_kernel import INFEASIBLE, lp2_core
 
 #: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
 BAD_INPUT = 4
@@ -159,6 +159,12 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     q = L.vector(state, L.Q)
     for i in range(n):
         q[i] = q0[i] + dq[i]
+    if code == INFEASIBLE:  # the safe step: how far it moves the task, max |J dq|
+        for a in range(m):
+            s = 0.0
+            for i in range(n):
+                s += J[a, i] * dq[i]
+            residual = max(residual, abs(s))
     state[int(state[L.P])] = p
     label = -1 if binding == -1 else binding_label_index(binding, kinds, m + r)
     state[int(state[L.LABEL])] = label
