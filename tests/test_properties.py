@@ -79,17 +79,24 @@ def test_lp1_achieves_at_least_lp2s_dexterity(case: Case) -> None:
 VALUE_TOL = 1e-7
 
 
-def assert_within(value: float, b: Bracket, sense: float = 1.0) -> None:
-    """``value`` is no better than the relaxed optimum and no worse than a proven one."""
+def p_tolerance(P) -> float:  # type: ignore[no-untyped-def]
+    """How far an LP's p may fall short of a proven one: a solver may stop ``HARD_TOL`` short
+    of a bound, which costs ``HARD_TOL / |dw|`` of p (slivers thinner than the tolerance)."""
+    return max(VALUE_TOL, HARD_TOL / max(1e-12, float(np.abs(P.dw).max())))
+
+
+def assert_within(value: float, b: Bracket, sense: float = 1.0, short: float = VALUE_TOL) -> None:
+    """``value`` is no better than the relaxed optimum and no worse than a proven one
+    (by more than ``short``: what the solvers' tolerances allow)."""
     assert b.loose.feasible
     best = b.loose.objective
     proven = b.attainable(sense)
     if sense > 0:  # maximise
         assert value <= best + VALUE_TOL
-        assert proven is None or value >= proven - VALUE_TOL
+        assert proven is None or value >= proven - short
     else:  # minimise
         assert value >= best - VALUE_TOL
-        assert proven is None or value <= proven + VALUE_TOL
+        assert proven is None or value <= proven + short
 
 
 @settings(max_examples=examples(250))
@@ -98,7 +105,7 @@ def test_lp1_and_l1_against_linprog(case: Case) -> None:
     P = case.problem
     res1 = case.solve("lp1")
     assert res1.moved
-    assert_within(res1.p, bracket(lp1_reference, P))
+    assert_within(res1.p, bracket(lp1_reference, P), short=p_tolerance(P))
     resl = case.solve("l1")
     assert resl.moved
     full = bracket(l1_reference, P, 1.0)
@@ -109,7 +116,9 @@ def test_lp1_and_l1_against_linprog(case: Case) -> None:
         assert resl.status == SCALED
         assert not full.tight.feasible  # else the full displacement was within reach
         assert resl.p == pytest.approx(res1.p, abs=1e-8)
-        assert_within(float(np.abs(resl.dq).sum()), bracket(l1_reference, P, resl.p), -1.0)
+        l1_short = max(VALUE_TOL, P.n * HARD_TOL)  # each joint within the tolerance
+        assert_within(float(np.abs(resl.dq).sum()), bracket(l1_reference, P, resl.p), -1.0,
+                      l1_short)  # fmt: skip
 
 
 @settings(max_examples=examples(250))
