@@ -344,7 +344,7 @@ def test_classical_methods_on_an_infeasible_problem_say_they_violate(method: str
 
 
 def test_every_method_is_listed() -> None:
-    assert set(ALL_METHODS) == {"pinv", "weighted", "robust", "lp1", "l1", "lp2", "nlp"}
+    assert set(ALL_METHODS) == {"pinv", "weighted", "robust", "lp1", "l1", "lp2", "lp2s", "nlp"}
     assert set(METHODS) == set(ALL_METHODS)
     assert {name for name, spec in METHODS.items() if spec.needs_model} == {"nlp"}
     assert LIMIT_AWARE <= set(ALL_METHODS)

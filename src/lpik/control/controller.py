@@ -12,6 +12,7 @@ cannot take (singular KKT matrix) go to the HiGHS path.
 
 from __future__ import annotations
 
+from functools import partial
 from time import perf_counter
 from typing import Any
 
@@ -42,14 +43,12 @@ from lpik.fast.step import BAD_INPUT, chain_step_batch, step_kernel
 from lpik.labels import step_label_table
 from lpik.limits import AccelerationLimits, LinearRows, build_problem, standard_limits
 from lpik.methods.lp2 import lp2
+from lpik.methods.lp2s import lp2s
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import ROTATION_TOL
 from lpik.types import FloatArray
-
-#: The fields of an optimal compiled step that are the same on every step.
-_OPTIMAL_FIELDS = {"status": OPTIMAL, "method": "lp2", "path": "compiled"}
 
 
 class Lp2Controller:
@@ -72,6 +71,9 @@ class Lp2Controller:
         G: Extra rows ``G q <= h``, (r, n).
         h: Their right-hand side, (r,).
         row_labels: Their labels.
+        saturate: LP2 with saturation in the null space (method ``lp2s``,
+            :func:`lpik.methods.lp2s.lp2s`): a joint whose bound stops the step is
+            fixed there and the others carry the command on.
 
     Raises:
         ValueError: For a model the compiled path does not support, or bad limits/weights.
@@ -94,12 +96,17 @@ class Lp2Controller:
         G: Any = None,
         h: Any = None,
         row_labels: Any = None,
+        saturate: bool = False,
     ) -> None:
         self.model = model
         self.dt = positive_number("dt", dt)
         self.v_max, self.w_max = positive_number("v_max", v_max), positive_number("w_max", w_max)
         if not isinstance(velocity_limits, bool | np.bool_):
             raise ValueError(f"velocity_limits: must be True or False, got {velocity_limits!r}")
+        if not isinstance(saturate, bool | np.bool_):
+            raise ValueError(f"saturate: must be True or False, got {saturate!r}")
+        self.method = "lp2s" if saturate else "lp2"
+        self._fallback = lp2s if saturate else partial(lp2, path="highs")
         if lambda_bound is not None:
             lambda_bound = positive_number("lambda_bound", lambda_bound)
         origins, axes, revolute, tip = chain_arrays(model)
@@ -137,11 +144,14 @@ class Lp2Controller:
         self._state = layout.pack(
             n, m, template.G.shape[0],
             h_diag=is_diagonal(H), dt=self.dt, v_max=self.v_max, w_max=self.w_max,
+            saturate=bool(saturate),
             revolute=revolute, row_index=self._row_index, origins=origins, axes=axes, tip=tip,
             limits=bounds, criterion=H, f_ref=np.vstack([template.f, ref]),
             Lambda=template.Lambda, lam_bounds=np.vstack([template.lam_min, template.lam_max]),
             G=template.G, h=template.h,
         )  # fmt: skip
+        #: The fields of an optimal compiled step that are the same on every step.
+        self._optimal_fields = {"status": OPTIMAL, "method": self.method, "path": "compiled"}
         self._kernel = step_kernel()
         self._defect = rotation_defect_kernel()  # checks rotation targets before the kernel
         self._out = self._state[layout.out_range(self._state)]  # the kernel writes here
@@ -189,7 +199,7 @@ class Lp2Controller:
         if code == OK and self._out.item(self._outside) < 0:
             out = self._out.copy()
             label = out.item(self._label_at)
-            fields = _OPTIMAL_FIELDS.copy()  # a Result without the dataclass __init__
+            fields = self._optimal_fields.copy()  # a Result without the dataclass __init__
             fields["q"] = out[self._q]
             fields["dq"] = out[self._dq]
             fields["p"] = out.item(self._p)
@@ -329,7 +339,7 @@ class Lp2Controller:
                     "lam": out[self._lam],
                     "status": RECOVERING,
                     "binding": self._labels[outside],
-                    "method": "lp2",
+                    "method": self.method,
                     "solve_time": perf_counter() - start,
                     "residual": out.item(self._residual),
                     "path": "compiled",
@@ -346,7 +356,7 @@ class Lp2Controller:
                     "lam": None,
                     "status": RECOVERING if outside >= 0 else INFEASIBLE,
                     "binding": self._labels[label],
-                    "method": "lp2",
+                    "method": self.method,
                     "solve_time": perf_counter() - start,
                     "residual": out.item(self._residual),
                     "path": "compiled",
@@ -354,7 +364,7 @@ class Lp2Controller:
             )
         if code == BAD_INPUT:
             self._converted(q0, target, q_prev, check_finite=True)  # raises, naming the input
-        return lp2(self.problem(q0, target, q_prev), path="highs")
+        return self._fallback(self.problem(q0, target, q_prev))
 
     def _converted(
         self, q0: Any, target: Any, q_prev: Any, check_finite: bool = False

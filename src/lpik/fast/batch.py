@@ -22,6 +22,7 @@ from lpik.check import task_residual
 from lpik.exceptions import InvalidProblemError
 from lpik.fast import lp2_kernel as K
 from lpik.fast.arrays import BatchArrays, kernel_args, raw_problem
+from lpik.fast.saturation import lp2s_kernel
 from lpik.highs import HighsSolver
 from lpik.labels import code_labels
 from lpik.methods.lp2 import lp2
@@ -37,15 +38,21 @@ def problem_labels(problem: Problem) -> tuple[str, ...]:
     return code_labels(*problem.step_bounds()[2:], problem.m, problem.row_labels)
 
 
-def solve_compiled(problem: Problem, solver: HighsSolver | None = None) -> Result:
+def solve_compiled(
+    problem: Problem, solver: HighsSolver | None = None, *, saturate: bool = False
+) -> Result:
     """LP2 (eqs. 15-18) by the compiled ratio test; HiGHS (``solver``) when ``K`` is singular.
 
     The same answer as :func:`lpik.methods.lp2.lp2` with ``path="ratio-test"``,
-    with ``path="compiled"`` when the kernel answers.
+    with ``path="compiled"`` when the kernel answers. With ``saturate``, LP2 with
+    saturation in the null space (:func:`lpik.methods.lp2s.lp2s`,
+    :mod:`lpik.fast.saturation`).
     """
     start = time.perf_counter()
     dq, lam = np.empty(problem.n), np.empty(problem.m)
-    code, p, binding, _ = K.lp2_kernel(*kernel_args(problem), dq, lam)
+    kernel = lp2s_kernel if saturate else K.lp2_kernel
+    code, p, binding, _ = kernel(*kernel_args(problem), dq, lam)
+    method = "lp2s" if saturate else "lp2"
     if code == K.OK:
         outside = problem.recovering()
         return Result.trusted(
@@ -60,7 +67,7 @@ def solve_compiled(problem: Problem, solver: HighsSolver | None = None) -> Resul
                 else None
                 if binding < 0
                 else problem_labels(problem)[binding],
-                "method": "lp2",
+                "method": method,
                 "solve_time": time.perf_counter() - start,
                 "residual": task_residual(problem, dq, p),
                 "path": "compiled",
@@ -69,12 +76,16 @@ def solve_compiled(problem: Problem, solver: HighsSolver | None = None) -> Resul
     if code == K.INFEASIBLE:
         return safe_step(
             problem,
-            "lp2",
+            method,
             INFEASIBLE,
             problem_labels(problem)[binding],
             solve_time=time.perf_counter() - start,
             path="compiled",
         )
+    if saturate:  # a singular pass: the numpy method, pass by pass
+        from lpik.methods.lp2s import lp2s
+
+        return lp2s(problem, solver=solver)
     return lp2(problem, path="highs", solver=solver)
 
 

@@ -4,7 +4,8 @@ A fused step is one compiled call of four arguments (``state, q0, q_prev,
 target``); ``state`` holds all the rest, so that the step allocates nothing:
 
 - the header: the sizes ``n`` (joints), ``m`` (task rows), ``r`` (extra rows),
-  the flag ``h_diag``, the scalars ``dt``, ``v_max``, ``w_max``, and then,
+  the flag ``h_diag``, the scalars ``dt``, ``v_max``, ``w_max``, the flag
+  ``saturate`` (LP2 with saturation in the null space), and then,
   at the slot named by each block's constant, the offset where the block
   starts (slot :data:`END`: the buffer's length);
 - the blocks of :data:`BLOCKS`, in that order: the chain's geometry and the
@@ -31,19 +32,19 @@ from lpik.fast.views import matrix, tensor3
 from lpik.types import FloatArray
 
 # ------------------------------------------------------------------ header: sizes and scalars
-N, M, R, H_DIAG, DT, V_MAX, W_MAX = range(7)
+N, M, R, H_DIAG, DT, V_MAX, W_MAX, SATURATE = range(8)
 
 # ---------------------------------------------- header: one slot per block, holding its offset
 # the chain and the constants of the step
-REVOLUTE, ROW_INDEX, ORIGINS, AXES, TIP = range(7, 12)
-LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H = range(12, 19)
+REVOLUTE, ROW_INDEX, ORIGINS, AXES, TIP = range(8, 13)
+LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H = range(13, 20)
 # out: what a step reports
-Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, OUTSIDE = range(19, 28)
+Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, OUTSIDE = range(20, 29)
 # scratch of the step
-GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(28, 35)
-LOWER, UPPER, KINDS, C, G_RHS, LP2_WS = range(35, 41)
+GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(29, 36)
+LOWER, UPPER, KINDS, C, G_RHS, LP2_WS, SATURATION = range(36, 43)
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 41
+END = 43
 #: Length of the header.
 HEADER = END + 1
 
@@ -104,6 +105,7 @@ BLOCKS = (
     Block(C, "c", ("n",), "f + Lambda (q_ref - q0)"),
     Block(G_RHS, "g", ("r",), "the rows' right-hand side in dq: h - G q0"),
     Block(LP2_WS, "lp2_ws", (workspace_size,), "the LP2 kernel's workspace"),
+    Block(SATURATION, "saturation", (lambda n, m, r: n + m,), "the best pass's dq and lam"),
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.
 OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "outside")
@@ -122,7 +124,7 @@ def block_shape(block: Block, n: int, m: int, r: int) -> tuple[int, ...]:
 
 def pack(
     n: int, m: int, r: int, *, h_diag: bool, dt: float, v_max: float, w_max: float,
-    **arrays: FloatArray,
+    saturate: bool = False, **arrays: FloatArray,
 ) -> FloatArray:  # fmt: skip
     """The state buffer of a fused step.
 
@@ -134,6 +136,7 @@ def pack(
         dt: Control period [s].
         v_max: Largest commanded linear speed [m/s].
         w_max: Largest commanded angular speed [rad/s].
+        saturate: Whether the step is LP2 with saturation in the null space.
         **arrays: One array per name of :data:`INPUT_BLOCKS`, of the block's shape.
 
     Raises:
@@ -146,7 +149,8 @@ def pack(
         offsets.append(offset)
         offset += int(np.prod(block_shape(block, n, m, r), dtype=np.int64))
     state = np.zeros(offset)
-    state[[N, M, R, H_DIAG, DT, V_MAX, W_MAX]] = (n, m, r, float(h_diag), dt, v_max, w_max)
+    state[[N, M, R, H_DIAG, DT, V_MAX, W_MAX, SATURATE]] = (
+        n, m, r, float(h_diag), dt, v_max, w_max, float(saturate))  # fmt: skip
     state[REVOLUTE:END] = offsets
     state[END] = offset
     for block in BLOCKS:

@@ -30,6 +30,7 @@ from lpik.control.command import clamp_command as _clamp_command
 from lpik.fast import layout as L
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
 from lpik.fast.lp2_kernel import INFEASIBLE, lp2_core
+from lpik.fast.saturation import lp2s_core
 
 #: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
 BAD_INPUT = 4
@@ -134,7 +135,9 @@ def binding_label_index(code, kinds, constraints):
 
 @njit(cache=True)
 def limit_and_solve(state, q0, q_prev, J, dw):
-    """Bounds, criterion and rows, then LP2; returns the LP2 kernel's outcome.
+    """Bounds, criterion and rows, then LP2 (with saturation when the header says so).
+
+    Returns the LP2 kernel's outcome.
 
     Fills the out blocks ``q``, ``dq``, ``lam``, ``p``, ``label``, ``residual``
     and ``outside`` of ``state``; ``J`` and ``dw`` are the step's task rows.
@@ -152,10 +155,20 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     criterion_and_rows(L.matrix_at(state, L.F_REF, 2, n), L.matrix_at(state, L.LAMBDA, n, n),
                        G, L.vector(state, L.ROWS_H), q0, c, g)  # fmt: skip
     lam_bounds = L.matrix_at(state, L.LAM_BOUNDS, 2, m)
-    code, p, binding, residual = lp2_core(
-        J, dw, L.matrix_at(state, L.CRITERION, n, n), state[L.H_DIAG] != 0.0, c, lower,
-        upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam, L.vector(state, L.LP2_WS),
-    )  # fmt: skip
+    H, h_diag, ws = (
+        L.matrix_at(state, L.CRITERION, n, n),
+        state[L.H_DIAG] != 0.0,
+        L.vector(state, L.LP2_WS),
+    )
+    if state[L.SATURATE] != 0.0:
+        code, p, binding, residual = lp2s_core(
+            J, dw, H, h_diag, c, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam, ws,
+            L.vector(state, L.SATURATION),
+        )  # fmt: skip
+    else:
+        code, p, binding, residual = lp2_core(
+            J, dw, H, h_diag, c, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam, ws
+        )  # fmt: skip
     q = L.vector(state, L.Q)
     for i in range(n):
         q[i] = q0[i] + dq[i]

@@ -15,6 +15,7 @@ from lpik.methods.classical import pinv, robust, weighted
 from lpik.methods.l1 import l1
 from lpik.methods.lp1 import lp1
 from lpik.methods.lp2 import lp2
+from lpik.methods.lp2s import lp2s
 from lpik.methods.nlp import nlp
 from lpik.problem import Problem
 from lpik.result import Result
@@ -66,6 +67,11 @@ METHODS: dict[str, MethodSpec] = {
         MethodSpec(
             "lp2", lp2, "max p with the quadratic criterion as LP rows",
             "eqs. 15-18, secs. 3.1-3.2",
+            takes_solver=True, bounds_multipliers=True, limit_aware=True,
+        ),
+        MethodSpec(
+            "lp2s", lp2s, "LP2 with saturation in the null space: a joint at its bound is "
+            "fixed and the others carry on", "eqs. 15-18 over the free joints",
             takes_solver=True, bounds_multipliers=True, limit_aware=True,
         ),
         MethodSpec(

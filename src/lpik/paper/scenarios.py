@@ -202,13 +202,18 @@ class Setup:
             progress=progress,
         )
 
-    def controller(self, lambda_bound: float | None = None) -> Lp2Controller:
-        """The compiled LP2 controller with this setup's limits, command law and weights."""
+    def controller(
+        self, lambda_bound: float | None = None, *, saturate: bool = False
+    ) -> Lp2Controller:
+        """The compiled LP2 controller with this setup's limits, command law and weights.
+
+        ``saturate``: LP2 with saturation in the null space (``lp2s``).
+        """
         from lpik.control.controller import Lp2Controller
 
         return Lp2Controller(
             self.model, dt=self.dt, v_max=self.v_max, w_max=self.w_max,
-            lambda_bound=lambda_bound, **dict(self.weights),
+            lambda_bound=lambda_bound, saturate=saturate, **dict(self.weights),
         )  # fmt: skip
 
 

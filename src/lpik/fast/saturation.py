@@ -1,0 +1,72 @@
+"""LP2 with saturation in the null space, compiled: :func:`lpik.methods.lp2s.lp2s` as a loop.
+
+Each pass is :func:`lpik.fast.lp2_kernel.lp2_core`; the joint whose bound stops
+the pass is fixed there by setting its lower and upper bound to that bound
+(the kernel pins every joint whose bounds coincide), and the next pass resolves
+the criterion over the joints still free. The passes, their stopping rules and
+their tie-breaking are those of the numpy method, which the tests hold equal.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from lpik.fast.lp2_kernel import INFEASIBLE, OK, _workspace_size, lp2_core
+from lpik.tolerances import FULL_P
+
+
+@njit(cache=True)
+def lp2s_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam, ws, best):
+    """LP2 with saturation (eqs. 15-18 over the free joints); writes ``dq`` and ``lam``.
+
+    Arguments as :func:`~lpik.fast.lp2_kernel.lp2_core`, plus ``best``, a float
+    scratch of length ``n + m``. ``lower`` and ``upper`` are changed in place
+    (saturated joints end with coinciding bounds).
+
+    Returns:
+        ``(code, p, binding, residual)`` of the pass with the largest ``p``, or
+        the first outcome other than OK (:data:`~lpik.fast.lp2_kernel.SINGULAR`
+        and ``CHECK_FAILED`` send the caller to the numpy method).
+    """
+    m, n = J.shape
+    code, p, binding, residual = lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max,
+                                          G, g, dq, lam, ws)  # fmt: skip
+    if code != OK:
+        return code, p, binding, residual
+    free = 0
+    for i in range(n):
+        if lower[i] != upper[i]:
+            free += 1
+    while p < FULL_P and 0 <= binding < 2 * n and free - 1 >= m:
+        for i in range(n):
+            best[i] = dq[i]
+        for k in range(m):
+            best[n + k] = lam[k]
+        joint = binding // 2
+        if binding % 2 == 1:
+            lower[joint] = upper[joint]
+        else:
+            upper[joint] = lower[joint]
+        free -= 1
+        code2, p2, binding2, residual2 = lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min,
+                                                  lam_max, G, g, dq, lam, ws)  # fmt: skip
+        if code2 != OK and code2 != INFEASIBLE:  # SINGULAR, CHECK_FAILED: the numpy method
+            return code2, p2, binding2, residual2
+        if code2 != OK or p2 < p:  # keep the best pass
+            for i in range(n):
+                dq[i] = best[i]
+            for k in range(m):
+                lam[k] = best[n + k]
+            break
+        code, p, binding, residual = code2, p2, binding2, residual2
+    return code, p, binding, residual
+
+
+@njit(cache=True)
+def lp2s_kernel(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam):
+    """:func:`lp2s_core` with its own workspace, on copies of the bounds."""
+    m, n = J.shape
+    ws = np.empty(_workspace_size(n, m, G.shape[0]))
+    return lp2s_core(J, dw, H, h_diag, c, lower.copy(), upper.copy(), lam_min, lam_max, G, g,
+                     dq, lam, ws, np.empty(n + m))  # fmt: skip

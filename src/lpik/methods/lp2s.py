@@ -1,0 +1,109 @@
+"""LP2 with saturation in the null space: the joint that stops the step is fixed, the rest go on.
+
+LP2's criterion rows (eq. 18) fix ``dq`` as an affine function of ``p``: when one
+joint reaches a bound at ``p*``, the step stops there although the other joints
+could carry the command further. Saturation in the null space (Flacco, De Luca
+and Khatib, "Control of redundant robots under hard joint constraints:
+saturation in the null space", IEEE Trans. Robotics 31(3), 2015) fixes that
+joint at its bound and resolves the criterion over the joints still free:
+eqs. 15-18 over the free joints (:func:`lpik.methods.lp2.pinned_system`),
+repeated until the command is met, or what stops it is not a joint's bound
+(a multiplier bound, an extra row, a singularity), or no free redundancy is left
+(fewer free joints than task rows).
+
+Each pass starts from the previous one's answer: at ``p*`` the fixed joint sits
+exactly at its bound and the other joints' criterion rows hold, so that answer
+is feasible for the next pass. ``p`` therefore never decreases from pass to
+pass, the step is continuous where a joint saturates, and with every joint
+free it is LP2's step exactly.
+"""
+
+from __future__ import annotations
+
+import time
+
+from lpik.highs import HighsSolver
+from lpik.methods.assembly import finish
+from lpik.methods.lp2 import lp2
+from lpik.problem import Problem
+from lpik.result import Result
+from lpik.tolerances import FULL_P
+
+
+def joint_bound_index(problem: Problem) -> dict[str, tuple[int, int]]:
+    """Each joint bound's label, mapped to ``(joint, side)`` (side 0 lower, 1 upper)."""
+    lower_labels, upper_labels = problem.step_bounds()[2:]
+    index: dict[str, tuple[int, int]] = {}
+    for i, (lo, hi) in enumerate(zip(lower_labels, upper_labels)):
+        index.setdefault(lo, (i, 0))
+        index.setdefault(hi, (i, 1))
+    return index
+
+
+def saturated(problem: Problem, joint: int, side: int) -> Problem:
+    """``problem`` with ``joint`` fixed at its lower (``side`` 0) or upper (1) bound on ``dq``."""
+    lower, upper = problem.step_bounds()[:2]
+    value = upper[joint] if side else lower[joint]
+    dq_min, dq_max = problem.dq_min.copy(), problem.dq_max.copy()
+    dq_min[joint] = dq_max[joint] = value
+    return problem.replace(dq_min=dq_min, dq_max=dq_max)
+
+
+def lp2s(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = None) -> Result:
+    """LP2 (eqs. 15-18) with saturation in the null space; the module docstring tells how.
+
+    Args:
+        problem: The step to solve, as for :func:`~lpik.methods.lp2.lp2`.
+        path: Each pass's LP2 path (:data:`lpik.methods.lp2.PATHS`); ``"compiled"``
+            runs the passes compiled (:mod:`lpik.fast.saturation`).
+        solver: A :class:`~lpik.highs.HighsSolver` to reuse across passes and steps.
+
+    Returns:
+        The step of the pass with the largest ``p`` (the last one to reach it,
+        the most saturated); ``binding`` names the limit that finally stops it.
+        Re-checked against ``problem`` itself, so every limit holds.
+    """
+    if path == "compiled":
+        from lpik.fast.batch import solve_compiled  # numba is optional: import on use
+
+        return solve_compiled(problem, solver, saturate=True)
+    start = time.perf_counter()
+    best, _ = saturation_passes(problem, path=path, solver=solver)
+    if not best.moved or best.lam is None:  # LP2's own safe step: nothing to saturate
+        return _renamed(best)
+    return finish(
+        problem, "lp2s", best.dq, best.p, best.lam, best.binding, start, best.path, best.status
+    )
+
+
+def saturation_passes(
+    problem: Problem, *, path: str = "auto", solver: HighsSolver | None = None
+) -> tuple[Result, Problem]:
+    """The passes of :func:`lp2s`: the best pass's LP2 result and the problem it solved.
+
+    That problem has the saturated joints' bounds set to the bound where each
+    stopped a pass (:func:`saturated`): LP2 on it is the answer.
+    """
+    best = current_result = lp2(problem, path=path, solver=solver)
+    best_problem = current = problem
+    index = joint_bound_index(problem)
+    free = problem.n - int(problem.pinned()[0].sum())
+    while (
+        current_result.moved
+        and current_result.p < FULL_P
+        and current_result.binding in index
+        and free - 1 >= problem.m
+    ):
+        current = saturated(current, *index[current_result.binding])
+        free -= 1
+        current_result = lp2(current, path=path, solver=solver)
+        if not (current_result.moved and current_result.p >= best.p):
+            break
+        best, best_problem = current_result, current
+    return best, best_problem
+
+
+def _renamed(result: Result) -> Result:
+    fields = dict(vars(result))
+    fields["method"] = "lp2s"
+    return Result(**fields)
