@@ -24,6 +24,7 @@ RUNS = (
     "pull-in-lp1",
     "pull-in-lp1-warm-start",
     "pull-in-lp2",
+    "pull-in-lp2s",
     "edge-singularity-lp2-unbounded",
     "edge-singularity-lp2-bounded",
 )

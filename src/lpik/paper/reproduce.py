@@ -1,6 +1,7 @@
 """Reproduce the paper's section 4: the runs, figures 3-9, their CSV logs and a summary.
 
-Five runs of the two scenarios (:mod:`lpik.paper.scenarios`):
+Six runs of the two scenarios (:mod:`lpik.paper.scenarios`), the sixth beyond
+the paper:
 
 ==================================  =====================================  =========
 run                                 method, multipliers                    figures
@@ -8,6 +9,7 @@ run                                 method, multipliers                    figur
 ``pull-in-lp1``                     LP1, every step's LP solved on its own  3, 4a
 ``pull-in-lp1-warm-start``          LP1, HiGHS warm-started across steps   4a'
 ``pull-in-lp2``                     LP2, unbounded                         4b, 5, 6
+``pull-in-lp2s``                    LP2 with saturation in the null space  10
 ``edge-singularity-lp2-unbounded``  LP2, unbounded                         7, 8
 ``edge-singularity-lp2-bounded``    LP2, ``|lam_i| <= B``                  9
 ==================================  =====================================  =========
@@ -63,6 +65,11 @@ FIGURES: dict[str, tuple[str, tuple[str, ...]]] = {
     "fig9-bounded-multipliers.png": (
         "Fig. 9: dexterity and joint motion, bounded multipliers",
         ("edge-singularity-lp2-bounded",),
+    ),
+    "fig10-saturation.png": (
+        "Fig. 10 (beyond the paper): joint motion while pulling in, LP2 and LP2 with "
+        "saturation in the null space",
+        ("pull-in-lp2", "pull-in-lp2s"),
     ),
 }
 
@@ -135,7 +142,7 @@ class Reproduction:
 
     Attributes:
         out_dir: The output directory.
-        logs: The five runs by name (see the module docstring).
+        logs: The six runs by name (see the module docstring).
         choice: The multiplier bound and its derivation.
         sweep: Metrics of the edge-singularity run for each swept bound.
         files: Every file written.
@@ -151,7 +158,7 @@ class Reproduction:
 def run_all(
     progress: Progress | None = None, sweep: Sequence[float] = SWEEP_BOUNDS
 ) -> tuple[dict[str, SimulationLog], BoundChoice, dict[float, RunMetrics]]:
-    """Run the five simulations (and the bound sweep); no files are written."""
+    """Run the six simulations (and the bound sweep); no files are written."""
     say = progress or (lambda _: None)
     pull, edge = get_scenario("pull-in"), get_scenario("edge-singularity")
     say("pull-in, lp1")
@@ -160,6 +167,8 @@ def run_all(
     logs["pull-in-lp1-warm-start"] = pull.run("lp1")
     say("pull-in, lp2")
     logs["pull-in-lp2"] = pull.run("lp2")
+    say("pull-in, lp2s")
+    logs["pull-in-lp2s"] = pull.run("lp2s")
     say("edge-singularity, lp2, unbounded multipliers")
     logs["edge-singularity-lp2-unbounded"] = edge.run("lp2")
     choice = choose_lambda_bound(logs["edge-singularity-lp2-unbounded"])
@@ -174,7 +183,7 @@ def run_all(
 
 
 def write_figures(out_dir: Path, logs: dict[str, SimulationLog], choice: BoundChoice) -> list[Path]:
-    """Draw Figs. 3-9 from the runs into ``out_dir``."""
+    """Draw Figs. 3-10 from the runs into ``out_dir``."""
     from lpik.paper import figures as plots
 
     pull, edge = get_scenario("pull-in"), get_scenario("edge-singularity")
@@ -232,6 +241,12 @@ def write_figures(out_dir: Path, logs: dict[str, SimulationLog], choice: BoundCh
             title=rf"Fig. 9 - LP2 near the edge singularity, $|\lambda_i| \leq {choice.bound:g}$",
             lambda_bound=choice.bound,
             lambda_ylim=lam_ylim,
+        ),
+        plots.joint_motion_figure(
+            [("a) LP2", lp2), ("b) LP2 with saturation in the null space", logs["pull-in-lp2s"])],
+            f["fig10-saturation.png"],
+            title="Fig. 10 - pulling in: joint 1 held at 95 deg, the other joints carry on",
+            q_limit=q1_limit,
         ),
     ]
 
