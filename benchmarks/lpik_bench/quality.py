@@ -1,0 +1,343 @@
+"""The motion-quality suite: closed-loop runs of lpik and the peers on the same target paths.
+
+Each library runs each scenario (:mod:`lpik_bench.quality_scenarios`) on the
+Panda (arm only, 6-D pose task, ``dt`` = 1 ms, the URDF's end-stops and
+velocity limits) in closed loop: from the leg's start configuration at rest,
+it is given the current joint coordinates and the commanded target and
+integrates its own answer, ``q_next = q + dq``. The metrics
+(:mod:`lpik_bench.quality_metrics`) and the report
+(:mod:`lpik_bench.quality_report`) are computed from what each library did.
+
+lpik's variants are :data:`VARIANTS`: keyword arguments of
+:class:`~lpik.control.controller.Lp2Controller` by name (a variant whose
+arguments the installed lpik does not take is skipped with a note). The peers
+are the adapters of :mod:`lpik_bench.peers`; one that is not installed is
+skipped with a note.
+
+Run it from the repository root (``benchmarks/quality.py`` writes docs/quality.md)::
+
+    python -m lpik_bench.quality --out docs/quality.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import os
+import platform
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lpik.robots.registry import load_robot
+from lpik.robots.tasks import PoseTask
+from lpik.types import FloatArray
+from lpik_bench.quality_metrics import LegRun, Metrics, scenario_metrics
+from lpik_bench.quality_scenarios import SCENARIOS, Leg, Scenario
+from lpik_bench.workload import DT, QDD_MAX
+
+#: lpik's variants: name -> keyword arguments of Lp2Controller (besides ``model`` and ``dt``).
+VARIANTS: dict[str, dict[str, Any]] = {
+    "lp2": {},
+    "lp2 +acc": {"qdd_max": QDD_MAX},
+    "lp2s": {"saturate": True},
+    "lp2s +acc": {"saturate": True, "qdd_max": QDD_MAX},
+}
+#: The variant the goal names ("lpik's default controller").
+DEFAULT_VARIANT = "lp2"
+
+#: ``step(q, q_prev, target) -> (dq, p, status, binding, ns)``: one timed step.
+StepCall = Callable[[FloatArray, FloatArray, FloatArray], tuple]
+
+
+@dataclass(eq=False)
+class Contender:
+    """One library (or lpik variant) as the suite runs it.
+
+    Attributes:
+        name: Row name in the report. library: ``"lpik"`` or the peer's library.
+        step: One timed step (see :data:`StepCall`).
+        acceleration_limited: Whether it claims to hold :data:`~lpik_bench.workload.QDD_MAX`.
+        note: How it is set up.
+    """
+
+    name: str
+    library: str
+    step: StepCall
+    acceleration_limited: bool = False
+    note: str = ""
+
+    @property
+    def is_lpik(self) -> bool:
+        """True for lpik's variants."""
+        return self.library == "lpik"
+
+
+def lpik_contenders(
+    model: PoseTask, dt: float, names: tuple[str, ...] = tuple(VARIANTS)
+) -> tuple[list[Contender], list[str]]:
+    """lpik's variants by name, and a note for each one the installed lpik cannot build."""
+    from lpik.control.controller import Lp2Controller
+
+    out, notes = [], []
+    for name in names:
+        kwargs = VARIANTS[name]
+        try:
+            controller = Lp2Controller(model, dt=dt, **kwargs)
+        except TypeError as exc:
+            notes.append(f"{name}: not available in this lpik ({exc})")
+            continue
+
+        def step(q: FloatArray, prev: FloatArray, target: FloatArray, c: Any = controller) -> tuple:
+            t0 = time.perf_counter_ns()
+            result = c.step(q, target, prev)
+            ns = time.perf_counter_ns() - t0
+            return result.q - q, result.p, result.status, result.binding, ns
+
+        args = ", ".join(f"{k}={v!r}" for k, v in kwargs.items()) or "default arguments"
+        out.append(Contender(name, "lpik", step, "qdd_max" in kwargs, f"Lp2Controller({args})"))
+    return out, notes
+
+
+def peer_contenders(names: tuple[str, ...]) -> tuple[list[Contender], list[str]]:
+    """The peers' steps (:func:`lpik_bench.peers.load_peers`) and a note for each skipped one."""
+    from lpik_bench.peers import load_peers
+    from lpik_bench.workload import make_workload
+
+    peers = load_peers(make_workload("panda", trajectories=1, steps=1), names)
+    per_library: dict[str, int] = {}
+    for peer in peers.steps:
+        per_library[peer.library] = per_library.get(peer.library, 0) + 1
+    out = []
+    for peer in peers.steps:
+        name = peer.library
+        if per_library[name] > 1:
+            name += " " + peer.method.split()[-1]
+
+        def step(q: FloatArray, prev: FloatArray, target: FloatArray, fn: Any = peer.step) -> tuple:
+            t0 = time.perf_counter_ns()
+            try:
+                dq = fn(q, target)
+            except Exception as exc:  # a peer that raises on a step: counted as a failed step
+                ns = time.perf_counter_ns() - t0
+                message = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+                return None, None, message[:160], None, ns
+            return dq, None, None, None, time.perf_counter_ns() - t0
+
+        note = f"{peer.method} ({peer.library} {peer.version}): {peer.note}"
+        out.append(Contender(name, peer.library, step, False, note))
+    return out, [f"{s.library}: {s.reason}" for s in peers.skipped]
+
+
+def run_leg(contender: Contender, leg: Leg) -> LegRun:
+    """``contender`` in closed loop over ``leg`` from its start at rest."""
+    n_steps, n = len(leg.targets), leg.q0.size
+    q, prev = leg.q0.copy(), leg.q0.copy()
+    qs = np.empty((n_steps + 1, n))
+    qs[0] = q
+    ns = np.empty(n_steps, dtype=np.int64)
+    p = np.full(n_steps, np.nan) if contender.is_lpik else None
+    status: list[str] = []
+    binding: list[str | None] = []
+    failed, first_failure = 0, None
+    for k in range(n_steps):
+        dq, pk, sk, bk, ns[k] = contender.step(q, prev, leg.targets[k])
+        if dq is None or not np.all(np.isfinite(dq)):
+            failed += 1
+            first_failure = first_failure or (sk if dq is None else "no finite step returned")
+            dq = np.zeros(n)
+        prev, q = q, q + np.asarray(dq, dtype=float)
+        qs[k + 1] = q
+        if p is not None:
+            p[k] = pk
+            status.append(sk)
+            binding.append(bk)
+    if p is None:
+        return LegRun(qs, ns, failed, first_failure=first_failure)
+    return LegRun(qs, ns, failed, p, status, binding, first_failure)
+
+
+@dataclass(eq=False)
+class ScenarioResult:
+    """One scenario's rows: contender name -> metrics, in the order run."""
+
+    scenario: Scenario
+    rows: dict[str, Metrics] = field(default_factory=dict)
+    lpik: set[str] = field(default_factory=set)
+    wall_s: float = 0.0
+
+
+@dataclass(eq=False)
+class SuiteResult:
+    """The whole run: scenario results, contenders' notes, skipped ones, the environment."""
+
+    scenarios: list[ScenarioResult]
+    notes: dict[str, str]
+    skipped: list[str]
+    environment: dict[str, Any]
+    wall_s: float = 0.0
+
+
+def run_suite(
+    scenarios: tuple[str, ...] = tuple(SCENARIOS),
+    *,
+    peers: tuple[str, ...] = ("drake", "pink", "mink", "rtb"),
+    variants: tuple[str, ...] = tuple(VARIANTS),
+    max_steps: int | None = None,
+    dt: float = DT,
+    say: Callable[[str], None] = lambda message: None,
+) -> SuiteResult:
+    """Run every contender on every scenario and compute the metrics.
+
+    Args:
+        scenarios: Keys of :data:`~lpik_bench.quality_scenarios.SCENARIOS`.
+        peers: Peer names (:data:`lpik_bench.peers.ADAPTERS`); ``()`` for lpik alone.
+        variants: lpik variants (keys of :data:`VARIANTS`).
+        max_steps: Cut every leg to this many steps (None: full length).
+        dt: Control period [s].
+        say: Progress messages.
+    """
+    start = time.perf_counter()
+    load = os.getloadavg() if hasattr(os, "getloadavg") else (0.0, 0.0, 0.0)
+    model = load_robot("panda", task="pose")
+    contenders, skipped = lpik_contenders(model, dt, variants)
+    if peers:
+        found, notes = peer_contenders(peers)
+        contenders += found
+        skipped += notes
+    for c in contenders:  # load or compile before anything is timed
+        q = model.q_min * 0.5 + model.q_max * 0.5
+        c.step(q, q, model.pose(q))
+    results = []
+    for key in scenarios:
+        t0 = time.perf_counter()
+        scenario = SCENARIOS[key](model, dt, max_steps)
+        say(f"{scenario.title}: {scenario.steps} steps, built in {time.perf_counter() - t0:.1f} s")
+        result = ScenarioResult(scenario)
+        for c in contenders:
+            t1 = time.perf_counter()
+            runs = [run_leg(c, leg) for leg in scenario.legs]
+            check = c.acceleration_limited or scenario.acceleration_checked
+            result.rows[c.name] = scenario_metrics(
+                model, scenario.legs, runs, dt, QDD_MAX if check else None
+            )
+            if c.is_lpik:
+                result.lpik.add(c.name)
+            say(f"  {c.name}: {time.perf_counter() - t1:.1f} s")
+        result.wall_s = time.perf_counter() - t0
+        results.append(result)
+    after = os.getloadavg() if hasattr(os, "getloadavg") else (0.0, 0.0, 0.0)
+    env = environment(load, after, dt, max_steps)
+    wall = time.perf_counter() - start
+    return SuiteResult(results, {c.name: c.note for c in contenders}, skipped, env, wall)
+
+
+def _cpu() -> str:
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as info:
+            for line in info:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _source() -> str:
+    """The commit of the lpik source that ran, and whether src/ had uncommitted changes."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[2]
+    try:
+        head = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=root,
+            text=True,
+            capture_output=True,
+            check=True,
+            timeout=10,
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--", "src"],
+            cwd=root,
+            text=True,
+            capture_output=True,
+            check=True,
+            timeout=10,
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return f"commit {head}" + (" with uncommitted changes in src/" if dirty else "")
+
+
+def environment(before: tuple, after: tuple, dt: float, max_steps: int | None) -> dict[str, Any]:
+    """Machine, versions, lpik's source and load of the run."""
+    versions = {}
+    for package in (
+        "lpik",
+        "numpy",
+        "numba",
+        "drake",
+        "pin-pink",
+        "mink",
+        "roboticstoolbox-python",
+        "daqp",
+        "quadprog",
+    ):
+        try:
+            versions[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            continue
+    return {
+        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "cpu": _cpu(),
+        "cores": os.cpu_count(),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "versions": versions,
+        "source": _source(),
+        "load": (round(before[0], 2), round(after[0], 2)),
+        "dt": dt,
+        "max_steps": max_steps,
+    }
+
+
+def main(argv: list[str] | None = None, command: str | None = None) -> int:
+    """Command line: run the suite, print the report, write it to ``--out``."""
+    from lpik_bench.quality_report import render
+
+    parser = argparse.ArgumentParser(
+        prog="python -m lpik_bench.quality",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--out", type=Path, help="write the Markdown report here")
+    parser.add_argument("--scenarios", nargs="+", choices=list(SCENARIOS), default=list(SCENARIOS))
+    parser.add_argument("--peers", nargs="*", default=["drake", "pink", "mink", "rtb"])
+    parser.add_argument("--variants", nargs="+", choices=list(VARIANTS), default=list(VARIANTS))
+    parser.add_argument("--max-steps", type=int, help="cut every leg to this many steps")
+    args = parser.parse_args(argv)
+    if command is None:
+        command = "python -m lpik_bench.quality " + " ".join(sys.argv[1:] if argv is None else argv)
+    suite = run_suite(
+        tuple(args.scenarios),
+        peers=tuple(args.peers),
+        variants=tuple(args.variants),
+        max_steps=args.max_steps,
+        say=lambda m: print(m, file=sys.stderr, flush=True),
+    )
+    text = render(suite, command.strip())
+    print(text)
+    if args.out is not None:
+        args.out.write_text(text, encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

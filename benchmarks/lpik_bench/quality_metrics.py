@@ -1,0 +1,248 @@
+"""The motion-quality metrics of one library's runs of one scenario.
+
+Every metric is computed here from the joint coordinates the library produced
+(its own integration ``q_next = q + dq``), with lpik's own forward kinematics
+(every peer's agrees with it, :func:`lpik_bench.peers.load_peers`), so that
+every library is measured by the same code:
+
+- tracking error: position [mm] and orientation [mrad] of the pose after each
+  step against the target commanded for that step, RMS and max, over the
+  steps whose target is reachable;
+- jitter: the total variation of the joint velocities, ``sum_k sum_j
+  |qdot(k+1) - qdot(k)|`` [rad/s], from rest (the first step counts);
+- the share of joint-velocity energy above :data:`HIGH_HZ` (FFT of each
+  joint's velocity over each run, summed over joints and runs);
+- the largest joint acceleration [rad/s^2] (from rest);
+- limit violations: steps that leave an end-stop (more than ``STOP_TOL``),
+  exceed a velocity limit or, where checked, an acceleration limit (more than
+  ``STEP_TOL`` per step), with the worst excess;
+- frozen steps: the target reachable, the error before the step above
+  :data:`TRACK_TOL` and no joint moving more than :data:`FROZEN_DQ`;
+- recovery (runs with a final hold): whether the error stays within
+  :data:`TRACK_TOL` over the last :data:`RECOVERY_WINDOW` steps, how long after
+  the target's return it got there, and the jitter while the target was out of reach;
+- lpik only: ``p`` (mean, share of ``p = 0``), statuses, binding limits;
+- the time of each step call [us].
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from lpik.robots.tasks import PoseTask
+from lpik.types import FloatArray
+from lpik_bench.quality_scenarios import Leg
+from lpik_bench.soak import STEP_TOL, STOP_TOL
+
+#: Frequency above which joint-velocity energy counts as high-frequency [Hz].
+HIGH_HZ = 5.0
+#: Tracking tolerance: position [m] and orientation [rad].
+TRACK_TOL = (1e-3, 5e-3)
+#: A step that moves no joint by more than this [rad] is a frozen step (if the error is large).
+FROZEN_DQ = 1e-7
+#: Steps at the end of a final hold over which a recovered run must stay within TRACK_TOL.
+RECOVERY_WINDOW = 100
+#: Kinds of limit violation, in the order of the report.
+KINDS = ("end-stop", "velocity", "acceleration")
+
+
+@dataclass(eq=False)
+class LegRun:
+    """What one library did on one leg.
+
+    Attributes:
+        q: Joint coordinates, (N + 1, n): the start, then after each step.
+        step_ns: Time of each step call [ns], (N,).
+        failed: Steps that raised or returned no finite step (taken as ``dq = 0``).
+        p, status, binding: lpik's per-step ``p``, status and binding limit (None for peers).
+        first_failure: What the first failed step said (None: none failed).
+    """
+
+    q: FloatArray
+    step_ns: NDArray[np.int64]
+    failed: int = 0
+    p: FloatArray | None = None
+    status: list[str] | None = None
+    binding: list[str | None] | None = None
+    first_failure: str | None = None
+
+
+@dataclass(frozen=True)
+class Recovery:
+    """One leg's recovery: recovered, in how long [ms], jitter out of reach [rad/s], final error."""
+
+    label: str
+    recovered: bool
+    after_ms: float | None
+    chatter: float
+    final_mm: float
+
+
+@dataclass(eq=False)
+class Metrics:
+    """One library's metrics on one scenario (see the module docstring)."""
+
+    pos_rms: float = 0.0
+    pos_max: float = 0.0
+    ori_rms: float = 0.0
+    ori_max: float = 0.0
+    jitter: float = 0.0
+    high: float = 0.0
+    acc_max: float = 0.0
+    violations: dict[str, tuple[int, float]] = field(default_factory=dict)
+    frozen: int = 0
+    failed: int = 0
+    first_failure: str | None = None
+    recoveries: list[Recovery] = field(default_factory=list)
+    p_mean: float | None = None
+    p_zero: float | None = None
+    statuses: dict[str, int] = field(default_factory=dict)
+    bindings: list[tuple[str, int]] = field(default_factory=list)
+    step_us: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def violation_steps(self) -> int:
+        """Steps with a violation, all kinds together (a step may count under several)."""
+        return sum(count for count, _ in self.violations.values())
+
+    @property
+    def recovered(self) -> int:
+        """Legs recovered."""
+        return sum(r.recovered for r in self.recoveries)
+
+    @property
+    def step_median(self) -> float:
+        """Median step time [us]."""
+        return self.step_us[0]
+
+    @property
+    def step_p99(self) -> float:
+        """99th-percentile step time [us]."""
+        return self.step_us[1]
+
+    @property
+    def step_max(self) -> float:
+        """Slowest step [us]."""
+        return self.step_us[2]
+
+
+def errors(
+    model: PoseTask, poses: FloatArray, targets: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Position [m] and orientation [rad] error of each of ``poses`` against ``targets``."""
+    out = np.array([model.difference(pose, t) for pose, t in zip(poses, targets)])
+    return np.linalg.norm(out[:, :3], axis=1), np.linalg.norm(out[:, 3:], axis=1)
+
+
+def high_energy(qdot: FloatArray, dt: float) -> tuple[float, float]:
+    """Joint-velocity energy above :data:`HIGH_HZ` and in all, summed over joints.
+
+    The line through each joint's first and last sample is removed before the
+    FFT (so that the jump of the periodic extension leaks no energy upwards);
+    the total is the energy of the velocities themselves.
+    """
+    n = qdot.shape[0]
+    ramp = np.linspace(0.0, 1.0, n)[:, None]
+    matched = qdot - (qdot[:1] + ramp * (qdot[-1:] - qdot[:1]))
+    power = np.abs(np.fft.rfft(matched, axis=0)) ** 2
+    power[1:] *= 2.0  # one-sided: every bin but the mean stands for two
+    if n % 2 == 0:
+        power[-1] /= 2.0  # the Nyquist bin stands for one
+    freq = np.fft.rfftfreq(n, dt)
+    return float(power[freq > HIGH_HZ].sum()) / n, float((qdot**2).sum())
+
+
+def _violations(
+    q: FloatArray, dq: FloatArray, ddq: FloatArray, model: PoseTask, dt: float, qdd: float | None
+) -> dict[str, tuple[int, float]]:
+    """Per kind: steps with a violation and the worst excess [rad, rad/s, rad/s^2]."""
+    past = np.maximum(np.maximum(q - model.q_max, model.q_min - q), 0.0).max(axis=1)
+    speed = (np.abs(dq) - model.qd_max * dt).max(axis=1)
+    found = {"end-stop": (past, STOP_TOL, 1.0), "velocity": (speed, STEP_TOL, dt)}
+    if qdd is not None:
+        found["acceleration"] = ((np.abs(ddq) - qdd * dt * dt).max(axis=1), STEP_TOL, dt * dt)
+    out = {}
+    for kind, (excess, tol, scale) in found.items():
+        bad = excess > tol
+        out[kind] = (int(bad.sum()), float(excess[bad].max() / scale) if bad.any() else 0.0)
+    return out
+
+
+def scenario_metrics(
+    model: PoseTask, legs: tuple[Leg, ...], runs: list[LegRun], dt: float, qdd: float | None
+) -> Metrics:
+    """The metrics of one library over the legs of a scenario.
+
+    Args:
+        model: lpik's pose task of the arm (forward kinematics, limits).
+        legs: The scenario's legs. runs: The library's run of each.
+        dt: Control period [s].
+        qdd: Acceleration limit to check [rad/s^2], or None.
+    """
+    m = Metrics()
+    pos_all, ori_all, times, ps = [], [], [], []
+    high = total = 0.0
+    statuses: Counter[str] = Counter()
+    bindings: Counter[str] = Counter()
+    for leg, run in zip(legs, runs):
+        q = run.q
+        dq = np.diff(q, axis=0)
+        ddq = np.diff(np.vstack([np.zeros(q.shape[1]), dq]), axis=0)
+        poses = np.array([model.pose(qk) for qk in q])
+        before = errors(model, poses[:-1], leg.targets)  # q(k) against target k
+        after = errors(model, poses[1:], leg.targets)  # q(k + 1) against target k
+        ok = leg.reachable
+        pos_all.append(after[0][ok])
+        ori_all.append(after[1][ok])
+        change = np.abs(ddq).sum(axis=1) / dt  # |qdot(k) - qdot(k-1)| summed over joints
+        m.jitter += float(change.sum())
+        m.acc_max = max(m.acc_max, float(np.abs(ddq).max()) / (dt * dt))
+        h, t = high_energy(dq / dt, dt)
+        high, total = high + h, total + t
+        for kind, (count, worst) in _violations(q[1:], dq, ddq, model, dt, qdd).items():
+            old = m.violations.get(kind, (0, 0.0))
+            m.violations[kind] = (old[0] + count, max(old[1], worst))
+        moving = np.abs(dq).max(axis=1) > FROZEN_DQ
+        far = (before[0] > TRACK_TOL[0]) | (before[1] > TRACK_TOL[1])
+        m.frozen += int((ok & far & ~moving).sum())
+        m.failed += run.failed
+        m.first_failure = m.first_failure or run.first_failure
+        if leg.settle_from is not None:
+            m.recoveries.append(_recovery(leg, after, change, dt))
+        times.append(run.step_ns)
+        if run.p is not None:
+            ps.append(run.p)
+            statuses.update(run.status or [])
+            bindings.update(b for b in run.binding or [] if b is not None)
+    pos, ori = np.concatenate(pos_all), np.concatenate(ori_all)
+    if pos.size:
+        m.pos_rms, m.pos_max = 1e3 * float(np.sqrt(np.mean(pos**2))), 1e3 * float(pos.max())
+        m.ori_rms, m.ori_max = 1e3 * float(np.sqrt(np.mean(ori**2))), 1e3 * float(ori.max())
+    m.high = 100.0 * high / total if total > 0 else 0.0
+    ns = np.concatenate(times) / 1e3
+    m.step_us = (float(np.median(ns)), float(np.percentile(ns, 99)), float(ns.max()))
+    if ps:
+        p = np.concatenate(ps)
+        m.p_mean, m.p_zero = float(p.mean()), 100.0 * float(np.mean(p <= 0.0))
+        m.statuses = dict(statuses.most_common())
+        m.bindings = bindings.most_common(3)
+    return m
+
+
+def _recovery(
+    leg: Leg, after: tuple[FloatArray, FloatArray], change: FloatArray, dt: float
+) -> Recovery:
+    """Whether and when the run tracks again after the target's return (see the module doc)."""
+    start = leg.settle_from or 0
+    good = (after[0] <= TRACK_TOL[0]) & (after[1] <= TRACK_TOL[1])
+    recovered = bool(good[-RECOVERY_WINDOW:].all())
+    bad_after = np.nonzero(~good[start:])[0]
+    first_good = start + (int(bad_after[-1]) + 1 if bad_after.size else 0)
+    after_ms = 1e3 * (first_good - start) * dt if recovered else None
+    out = ~leg.reachable
+    chatter = float(change[1:][out[1:] & out[:-1]].sum())
+    return Recovery(leg.label, recovered, after_ms, chatter, 1e3 * float(after[0][-1]))
