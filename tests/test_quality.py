@@ -1,0 +1,140 @@
+"""The motion-quality suite of docs/quality.md, sized for CI: lpik alone, a few hundred steps.
+
+Every scenario of :mod:`lpik_bench.quality_scenarios` runs cut to 300 steps
+per leg for each lpik variant the installed lpik offers (no peers); the metrics
+must be computed, finite and in range, and lpik must break no limit. The
+metrics themselves are checked on runs whose answers are known.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lpik.robots.registry import home_configuration, load_robot
+from lpik_bench.quality_metrics import KINDS, LegRun, scenario_metrics
+from lpik_bench.quality_scenarios import SCENARIOS, Leg
+
+pytest.importorskip("numba")
+
+STEPS = 300
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def suite():  # type: ignore[no-untyped-def]
+    from lpik_bench.quality import run_suite
+
+    return run_suite(peers=(), max_steps=STEPS)
+
+
+def test_every_scenario_runs_every_available_variant(suite) -> None:
+    assert [r.scenario.key for r in suite.scenarios] == list(SCENARIOS)
+    for result in suite.scenarios:
+        assert "lp2" in result.rows and "lp2 +acc" in result.rows
+        assert set(result.rows) == result.lpik  # lpik alone
+        for leg in result.scenario.legs:
+            assert 0 < len(leg.targets) <= STEPS
+            assert leg.reachable.shape == (len(leg.targets),)
+            assert leg.reachable[0]  # every leg starts at a reachable target
+
+
+def test_lpik_breaks_no_limit_it_holds_and_fails_no_step(suite) -> None:
+    for result in suite.scenarios:
+        for name, m in result.rows.items():
+            where = f"{result.scenario.key} / {name}"
+            held = KINDS if "+acc" in name else ("end-stop", "velocity")
+            assert all(m.violations[kind][0] == 0 for kind in held), (where, m.violations)
+            assert m.failed == 0 and m.first_failure is None, where
+            assert "acceleration" in m.violations or "+acc" not in name, where
+            assert 0 <= m.frozen <= result.scenario.steps, where
+
+
+def test_metrics_are_finite_and_in_range(suite) -> None:
+    for result in suite.scenarios:
+        for name, m in result.rows.items():
+            where = f"{result.scenario.key} / {name}"
+            values = [
+                m.pos_rms,
+                m.pos_max,
+                m.ori_rms,
+                m.ori_max,
+                m.jitter,
+                m.high,
+                m.acc_max,
+                *m.step_us,
+                m.p_mean,
+                m.p_zero,
+            ]
+            assert all(v is not None and math.isfinite(v) and v >= 0 for v in values), where
+            assert m.pos_rms <= m.pos_max and m.ori_rms <= m.ori_max, where
+            assert m.high <= 100 and m.p_zero <= 100 and m.p_mean <= 1, where
+            assert m.step_us[0] <= m.step_us[1] <= m.step_us[2], where
+            assert sum(m.statuses.values()) == result.scenario.steps, where
+            assert m.jitter > 0, where  # every scenario moves the arm
+
+
+def test_acceleration_limited_variants_keep_their_limit(suite) -> None:
+    from lpik_bench.workload import QDD_MAX
+
+    for result in suite.scenarios:
+        for name, m in result.rows.items():
+            if "+acc" in name:
+                assert m.acc_max <= QDD_MAX * (1 + 1e-6), (result.scenario.key, name)
+
+
+def test_lpik_tracks_the_smooth_path(suite) -> None:
+    circle = suite.scenarios[0].rows["lp2"]
+    assert circle.pos_max < 0.1 and circle.ori_max < 0.1  # [mm], [mrad]
+    assert circle.p_mean == 1.0
+
+
+def test_the_report_names_every_scenario_and_judges_the_goal(suite) -> None:
+    from lpik_bench.quality_report import render
+
+    text = render(suite, "python -m lpik_bench.quality --max-steps 300 --peers")
+    for result in suite.scenarios:
+        assert f"## {result.scenario.title}" in text
+    assert "Produced by `python -m lpik_bench.quality --max-steps 300 --peers`" in text
+
+
+def _leg(targets: np.ndarray, q0: np.ndarray, settle_from: int | None = None) -> Leg:
+    return Leg("test", q0, targets, np.ones(len(targets), dtype=bool), settle_from)
+
+
+def test_metrics_of_known_runs() -> None:
+    """A run that stands still on its target; one that breaks every limit; a frozen one."""
+    model = load_robot("panda", task="pose")
+    q0, dt = home_configuration("panda"), 1e-3
+    n_steps = 200
+    targets = np.array([model.pose(q0)] * n_steps)
+    still = LegRun(np.array([q0] * (n_steps + 1)), np.ones(n_steps, dtype=np.int64))
+    m = scenario_metrics(model, (_leg(targets, q0, settle_from=50),), [still], dt, 10.0)
+    assert m.pos_max < 1e-9 and m.jitter == 0 and m.high == 0 and m.violation_steps == 0
+    assert m.recovered == 1 and m.recoveries[0].after_ms == 0 and m.frozen == 0
+
+    q = np.array([q0] * (n_steps + 1))
+    q[100:, 6] = model.q_max[6] + 0.01  # one jump past the end-stop, then held there
+    wild = LegRun(q, np.ones(n_steps, dtype=np.int64))
+    m = scenario_metrics(model, (_leg(targets, q0, settle_from=150),), [wild], dt, 10.0)
+    assert m.violations["end-stop"][0] == n_steps - 99
+    assert m.violations["end-stop"][1] == pytest.approx(0.01)
+    assert m.violations["velocity"][0] == 1 and m.violations["acceleration"][0] == 2
+    assert m.jitter == pytest.approx(2 * abs(q[100, 6] - q0[6]) / dt)
+    assert m.recovered == 0  # it stays off the target
+    assert m.frozen == n_steps - 100  # far from the reachable target and not moving
+
+    far = np.array([model.pose(q[-1])] * n_steps)  # the target where the jump went
+    m = scenario_metrics(model, (_leg(far, q0),), [still], dt, None)
+    assert "acceleration" not in m.violations and m.frozen == n_steps
+
+
+def test_docs_quality_is_generated_by_the_suite() -> None:
+    text = (ROOT / "docs" / "quality.md").read_text(encoding="utf-8")
+    assert "Produced by `" in text and "benchmarks/quality.py" in text
+    for builder in SCENARIOS.values():
+        assert builder.__doc__
+    assert text.count("\n## ") >= len(SCENARIOS) + 1  # the goal, then one section each
