@@ -4,10 +4,12 @@ Everything here is written from the paper, in ABSOLUTE joint coordinates
 ``q``, with scipy.optimize.linprog (method="highs") or numpy: nothing calls
 lpik's LP assembly, its step bounds or its checker. End-stops (eq. 13) are
 variable bounds; the per-step bounds of eq. 14 and the extra rows
-``G q <= h`` are inequality rows. One thing is taken from lpik: which joints
+``G q <= h`` are inequality rows. Two things are taken from lpik: which joints
 LP2 pins (:meth:`lpik.problem.Problem.pinned`, a rule tested on its own in
-``test_recovery.py``); the reference then fixes them and drops their
-criterion rows, as eq. 18 over the free joints reads.
+``test_recovery.py``), which the reference then fixes, dropping their
+criterion rows as eq. 18 over the free joints reads; and the scale of sec.
+3.1's pull (:func:`lpik.methods.kkt.smoothing`, tested on its own in
+``test_lp2.py``).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
+from lpik.methods.kkt import smoothing
 from lpik.problem import Problem
 
 #: Tolerances handed to linprog's HiGHS (tighter than its defaults, like lpik's).
@@ -103,7 +106,8 @@ def lp2_reference(P: Problem, margin: float = 0.0) -> Reference:
     pinned, d = P.pinned()
     free = ~pinned
     A_eq = np.block([[H, P.J.T, np.zeros((n, 1))], [P.J, np.zeros((m, m)), -P.dw[:, None]]])
-    b_eq = np.concatenate([P.M @ P.q0 + P.Lambda @ P.q_ref + P.f, P.J @ P.q0])
+    s = smoothing(P)  # sec. 3.1's pull, scaled as lpik scales it
+    b_eq = np.concatenate([H @ P.q0 + s * P.Lambda @ (P.q_ref - P.q0) + P.f, P.J @ P.q0])
     keep = np.concatenate([free, np.ones(m, dtype=bool)])  # a pinned joint has no criterion row
     A_ub, b_ub = _q_rows(P, m + 1, margin, skip=pinned)
     lam_bounds = [_interval(lo, hi, margin) for lo, hi in zip(P.lam_min, P.lam_max)]

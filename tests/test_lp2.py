@@ -10,6 +10,7 @@ from core_strategies import paper_problem
 from lpik import result as st
 from lpik.labels import SINGULARITY
 from lpik.methods import affine_solution, lp1, lp2, ratio_test, weighted
+from lpik.methods.kkt import smoothing, smoothing_scale
 from lpik.problem import Problem
 from lpik.robots.base import TaskModel
 from lpik.robots.planar import planar_arm
@@ -303,7 +304,9 @@ def test_q0_past_its_end_stop_within_the_tolerance_counts_as_on_it() -> None:
     assert (res.status, res.p) == (st.OPTIMAL, 1.0)
 
 
-def test_smoothing_that_pulls_past_a_bound_is_infeasible_on_both_paths() -> None:
+def test_smoothing_that_would_pull_past_a_bound_is_scaled_down() -> None:
+    # Joint 1 sits on its end-stop and q_ref pulls it past: the whole pull would make every
+    # p infeasible (the paper's term as it stands); scaled to fit, the step is optimal.
     P = Problem(
         J=[[1.0, 1.0, 1.0]],
         dw=[1.0],
@@ -312,10 +315,25 @@ def test_smoothing_that_pulls_past_a_bound_is_infeasible_on_both_paths() -> None
         Lambda=[1.0, 1.0, 1.0],
         q_ref=[1.0, 0.0, -1.0],
     )
+    assert smoothing(P) < 1.0
     fast, slow = both_paths(P)
-    assert fast.status == slow.status == st.INFEASIBLE
-    assert fast.binding == "joint 1 upper end-stop"
-    assert not lp2_reference(P).feasible
+    assert fast.status == slow.status == st.OPTIMAL
+    assert abs(fast.p - slow.p) <= 1e-9
+    assert_matches_reference(P, fast)
+
+
+def test_the_smoothing_pull_takes_at_most_its_share_of_a_joints_band() -> None:
+    # a pull of 1 rad (H = M + Lambda = 2) against +-0.1: the step at p = 0 moves 0.05
+    P = Problem(J=[[1.0, 0.0, 0.0]], dw=[0.0], q0=[0.0, 0.0, 0.0], dq_min=np.full(3, -0.1),
+                dq_max=np.full(3, 0.1), Lambda=[1.0, 1.0, 1.0], q_ref=[0.0, 2.0, 0.0])  # fmt: skip
+    aff = affine_solution(P)
+    assert aff is not None and aff.smoothing == pytest.approx(0.05)  # H = 2: a pull of 1 rad
+    np.testing.assert_allclose(aff.a_q, [0.0, 0.05, 0.0], atol=1e-15)
+    assert smoothing_scale(np.zeros(2), np.array([0.01, -0.01]), np.full(2, -0.1),
+                           np.full(2, 0.1)) == 1.0  # a pull that fits is whole  # fmt: skip
+    # a joint outside its band (moving): the pull may only take it towards the band
+    assert smoothing_scale(np.array([0.2]), np.array([0.1]), np.array([-0.1]),
+                           np.array([0.1])) == 0.0  # fmt: skip
 
 
 def test_zero_command_keeps_the_criterion_step() -> None:
@@ -429,15 +447,13 @@ def test_highs_names_the_limit_in_conflict_when_no_step_is_feasible() -> None:
     cases = [
         (Problem(J=[[1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0], lam_min=[-0.6], lam_max=[-0.55]),
          "multiplier 1 upper bound"),
-        (Problem(J=[[1.0, 1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0, 0.0], q_max=[0.0, 1.0, 1.0],
-                 Lambda=[1.0, 1.0, 1.0], q_ref=[1.0, 0.0, -1.0]), "joint 1 upper end-stop"),
         (Problem(J=[[1.0, 1.0]], dw=[0.0], q0=[0.0, 0.0], G=[[1.0, 1.0]], h=[-1e-3],
                  row_labels=["wall"]), "wall"),
     ]  # fmt: skip
     for problem, label in cases:
         for res in both_paths(problem):
             assert (res.status, res.binding) == (st.INFEASIBLE, label), res.path
-    assert (lp1(cases[2][0]).status, lp1(cases[2][0]).binding) == (st.INFEASIBLE, "wall")
+    assert (lp1(cases[1][0]).status, lp1(cases[1][0]).binding) == (st.INFEASIBLE, "wall")
 
 
 def test_a_singular_step_that_cannot_stop_in_time_names_the_acceleration_limit() -> None:

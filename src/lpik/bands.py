@@ -20,7 +20,7 @@ end-stop if its velocity and acceleration limits allow, else as far towards it
 as they allow, and never further out unless its acceleration limit forces it
 (it was already moving out). Every joint whose band is a single point is
 pinned: LP2 then resolves its criterion over the other joints
-(:func:`lpik.methods.lp2.pinned_system`), and the methods without a criterion
+(:func:`lpik.methods.kkt.pinned_system`), and the methods without a criterion
 simply move it by that amount.
 
 The functions work on scalars, so that the numpy layers

@@ -48,6 +48,9 @@ SLACK_TOL = 1e-12
 RATE_TOL = 1e-14
 #: The feasible interval of p may be empty by at most this and still count as a point.
 INTERVAL_TOL = 1e-12
+#: At most this share of the room between LP2's step at p = 0 and a joint's bounds goes
+#: to sec. 3.1's pull towards q_ref; the rest is left for the command.
+SMOOTHING_SHARE = 0.5
 
 # ----------------------------------------------------- binding from the duals
 #: A limit within this (relative to its size) of its bound is active.

@@ -28,11 +28,12 @@ def is_diagonal(H: FloatArray) -> bool:
 def kernel_args(problem: Problem) -> tuple:
     """The arguments of the LP2 kernel for ``problem``, up to its outputs ``dq`` and ``lam``.
 
-    ``(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g)`` with
-    ``H``, ``c`` the criterion (eq. 3, sec. 3.1), the bounds on ``dq`` (eqs.
-    13-14) and the rows ``G dq <= g``.
+    ``(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g)`` with
+    ``H`` and ``c = f`` the criterion (eq. 3), ``c_ref = Lambda (q_ref - q0)``
+    sec. 3.1's pull, the bounds on ``dq`` (eqs. 13-14) and the rows ``G dq <= g``.
     """
     H, c = criterion(problem)
+    c_ref = problem.Lambda @ (problem.q_ref - problem.q0)
     lower, upper = problem.step_bounds()[:2]
     h_diag = is_diagonal(H)
     g = problem.h - problem.G @ problem.q0
@@ -41,7 +42,8 @@ def kernel_args(problem: Problem) -> tuple:
         problem.dw,
         H,
         h_diag,
-        c,
+        c - c_ref,
+        c_ref,
         lower,
         upper,
         problem.lam_min,
@@ -57,10 +59,12 @@ class BatchArrays:
 
     Build it with :meth:`from_problems` or directly from arrays of shape
     ``(B, ...)``: ``J (B, m, n)``, ``dw (B, m)``, ``H (B, n, n)`` (``M + Lambda``),
-    ``c (B, n)`` (``f + Lambda (q_ref - q0)``), ``lower``/``upper (B, n)`` bounds
+    ``c (B, n)`` (``f``), ``lower``/``upper (B, n)`` bounds
     on ``dq``, ``lam_min``/``lam_max (B, m)``, ``G (B, r, n)``, ``g (B, r)``
     (rows ``G dq <= g``), ``q0 (B, n)``; ``h_diag``: whether every ``H`` is
-    diagonal (``None``: found out).
+    diagonal (``None``: found out); ``c_ref (B, n)``: sec. 3.1's pull
+    ``Lambda (q_ref - q0)`` (``None``: none), which the kernel scales
+    (:func:`lpik.methods.kkt.smoothing_scale`).
 
     The arrays are checked on construction (the compiled kernel trusts them):
     shapes, numbers, no NaN, finite ``J``, ``dw``, ``H``, ``c``, ``G``, ``g``
@@ -86,6 +90,7 @@ class BatchArrays:
     g: FloatArray
     q0: FloatArray
     h_diag: bool | None = None
+    c_ref: FloatArray | None = None
 
     def __post_init__(self) -> None:
         _check_batch(self)
@@ -110,11 +115,12 @@ class BatchArrays:
         args = [kernel_args(p) for p in problems]
         stack = [
             np.ascontiguousarray(np.stack([a[i] for a in args]))
-            for i in (0, 1, 2, 4, 5, 6, 7, 8, 9, 10)
+            for i in (0, 1, 2, 4, 5, 6, 7, 8, 9, 10, 11)
         ]
-        J, dw, H, c, lower, upper, lam_min, lam_max, G, g = stack
+        J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g = stack
         q0 = np.stack([p.q0 for p in problems])
-        return cls(J, dw, H, c, lower, upper, lam_min, lam_max, G, g, q0, all(a[3] for a in args))
+        return cls(J, dw, H, c, lower, upper, lam_min, lam_max, G, g, q0,
+                   all(a[3] for a in args), c_ref)  # fmt: skip
 
 
 #: The array fields of :class:`BatchArrays`: their axes after ``B``, and which
@@ -131,6 +137,7 @@ _BATCH_FIELDS = {
     "G": (("r", "n"), ""),
     "g": (("r",), ""),
     "q0": (("n",), ""),
+    "c_ref": (("n",), ""),
 }
 #: Problem fields as :func:`problem_at` fills them, by the BatchArrays field they come from.
 _PROBLEM_TO_BATCH = {"M": "H", "f": "c", "dq_min": "lower", "dq_max": "upper", "h": "g"}
@@ -140,6 +147,9 @@ def _check_batch(arrays: BatchArrays) -> None:
     """Validate and normalise the fields of ``arrays`` in place (see :class:`BatchArrays`)."""
     values = {}
     for name in _BATCH_FIELDS:
+        if name == "c_ref" and arrays.c_ref is None:  # no pull (c comes before it)
+            values[name] = np.zeros_like(values["c"])
+            continue
         try:
             values[name] = np.ascontiguousarray(getattr(arrays, name), dtype=np.float64)
         except (TypeError, ValueError) as exc:
@@ -223,15 +233,22 @@ def problem_at(arrays: BatchArrays, i: int) -> Problem:
     """Item ``i`` of raw batch arrays as a :class:`Problem` (for labels and the HiGHS path).
 
     ``H`` becomes ``M`` with ``Lambda = 0`` and ``c`` becomes ``f``: the same criterion.
+    A pull ``c_ref`` becomes ``Lambda = t I``, ``q_ref = q0 + c_ref / t`` and
+    ``M = H - t I`` with ``t`` half ``H``'s smallest eigenvalue: again the same.
     """
     q0 = arrays.q0[i]
+    weights = {"M": arrays.H[i]}
+    if np.any(arrays.c_ref[i]):
+        t = 0.5 * float(np.linalg.eigvalsh(arrays.H[i])[0])
+        n = q0.size
+        weights = {"M": arrays.H[i] - t * np.eye(n), "Lambda": np.full(n, t),
+                   "q_ref": q0 + arrays.c_ref[i] / t}  # fmt: skip
     return Problem(
         J=arrays.J[i],
         dw=arrays.dw[i],
         q0=q0,
         dq_min=arrays.lower[i],
         dq_max=arrays.upper[i],
-        M=arrays.H[i],
         f=arrays.c[i],
         lam_min=arrays.lam_min[i],
         lam_max=arrays.lam_max[i],
@@ -239,4 +256,5 @@ def problem_at(arrays: BatchArrays, i: int) -> Problem:
         h=arrays.g[i] + arrays.G[i] @ q0,
         dq_min_kind="step bound",
         dq_max_kind="step bound",
+        **weights,
     )

@@ -208,6 +208,7 @@ def lp2_batch(problems: Sequence[Problem] | BatchArrays) -> BatchResult:
         arrays.H,
         arrays.h_diag,
         arrays.c,
+        arrays.c_ref,
         arrays.lower,
         arrays.upper,
         arrays.lam_min,

@@ -42,9 +42,9 @@ LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H = range(13, 20)
 Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, OUTSIDE = range(20, 29)
 # scratch of the step
 GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(29, 36)
-LOWER, UPPER, KINDS, C, G_RHS, LP2_WS, SATURATION = range(36, 43)
+LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(36, 44)
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 43
+END = 44
 #: Length of the header.
 HEADER = END + 1
 
@@ -102,7 +102,8 @@ BLOCKS = (
     Block(LOWER, "lower", ("n",), "lower bounds on dq"),
     Block(UPPER, "upper", ("n",), "upper bounds on dq"),
     Block(KINDS, "kinds", (2, "n"), "which limit sets each bound: 0 end-stop, 1 velocity, 2 acc."),
-    Block(C, "c", ("n",), "f + Lambda (q_ref - q0)"),
+    Block(C, "c", ("n",), "f"),
+    Block(C_REF, "c_ref", ("n",), "Lambda (q_ref - q0), sec. 3.1's pull"),
     Block(G_RHS, "g", ("r",), "the rows' right-hand side in dq: h - G q0"),
     Block(LP2_WS, "lp2_ws", (workspace_size,), "the LP2 kernel's workspace"),
     Block(SATURATION, "saturation", (lambda n, m, r: n + m,), "the best pass's dq and lam"),

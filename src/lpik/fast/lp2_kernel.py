@@ -1,12 +1,11 @@
 """LP2's exact ratio test, compiled (numba, cached on disk): eqs. 15-18.
 
-A loop-level re-write of :func:`lpik.methods.lp2.affine_solution` and
-:func:`lpik.methods.lp2.ratio_test`: the same algorithm, the same
-conditioning test, the same tie-breaking and the same tolerances (read from
-:mod:`lpik.tolerances`), so that it returns the same ``p``, ``dq``, ``lam``
-and binding limit as the pure-numpy path (tests hold them to 1e-12). It also
-re-checks its own answer (bounds, multiplier bounds, rows and
-``J dq = p dw``) as :func:`lpik.check.check_step` does.
+A loop-level re-write of :func:`lpik.methods.kkt.affine_solution` (pinned
+joints, the scaled smoothing pull) and :func:`lpik.methods.lp2.ratio_test`:
+the same algorithm, conditioning test, tie-breaking and tolerances (read from
+:mod:`lpik.tolerances`), so it returns the numpy path's ``p``, ``dq``, ``lam``
+and binding limit (tests hold them to 1e-12). It re-checks its own answer
+(bounds, multiplier bounds, rows, ``J dq = p dw``) as :func:`lpik.check.check_step` does.
 
 Binding limits are returned as codes: ``2 k`` is the lower side and
 ``2 k + 1`` the upper side of constraint ``k``, with constraints ordered as
@@ -29,6 +28,7 @@ from lpik.tolerances import (
     MAX_SCHUR_CONDITION,
     RATE_TOL,
     SLACK_TOL,
+    SMOOTHING_SHARE,
 )
 
 #: Kernel outcome codes.
@@ -40,7 +40,7 @@ CHECK_FAILED = 3
 
 def workspace_size(n: int, m: int, r: int) -> int:
     """Length of the float workspace :func:`lp2_core` needs (``r`` extra rows)."""
-    return n * m + n * n + 5 * n + 2 * m * m + 4 * m + 4 * (n + m + r)
+    return n * m + n * n + 7 * n + 2 * m * m + 6 * m + 4 * (n + m + r)
 
 
 #: :func:`workspace_size` for the kernels.
@@ -62,15 +62,15 @@ def _safe_step(lower, upper, dq, binding):
 
 
 @njit(cache=True)
-def lp2_kernel(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam):
+def lp2_kernel(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam):
     """:func:`lp2_core` with its own workspace."""
     m, n = J.shape
     ws = np.empty(_workspace_size(n, m, G.shape[0]))
-    return lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam, ws)
+    return lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws)
 
 
 @njit(cache=True)
-def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam, ws):
+def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws):
     """LP2 by the ratio test (eqs. 15-18). Writes ``dq`` and ``lam``.
 
     The equality rows of eq. 18 give ``dq = a_q + p b_q`` and
@@ -83,7 +83,9 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
         dw: Commanded displacement, (m,).
         H: ``M + Lambda``, (n, n).
         h_diag: True when ``H`` is diagonal (no factorisation of ``H`` needed).
-        c: ``f + Lambda (q_ref - q0)``, (n,).
+        c: ``f``, the criterion's part of ``c`` without sec. 3.1's term, (n,).
+        c_ref: ``Lambda (q_ref - q0)``, sec. 3.1's pull, (n,); scaled as
+            :func:`lpik.methods.kkt.smoothing_scale` scales it.
         lower: Lower bounds on ``dq``, (n,).
         upper: Upper bounds on ``dq``, (n,).
         lam_min: Lower multiplier bounds, (m,).
@@ -123,7 +125,10 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
     o += m * m
     rhs, a_l, b_l = ws[o : o + m], ws[o + m : o + 2 * m], ws[o + 2 * m : o + 3 * m]
     rhs2 = ws[o + 3 * m : o + 4 * m]
-    o += 4 * m
+    e_l, rhs3 = ws[o + 4 * m : o + 5 * m], ws[o + 5 * m : o + 6 * m]
+    o += 6 * m
+    Hinvr, e_q = ws[o : o + n], ws[o + n : o + 2 * n]
+    o += 2 * n
     av, bv, lo, hi = (
         ws[o : o + total],
         ws[o + total : o + 2 * total],
@@ -131,7 +136,7 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
         ws[o + 3 * total : o + 4 * total],
     )
     # --- affine solution: dq = a_q + p b_q, lam = a_l + p b_l (Schur complement) ---
-    # A pinned joint (lower == upper: lpik.methods.lp2.pinned_system) keeps dq = d: its
+    # A pinned joint (lower == upper: lpik.methods.kkt.pinned_system) keeps dq = d: its
     # criterion row is dropped, its column of J leaves the Schur complement (H' is the
     # identity there), and c' = c - H_FP d on the free joints, d on the pinned ones.
     pins = False
@@ -205,6 +210,40 @@ def lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam,
             sb -= HinvJt[i, k] * b_l[k]
         a_q[i] = sa
         b_q[i] = sb
+    # --- sec. 3.1's pull, scaled (lpik.methods.kkt.smoothing_scale) ---
+    smooth = False
+    for i in range(n):
+        if lower[i] != upper[i] and c_ref[i] != 0.0:
+            smooth = True
+    if smooth:
+        for i in range(n):
+            col[i] = 0.0 if lower[i] == upper[i] else c_ref[i]
+        if h_diag:
+            for i in range(n):
+                Hinvr[i] = col[i] / H[i, i] if lower[i] != upper[i] else 0.0
+        else:
+            cho_solve(LH, col, Hinvr)
+        for a in range(m):
+            s = 0.0
+            for i in range(n):
+                s += J[a, i] * Hinvr[i]
+            rhs3[a] = s
+        cho_solve(LS, rhs3, e_l)
+        scale = 1.0
+        for i in range(n):
+            s = Hinvr[i]
+            for k in range(m):
+                s -= HinvJt[i, k] * e_l[k]
+            e_q[i] = s
+            if s > 0.0:
+                scale = min(scale, max(0.0, SMOOTHING_SHARE * (upper[i] - a_q[i])) / s)
+            elif s < 0.0:
+                scale = min(scale, min(0.0, SMOOTHING_SHARE * (lower[i] - a_q[i])) / s)
+        scale = max(0.0, scale)
+        for i in range(n):
+            a_q[i] += scale * e_q[i]
+        for k in range(m):
+            a_l[k] += scale * e_l[k]
     # --- ratio test over joints, multipliers, rows ---
     for i in range(n):
         av[i], bv[i], lo[i], hi[i] = a_q[i], b_q[i], lower[i], upper[i]
@@ -314,6 +353,7 @@ def lp2_batch_kernel(
     H,
     h_diag,
     c,
+    c_ref,
     lower,
     upper,
     lam_min,
@@ -344,6 +384,7 @@ def lp2_batch_kernel(
                 H[b],
                 h_diag,
                 c[b],
+                c_ref[b],
                 lower[b],
                 upper[b],
                 lam_min[b],

@@ -17,7 +17,7 @@ from lpik.tolerances import FULL_P
 
 
 @njit(cache=True)
-def lp2s_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam, ws, best):
+def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws, best):
     """LP2 with saturation (eqs. 15-18 over the free joints); writes ``dq`` and ``lam``.
 
     Arguments as :func:`~lpik.fast.lp2_kernel.lp2_core`, plus ``best``, a float
@@ -30,8 +30,8 @@ def lp2s_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam
         and ``CHECK_FAILED`` send the caller to the numpy method).
     """
     m, n = J.shape
-    code, p, binding, residual = lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max,
-                                          G, g, dq, lam, ws)  # fmt: skip
+    code, p, binding, residual = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min,
+                                          lam_max, G, g, dq, lam, ws)  # fmt: skip
     if code != OK:
         return code, p, binding, residual
     free = 0
@@ -49,8 +49,8 @@ def lp2s_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam
         else:
             upper[joint] = lower[joint]
         free -= 1
-        code2, p2, binding2, residual2 = lp2_core(J, dw, H, h_diag, c, lower, upper, lam_min,
-                                                  lam_max, G, g, dq, lam, ws)  # fmt: skip
+        code2, p2, binding2, residual2 = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper,
+                                                  lam_min, lam_max, G, g, dq, lam, ws)  # fmt: skip
         if code2 != OK and code2 != INFEASIBLE:  # SINGULAR, CHECK_FAILED: the numpy method
             return code2, p2, binding2, residual2
         if code2 != OK or p2 < p:  # keep the best pass
@@ -64,9 +64,9 @@ def lp2s_core(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam
 
 
 @njit(cache=True)
-def lp2s_kernel(J, dw, H, h_diag, c, lower, upper, lam_min, lam_max, G, g, dq, lam):
+def lp2s_kernel(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam):
     """:func:`lp2s_core` with its own workspace, on copies of the bounds."""
     m, n = J.shape
     ws = np.empty(_workspace_size(n, m, G.shape[0]))
-    return lp2s_core(J, dw, H, h_diag, c, lower.copy(), upper.copy(), lam_min, lam_max, G, g,
-                     dq, lam, ws, np.empty(n + m))  # fmt: skip
+    return lp2s_core(J, dw, H, h_diag, c, c_ref, lower.copy(), upper.copy(), lam_min, lam_max,
+                     G, g, dq, lam, ws, np.empty(n + m))  # fmt: skip

@@ -99,19 +99,20 @@ def step_bounds(limits, dt, q0, q_prev, lower, upper, kinds):
 
 
 @njit(cache=True)
-def criterion_and_rows(f_ref, Lam, G, h, q0, c, g):
-    """``c = f + Lambda (q_ref - q0)`` (eq. 3, sec. 3.1) and the rows' ``g = h - G q0``.
+def criterion_and_rows(f_ref, Lam, G, h, q0, c, c_ref, g):
+    """``c = f`` (eq. 3), ``c_ref = Lambda (q_ref - q0)`` (sec. 3.1) and the rows' ``g = h - G q0``.
 
     A NaN in ``q_ref`` (``f_ref[1]``) means ``q_ref = q0`` for that joint.
     """
     n, r = q0.shape[0], G.shape[0]
     for i in range(n):
-        s = f_ref[0, i]
+        c[i] = f_ref[0, i]
+        s = 0.0
         for k in range(n):
             ref = f_ref[1, k]
             if not math.isnan(ref):
                 s += Lam[i, k] * (ref - q0[k])
-        c[i] = s
+        c_ref[i] = s
     for j in range(r):
         s = h[j]
         for i in range(n):
@@ -151,9 +152,9 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     dq, lam = L.vector(state, L.DQ), L.vector(state, L.LAM)
     outside = step_bounds(limits, dt, q0, q_prev, lower, upper, kinds)
     G = L.matrix_at(state, L.ROWS_G, r, n)
-    c, g = L.vector(state, L.C), L.vector(state, L.G_RHS)
+    c, c_ref, g = L.vector(state, L.C), L.vector(state, L.C_REF), L.vector(state, L.G_RHS)
     criterion_and_rows(L.matrix_at(state, L.F_REF, 2, n), L.matrix_at(state, L.LAMBDA, n, n),
-                       G, L.vector(state, L.ROWS_H), q0, c, g)  # fmt: skip
+                       G, L.vector(state, L.ROWS_H), q0, c, c_ref, g)  # fmt: skip
     lam_bounds = L.matrix_at(state, L.LAM_BOUNDS, 2, m)
     H, h_diag, ws = (
         L.matrix_at(state, L.CRITERION, n, n),
@@ -162,12 +163,13 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     )
     if state[L.SATURATE] != 0.0:
         code, p, binding, residual = lp2s_core(
-            J, dw, H, h_diag, c, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam, ws,
-            L.vector(state, L.SATURATION),
+            J, dw, H, h_diag, c, c_ref, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq,
+            lam, ws, L.vector(state, L.SATURATION),
         )  # fmt: skip
     else:
         code, p, binding, residual = lp2_core(
-            J, dw, H, h_diag, c, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq, lam, ws
+            J, dw, H, h_diag, c, c_ref, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq,
+            lam, ws,
         )  # fmt: skip
     q = L.vector(state, L.Q)
     for i in range(n):

@@ -27,18 +27,17 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 
 from lpik.highs import HighsSolver
 from lpik.methods.assembly import criterion, finish, lp_over, solver_for, unsolved_step
 from lpik.methods.duals import binding_from_duals
+from lpik.methods.kkt import AffineSolution, affine_solution, smoothing
 from lpik.problem import Problem
 from lpik.result import CHECK_FAILED, INFEASIBLE, OPTIMAL, Result, safe_step
 from lpik.tolerances import (
     EQUALITY_RTOL,
     FULL_P,
     INTERVAL_TOL,
-    MAX_SCHUR_CONDITION,
     RATE_TOL,
     SLACK_TOL,
 )
@@ -46,70 +45,6 @@ from lpik.types import FloatArray
 
 #: The ways :func:`lp2` can solve a step (its ``path`` argument).
 PATHS = ("auto", "ratio-test", "highs", "compiled")
-
-
-@dataclass(frozen=True, eq=False)
-class AffineSolution:
-    """``dq(p) = a_q + p b_q`` and ``lam(p) = a_l + p b_l``: eq. 18's equality rows solved."""
-
-    a_q: FloatArray
-    b_q: FloatArray
-    a_l: FloatArray
-    b_l: FloatArray
-
-
-def pinned_system(problem: Problem) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Eq. 18's data with the pinned joints fixed: ``(J', H', c', w_fixed)``.
-
-    A pinned joint (:meth:`~lpik.problem.Problem.pinned`: outside its end-stops,
-    or with coinciding bounds) moves by its fixed ``d``; the criterion is
-    minimised over the free joints ``F`` alone (its rows for pinned joints are
-    dropped), subject to ``J_F dq_F = p dw - J_P d``. Written over all joints:
-    ``J'`` is ``J`` with the pinned columns zeroed, ``H'`` is ``H`` with the
-    pinned rows and columns replaced by the identity, ``c'`` is
-    ``c_F - H_FP d`` on the free joints and ``d`` on the pinned ones, and
-    ``w_fixed = J_P d``. Then ``H' dq + J'^T lam = c'`` and
-    ``J' dq + w_fixed = p dw`` are eq. 18 over the free joints, and give
-    ``dq_P = d``. Without pinned joints this is ``(J, H, c, 0)``.
-    """
-    H, c = criterion(problem)
-    mask, d = problem.pinned()
-    if not mask.any():
-        return problem.J, H, c, np.zeros(problem.m)
-    free = ~mask
-    c = np.where(free, c - H @ d, d)
-    H = np.where(free[:, None] & free[None, :], H, np.diag(mask.astype(np.float64)))
-    J = np.where(free[None, :], problem.J, 0.0)
-    return J, H, c, problem.J @ d
-
-
-def affine_solution(problem: Problem) -> AffineSolution | None:
-    """Solve eq. 18's equality rows for ``dq`` and ``lam`` as affine functions of ``p``.
-
-    With ``H = M + Lambda`` (positive definite) and ``c = f + Lambda (q_ref - q0)``,
-    the rows read ``H dq + J^T lam = c`` and ``J dq = p dw``. Eliminating ``dq``
-    leaves the Schur complement ``S lam = J H^-1 c - p dw`` with
-    ``S = J H^-1 J^T`` (one factorisation, two right-hand sides). Pinned joints
-    enter through :func:`pinned_system` (``S lam = J' H'^-1 c' + w_fixed - p dw``).
-
-    Returns:
-        The affine solution, or ``None`` when ``S`` is singular or its condition
-        number exceeds :data:`MAX_SCHUR_CONDITION`.
-    """
-    J, H, c, w_fixed = pinned_system(problem)
-    H_factor = sla.cho_factor(H)
-    HinvJt = sla.cho_solve(H_factor, J.T)
-    Hinvc = sla.cho_solve(H_factor, c)
-    S = J @ HinvJt
-    S = 0.5 * (S + S.T)
-    eig = np.linalg.eigvalsh(S)
-    if eig[-1] <= 0 or eig[0] <= eig[-1] / MAX_SCHUR_CONDITION:
-        return None
-    S_factor = sla.cho_factor(S)
-    rhs = np.column_stack([J @ Hinvc + w_fixed, -problem.dw])
-    lam_ab = sla.cho_solve(S_factor, rhs)
-    a_l, b_l = lam_ab[:, 0], lam_ab[:, 1]
-    return AffineSolution(a_q=Hinvc - HinvJt @ a_l, b_q=-HinvJt @ b_l, a_l=a_l, b_l=b_l)
 
 
 @dataclass(frozen=True)
@@ -204,13 +139,12 @@ def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = No
         from lpik.fast.batch import solve_compiled  # numba is optional: import on use
 
         return solve_compiled(problem, solver)
-    if path != "highs":
-        affine = affine_solution(problem)
-        if affine is not None:
-            result = _ratio_path(problem, affine, start)
-            if result.status != CHECK_FAILED:
-                return result
-    return _highs_path(problem, solver, start)
+    affine = affine_solution(problem)
+    if path != "highs" and affine is not None:
+        result = _ratio_path(problem, affine, start)
+        if result.status != CHECK_FAILED:
+            return result
+    return _highs_path(problem, solver, start, smoothing(problem, affine))
 
 
 def _ratio_path(problem: Problem, aff: AffineSolution, start: float) -> Result:
@@ -248,9 +182,12 @@ def _ratio_path(problem: Problem, aff: AffineSolution, start: float) -> Result:
     )
 
 
-def _highs_path(problem: Problem, solver: HighsSolver | None, start: float) -> Result:
+def _highs_path(
+    problem: Problem, solver: HighsSolver | None, start: float, scale: float = 1.0
+) -> Result:
     n, m = problem.n, problem.m
     H, c = criterion(problem)
+    c = c - (1.0 - scale) * (problem.Lambda @ (problem.q_ref - problem.q0))  # sec. 3.1, scaled
     lower, upper = problem.step_bounds()[:2]
     pinned, d = problem.pinned()
     free = ~pinned

@@ -6,7 +6,7 @@ could carry the command further. Saturation in the null space (Flacco, De Luca
 and Khatib, "Control of redundant robots under hard joint constraints:
 saturation in the null space", IEEE Trans. Robotics 31(3), 2015) fixes that
 joint at its bound and resolves the criterion over the joints still free:
-eqs. 15-18 over the free joints (:func:`lpik.methods.lp2.pinned_system`),
+eqs. 15-18 over the free joints (:func:`lpik.methods.kkt.pinned_system`),
 repeated until the command is met, or what stops it is not a joint's bound
 (a multiplier bound, an extra row, a singularity), or no free redundancy is left
 (fewer free joints than task rows).

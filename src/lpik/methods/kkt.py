@@ -1,0 +1,147 @@
+"""Eq. 18's equality rows solved for ``dq`` and ``lam`` as affine functions of ``p``.
+
+LP2's rows ``H dq + J^T lam = c`` and ``J dq = p dw`` (eq. 18, with sec. 3.1's
+term in ``H = M + Lambda`` and ``c = f + Lambda (q_ref - q0)``) fix ``dq`` and
+``lam`` once ``p`` is chosen. This module solves them (:func:`affine_solution`),
+fixes pinned joints (:func:`pinned_system`) and scales the smoothing term so
+that its pull towards ``q_ref`` never takes more of a joint's step band than
+:data:`~lpik.tolerances.SMOOTHING_SHARE` (:func:`smoothing_scale`): a pull
+that alone would exceed one step made every step of LP2 infeasible.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from lpik.methods.assembly import criterion
+from lpik.problem import Problem
+from lpik.tolerances import MAX_SCHUR_CONDITION, SMOOTHING_SHARE
+from lpik.types import FloatArray
+
+
+@dataclass(frozen=True, eq=False)
+class AffineSolution:
+    """``dq(p) = a_q + p b_q`` and ``lam(p) = a_l + p b_l``: eq. 18's equality rows solved.
+
+    ``smoothing`` is the scale :func:`smoothing_scale` gave the smoothing term
+    (1 when it is whole, or when there is none).
+    """
+
+    a_q: FloatArray
+    b_q: FloatArray
+    a_l: FloatArray
+    b_l: FloatArray
+    smoothing: float = 1.0
+
+
+def pinned_system(problem: Problem) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Eq. 18's data with the pinned joints fixed: ``(J', H', c', w_fixed)``.
+
+    A pinned joint (:meth:`~lpik.problem.Problem.pinned`: outside its end-stops,
+    or with coinciding bounds) moves by its fixed ``d``; the criterion is
+    minimised over the free joints ``F`` alone (its rows for pinned joints are
+    dropped), subject to ``J_F dq_F = p dw - J_P d``. Written over all joints:
+    ``J'`` is ``J`` with the pinned columns zeroed, ``H'`` is ``H`` with the
+    pinned rows and columns replaced by the identity, ``c'`` is
+    ``c_F - H_FP d`` on the free joints and ``d`` on the pinned ones, and
+    ``w_fixed = J_P d``. Then ``H' dq + J'^T lam = c'`` and
+    ``J' dq + w_fixed = p dw`` are eq. 18 over the free joints, and give
+    ``dq_P = d``. Without pinned joints this is ``(J, H, c, 0)``.
+    """
+    H, c = criterion(problem)
+    mask, d = problem.pinned()
+    if not mask.any():
+        return problem.J, H, c, np.zeros(problem.m)
+    free = ~mask
+    c = np.where(free, c - H @ d, d)
+    H = np.where(free[:, None] & free[None, :], H, np.diag(mask.astype(np.float64)))
+    J = np.where(free[None, :], problem.J, 0.0)
+    return J, H, c, problem.J @ d
+
+
+def affine_solution(problem: Problem) -> AffineSolution | None:
+    """Solve eq. 18's equality rows for ``dq`` and ``lam`` as affine functions of ``p``.
+
+    With ``H = M + Lambda`` (positive definite) and ``c = f + Lambda (q_ref - q0)``,
+    the rows read ``H dq + J^T lam = c`` and ``J dq = p dw``. Eliminating ``dq``
+    leaves the Schur complement ``S lam = J H^-1 c - p dw`` with
+    ``S = J H^-1 J^T`` (one factorisation, two right-hand sides). Pinned joints
+    enter through :func:`pinned_system` (``S lam = J' H'^-1 c' + w_fixed - p dw``).
+
+    Returns:
+        The affine solution, or ``None`` when ``S`` is singular or its condition
+        number exceeds :data:`MAX_SCHUR_CONDITION`.
+    """
+    J, H, c, w_fixed = pinned_system(problem)
+    c_ref = smoothing_pull(problem)
+    H_factor = sla.cho_factor(H)
+    HinvJt = sla.cho_solve(H_factor, J.T)
+    Hinvc = sla.cho_solve(H_factor, np.column_stack([c - c_ref, c_ref]))
+    S = J @ HinvJt
+    S = 0.5 * (S + S.T)
+    eig = np.linalg.eigvalsh(S)
+    if eig[-1] <= 0 or eig[0] <= eig[-1] / MAX_SCHUR_CONDITION:
+        return None
+    S_factor = sla.cho_factor(S)
+    rhs = np.column_stack([J @ Hinvc[:, 0] + w_fixed, J @ Hinvc[:, 1], -problem.dw])
+    lam = sla.cho_solve(S_factor, rhs)
+    a_l, e_l, b_l = lam[:, 0], lam[:, 1], lam[:, 2]
+    a_q, e_q = Hinvc[:, 0] - HinvJt @ a_l, Hinvc[:, 1] - HinvJt @ e_l
+    lower, upper = problem.step_bounds()[:2]
+    s = smoothing_scale(a_q, e_q, lower, upper)
+    return AffineSolution(a_q=a_q + s * e_q, b_q=-HinvJt @ b_l, a_l=a_l + s * e_l, b_l=b_l,
+                          smoothing=s)  # fmt: skip
+
+
+def smoothing_pull(problem: Problem) -> FloatArray:
+    """``Lambda (q_ref - q0)`` on the free joints (0 on pinned ones): sec. 3.1's part of ``c``."""
+    pull = problem.Lambda @ (problem.q_ref - problem.q0)
+    return np.where(problem.pinned()[0], 0.0, pull)
+
+
+def smoothing_scale(
+    a_q: FloatArray, e_q: FloatArray, lower: FloatArray, upper: FloatArray
+) -> float:
+    """The largest ``s`` in [0, 1] by which sec. 3.1's pull ``e_q`` may be added to the step.
+
+    ``a_q`` is the step at ``p = 0`` without the pull, ``e_q`` the pull's share
+    of it (both resolved by eq. 18). On each joint ``s e_q`` may take at most
+    :data:`~lpik.tolerances.SMOOTHING_SHARE` of the room between ``a_q`` and
+    its bounds (and any amount towards the bounds when ``a_q`` is outside
+    them), so the rest of the band is left for the command. ``s = 1`` is the
+    paper's term; a smaller ``s`` a weaker pull this step. Continuous in the state.
+    """
+    s = 1.0
+    for a, e, lo, hi in zip(a_q, e_q, lower, upper):
+        if e > 0.0:
+            s = min(s, max(0.0, SMOOTHING_SHARE * (hi - a)) / e)
+        elif e < 0.0:
+            s = min(s, min(0.0, SMOOTHING_SHARE * (lo - a)) / e)
+    return max(0.0, s)
+
+
+def smoothing(problem: Problem, affine: AffineSolution | None = None) -> float:
+    """The smoothing scale of ``problem``'s step (:func:`smoothing_scale`), on every path.
+
+    From the affine solution when ``S`` is regular (``affine`` when given), else
+    from the least-norm solution of the KKT rows at ``p = 0`` (a singular ``S``,
+    solved by HiGHS), so that both paths weigh the pull alike.
+    """
+    if not problem.Lambda.any():
+        return 1.0
+    affine = affine if affine is not None else affine_solution(problem)
+    if affine is not None:
+        return affine.smoothing
+    J, H, c, w_fixed = pinned_system(problem)
+    c_ref = smoothing_pull(problem)
+    n, m = problem.n, problem.m
+    K = np.block([[H, J.T], [J, np.zeros((m, m))]])
+    rhs = np.column_stack(
+        [np.concatenate([c - c_ref, -w_fixed]), np.concatenate([c_ref, np.zeros(m)])]
+    )
+    x = np.linalg.lstsq(K, rhs, rcond=None)[0]
+    lower, upper = problem.step_bounds()[:2]
+    return smoothing_scale(x[:n, 0], x[:n, 1], lower, upper)
