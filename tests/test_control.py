@@ -43,3 +43,21 @@ def test_simulate_and_the_controller_give_the_same_joint_path(scenario: str, rob
     np.testing.assert_allclose(p, log.p, rtol=0, atol=1e-9)
     assert binding == list(log.binding)
     assert (log.p < 1).any() and (log.p == 1).any()  # the run meets a limit
+
+
+@pytest.mark.parametrize(("robot", "saturate"), [(PLANAR, False), ("panda", True)])
+def test_a_smoothing_term_runs_alike_and_never_freezes_the_arm(robot: str, saturate: bool) -> None:
+    """Lambda = 0.1 I with the default q_ref: its pull, scaled to fit each step, lets the
+    arm move (it made every step infeasible), on both paths alike."""
+    setup = get_scenario("pull-in").setup(robot)
+    weights = {**dict(setup.weights), "Lambda": np.full(setup.model.n_joints, 0.1)}
+    setup = type(setup)(**{**vars(setup), "weights": weights})
+    log = setup.run("lp2s" if saturate else "lp2")
+    assert set(log.status) == {"optimal"} and log.p[-1] == 1.0
+    controller = setup.controller(saturate=saturate)
+    q, prev = setup.q0.copy(), None
+    for k in range(setup.steps):
+        res = controller.step(q, setup.target, prev)
+        np.testing.assert_allclose(res.q, log.q[k + 1] if k + 1 < setup.steps else log.q_end,
+                                   rtol=0, atol=1e-9)  # fmt: skip
+        prev, q = q, res.q
