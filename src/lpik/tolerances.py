@@ -39,7 +39,8 @@ EQUALITY_RTOL = 1e-7
 FULL_P = 1.0 - 1e-9
 
 # -------------------------------------------------------- LP2's ratio test
-#: Above this condition number of the Schur complement ``J H^-1 J^T`` the ratio
+#: Above this condition number of the Schur complement ``J H^-1 J^T`` (estimated as
+#: ``(max L_ii / min L_ii)^2`` of its Cholesky factor, alike on every path) the ratio
 #: test hands over to HiGHS (eqs. 15-18 are then solved as a general LP).
 MAX_SCHUR_CONDITION = 1e10
 #: A slack below zero by at most this (relative to the bound) counts as zero.

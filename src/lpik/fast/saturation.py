@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from lpik.fast.lp2_kernel import INFEASIBLE, OK, _workspace_size, lp2_core
+from lpik.fast.lp2_kernel import CHECK_FAILED, OK, _workspace_size, lp2_core
 from lpik.tolerances import FULL_P
 
 
@@ -25,9 +25,11 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
     (saturated joints end with coinciding bounds).
 
     Returns:
-        ``(code, p, binding, residual)`` of the pass with the largest ``p``, or
-        the first outcome other than OK (:data:`~lpik.fast.lp2_kernel.SINGULAR`
-        and ``CHECK_FAILED`` send the caller to the numpy method).
+        ``(code, p, binding, residual)`` of the pass with the largest ``p``. A
+        first pass other than OK is returned as it is (``SINGULAR`` and
+        ``CHECK_FAILED`` send the caller to the numpy method); a later singular
+        pass ends the passes (no well-conditioned redundancy left), a later
+        ``CHECK_FAILED`` hands the step to the numpy method.
     """
     m, n = J.shape
     code, p, binding, residual = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min,
@@ -51,9 +53,9 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
         free -= 1
         code2, p2, binding2, residual2 = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper,
                                                   lam_min, lam_max, G, g, dq, lam, ws)  # fmt: skip
-        if code2 != OK and code2 != INFEASIBLE:  # SINGULAR, CHECK_FAILED: the numpy method
+        if code2 == CHECK_FAILED:  # the numpy method decides
             return code2, p2, binding2, residual2
-        if code2 != OK or p2 < p:  # keep the best pass
+        if code2 != OK or p2 < p:  # keep the best pass (SINGULAR: no redundancy left)
             for i in range(n):
                 dq[i] = best[i]
             for k in range(m):

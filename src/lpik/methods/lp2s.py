@@ -9,7 +9,10 @@ joint at its bound and resolves the criterion over the joints still free:
 eqs. 15-18 over the free joints (:func:`lpik.methods.kkt.pinned_system`),
 repeated until the command is met, or what stops it is not a joint's bound
 (a multiplier bound, an extra row, a singularity), or no free redundancy is left
-(fewer free joints than task rows).
+(fewer free joints than task rows, or a free joints' Jacobian so ill-conditioned
+that eq. 18's Schur complement fails :data:`~lpik.tolerances.MAX_SCHUR_CONDITION`:
+there the last few free joints would race at their velocity limits for a
+sliver of ``p``).
 
 Each pass starts from the previous one's answer: at ``p*`` the fixed joint sits
 exactly at its bound and the other joints' criterion rows hold, so that answer
@@ -24,6 +27,7 @@ import time
 
 from lpik.highs import HighsSolver
 from lpik.methods.assembly import finish
+from lpik.methods.kkt import affine_solution
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
 from lpik.result import Result
@@ -94,7 +98,10 @@ def saturation_passes(
         and current_result.binding in index
         and free - 1 >= problem.m
     ):
-        current = saturated(current, *index[current_result.binding])
+        candidate = saturated(current, *index[current_result.binding])
+        if affine_solution(candidate) is None:  # no well-conditioned redundancy left
+            break
+        current = candidate
         free -= 1
         current_result = lp2(current, path=path, solver=solver)
         if not (current_result.moved and current_result.p >= best.p):
