@@ -112,9 +112,12 @@ def test_statuses_are_documented_and_moving_ones_are_few() -> None:
         st.SOLVER_ERROR,
         st.CHECK_FAILED,
         st.RECOVERING,
+        st.OFF_DIRECTION,
     ):
         assert st.STATUSES[word]
-    assert st.MOVING == {st.OPTIMAL, st.SCALED, st.RECOVERING, st.VIOLATES_LIMITS}
+    assert st.MOVING == {
+        st.OPTIMAL, st.SCALED, st.RECOVERING, st.OFF_DIRECTION, st.VIOLATES_LIMITS
+    }  # fmt: skip
 
 
 def test_safe_step_and_result_json() -> None:

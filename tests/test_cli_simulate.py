@@ -120,3 +120,18 @@ def test_lazy_progress_shows_after_a_while_and_cleans_up(monkeypatch) -> None:
     quiet = LazyProgress("run", enabled=False)
     quiet(1, 10)
     assert quiet._progress is None
+
+
+def test_the_help_names_every_method_and_on_stall(capsys) -> None:
+    from lpik.methods.registry import METHODS
+
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert all(name in text for name in METHODS)
+    assert "--on-stall N" in text
+
+
+def test_on_stall_must_be_a_positive_step_count(capsys) -> None:
+    assert main(["simulate", "pull-in", "--on-stall", "0"]) == 2
+    assert "--on-stall: must be in 1.." in capsys.readouterr().err

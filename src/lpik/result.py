@@ -19,6 +19,7 @@ from lpik.types import FloatArray
 OPTIMAL = "optimal"
 SCALED = "scaled"
 RECOVERING = "recovering"
+OFF_DIRECTION = "off_direction"
 VIOLATES_LIMITS = "violates_limits"
 INFEASIBLE = "infeasible"
 SINGULAR = "singular"
@@ -37,6 +38,9 @@ STATUSES: dict[str, str] = {
     "a speed above its limit); the step moves it back as fast as the limits allow and p is "
     "the fraction of the command the other joints achieve (J dq = p dw); where they cannot "
     "hold the task even at p = 0, the step is the safe step (p = 0, residual = |J dq|)",
+    OFF_DIRECTION: "on_stall only: p = 0 had lasted; the step reduces the task error as much "
+    "as every limit allows (least L1 error), not along the commanded direction; p = 0 and "
+    "residual = max |J dq - dw|, what remains of the command",
     INFEASIBLE: "no step meets the method's conditions and every limit, not even p = 0; "
     "the safe step",
     SINGULAR: "the method's linear system is singular; the safe step",
@@ -55,7 +59,7 @@ SAFE_STEP = (
 )
 
 #: Statuses whose step moves the robot as the method intends.
-MOVING = frozenset({OPTIMAL, SCALED, RECOVERING, VIOLATES_LIMITS})
+MOVING = frozenset({OPTIMAL, SCALED, RECOVERING, OFF_DIRECTION, VIOLATES_LIMITS})
 
 
 @dataclass(frozen=True, eq=False)

@@ -55,7 +55,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     parser.add_argument(
         "--method",
         default="lp2",
-        help="pinv, weighted, robust, lp1, l1, lp2 or nlp (default lp2; lpik.methods lists them)",
+        help="pinv, weighted, robust, lp1, l1, lp2, lp2s or nlp (default lp2; lpik.methods "
+        "lists them)",
     )
     parser.add_argument("--out", metavar="RUN.csv", help="write the log as CSV")
     parser.add_argument(
@@ -78,6 +79,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         default=60,
         metavar="F",
         help=f"GIF frames (default 60, at most {MAX_FRAMES})",
+    )
+    parser.add_argument(
+        "--on-stall",
+        type=int,
+        metavar="N",
+        help="after N steps with p = 0 in a row, take the step of least task error within "
+        "every limit (status off_direction) while p stays 0; default: never",
     )
     parser.add_argument(
         "--cold-start",
@@ -132,6 +140,8 @@ def _check_options(args: argparse.Namespace) -> None:
                 f"--lambda-bound: method {args.method!r} does not bound its multipliers; "
                 f"use {', '.join(bounded)}"
             )
+    if args.on_stall is not None and not 0 < args.on_stall <= MAX_STEPS:
+        raise ValueError(f"--on-stall: must be in 1..{MAX_STEPS:,} steps, got {args.on_stall:,}")
     if not 2 <= args.frames <= MAX_FRAMES:
         raise ValueError(f"--frames: must be in 2..{MAX_FRAMES}, got {args.frames}")
 
@@ -143,6 +153,7 @@ def run_options(args: argparse.Namespace) -> dict[str, object]:
         "steps": args.steps,
         "dt": args.dt,
         "warm_start": not args.cold_start,
+        "on_stall": args.on_stall,
     }
 
 

@@ -44,6 +44,7 @@ from lpik.labels import step_label_table
 from lpik.limits import AccelerationLimits, LinearRows, build_problem, standard_limits
 from lpik.methods.lp2 import lp2
 from lpik.methods.lp2s import lp2s
+from lpik.methods.progress import StallWatch
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
 from lpik.robots.base import TaskModel
@@ -74,6 +75,8 @@ class Lp2Controller:
         saturate: LP2 with saturation in the null space (method ``lp2s``,
             :func:`lpik.methods.lp2s.lp2s`): a joint whose bound stops the step is
             fixed there and the others carry the command on.
+        on_stall: Opt-in progress step (:mod:`lpik.methods.progress`, status
+            ``off_direction``) after this many steps with ``p = 0``; ``None``: never.
 
     Raises:
         ValueError: For a model the compiled path does not support, or bad limits/weights.
@@ -97,6 +100,7 @@ class Lp2Controller:
         h: Any = None,
         row_labels: Any = None,
         saturate: bool = False,
+        on_stall: int | None = None,
     ) -> None:
         self.model = model
         self.dt = positive_number("dt", dt)
@@ -106,6 +110,7 @@ class Lp2Controller:
         if not isinstance(saturate, bool | np.bool_):
             raise ValueError(f"saturate: must be True or False, got {saturate!r}")
         self.method = "lp2s" if saturate else "lp2"
+        self._stall = StallWatch(on_stall)
         self._fallback = lp2s if saturate else partial(lp2, path="highs")
         if lambda_bound is not None:
             lambda_bound = positive_number("lambda_bound", lambda_bound)
@@ -167,7 +172,9 @@ class Lp2Controller:
         self._last: Result | None = None  # step_into's last outcome when not optimal
         self._last_code: int | None = None  # step_into's last kernel outcome
 
-    def step(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Result:
+    def step(
+        self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, watch: bool = True
+    ) -> Result:
         """One LP2 step from ``q0`` towards ``target`` (eqs. 15-18, compiled).
 
         The fastest call passes C-contiguous, writable float64 arrays; anything
@@ -179,6 +186,7 @@ class Lp2Controller:
             target: Commanded task value: xyz (3,) [m], a rotation (3, 3) or a
                 pose (4, 4); a planar arm's xyz has z = 0, its pose turns about z.
             q_prev: Joint coordinates one period ago (acceleration limits); ``None``: at rest.
+            watch: Count the step for ``on_stall`` (batch rows, independent states, do not).
 
         Returns:
             The same :class:`~lpik.result.Result` as ``lp2(self.problem(q0, target, q_prev))``.
@@ -207,8 +215,12 @@ class Lp2Controller:
             fields["binding"] = None if label < 0 else self._labels[int(label)]
             fields["residual"] = out.item(self._residual)
             fields["solve_time"] = perf_counter() - start
-            return Result.trusted(fields)
-        return self._not_optimal(code, q0, target, q_prev, start)
+            result = Result.trusted(fields)
+        else:
+            result = self._not_optimal(code, q0, target, q_prev, start)
+        if self._stall.after is None or not watch:
+            return result
+        return self._stall.check(result, lambda: self.problem(q0, target, q_prev))
 
     def step_into(
         self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, out: FloatArray
@@ -238,6 +250,10 @@ class Lp2Controller:
                 f"out: must be a float64 array of shape ({self._n},), got "
                 f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
             )
+        if self._stall.after is not None:  # the stall watch needs the step's Result
+            self._last, self._last_code = self.step(q0, target, q_prev), -1
+            out[...] = self._last.q
+            return self._last.p
         prev = q0 if q_prev is None else q_prev
         try:
             if getattr(target, "ndim", 0) == 2 and self._defect(target) > ROTATION_TOL:
@@ -318,7 +334,7 @@ class Lp2Controller:
         outside = outs[:, self._outside] >= 0
         # rows from outside the limits, and those the HiGHS path takes: one by one
         for b in np.nonzero((codes != OK) & ~infeasible | outside)[0].tolist():
-            res = self.step(Q0[b], T[b], None if q_prev is None else Qp[b])
+            res = self.step(Q0[b], T[b], None if q_prev is None else Qp[b], watch=False)
             fallback[b] = res
             q[b], dq[b], p[b] = res.q, res.dq, res.p
             lam[b] = np.nan if res.lam is None else res.lam
@@ -329,31 +345,15 @@ class Lp2Controller:
     def _not_optimal(self, code: int, q0: Any, target: Any, q_prev: Any, start: float) -> Result:
         """The Result of a kernel outcome other than OK: infeasible, bad input or the HiGHS path."""
         outside = int(self._out.item(self._outside))
-        if code == OK:  # a step from a state outside its limits
-            out = self._out.copy()
-            return Result.trusted(
-                {
-                    "q": out[self._q],
-                    "dq": out[self._dq],
-                    "p": out.item(self._p),
-                    "lam": out[self._lam],
-                    "status": RECOVERING,
-                    "binding": self._labels[outside],
-                    "method": self.method,
-                    "solve_time": perf_counter() - start,
-                    "residual": out.item(self._residual),
-                    "path": "compiled",
-                }
-            )
-        if code == KERNEL_INFEASIBLE:  # the kernel wrote the safe step
-            out = self._out.copy()
+        if code in (OK, KERNEL_INFEASIBLE):  # from outside the limits, or the safe step
+            out, moved = self._out.copy(), code == OK
             label = outside if outside >= 0 else int(out.item(self._label_at))
             return Result.trusted(
                 {
                     "q": out[self._q],
                     "dq": out[self._dq],
-                    "p": 0.0,
-                    "lam": None,
+                    "p": out.item(self._p) if moved else 0.0,
+                    "lam": out[self._lam] if moved else None,
                     "status": RECOVERING if outside >= 0 else INFEASIBLE,
                     "binding": self._labels[label],
                     "method": self.method,

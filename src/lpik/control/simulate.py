@@ -36,6 +36,7 @@ from lpik.control.command import CommandLaw
 from lpik.control.log import SimulationLog
 from lpik.highs import HighsSolver
 from lpik.limits import Limit, build_problem, standard_limits
+from lpik.methods.progress import StallWatch
 from lpik.methods.registry import get_method
 from lpik.problem import Problem
 from lpik.result import VIOLATES_LIMITS, Result
@@ -74,6 +75,7 @@ def simulate(
     name: str = "",
     warm_start: bool = True,
     progress: Progress | None = None,
+    on_stall: int | None = None,
 ) -> SimulationLog:
     """Run the closed loop for ``steps`` control steps and return the log.
 
@@ -94,6 +96,10 @@ def simulate(
             not unique (LP1: any vertex with the largest p), the two may pick different
             optimal vertices.
         progress: Called after every step with ``(done, steps)``.
+        on_stall: Opt-in: after this many steps with ``p = 0`` in a row, take the
+            progress step (:func:`lpik.methods.progress.progress_step`: least task
+            error within every limit, status ``off_direction``) while ``p`` stays 0.
+            ``None`` (default): the method's steps only.
 
     Returns:
         The :class:`SimulationLog` of the run.
@@ -110,6 +116,7 @@ def simulate(
     if q.shape != (n,) or not np.isfinite(q).all():
         raise ValueError(f"q0: must be {n} finite joint coordinates, got {q0!r}")
     step_fn = _method_function(method, model, HighsSolver() if warm_start else None)
+    stall = StallWatch(on_stall)
     limits = list(standard_limits(model) if limits is None else limits)
     weights = dict(weights or {})
     weights.setdefault("joint_names", model.joint_names)
@@ -121,7 +128,7 @@ def simulate(
         dw = command(model, q, float(dt))
         problem = build_problem(model.jacobian(q), dw, q, limits, dt=dt, q_prev=q_prev, **weights)
         start = time.perf_counter()
-        result = step_fn(problem)
+        result = stall.check(step_fn(problem), lambda problem=problem: problem)
         times[k] = time.perf_counter() - start
         q_next, clamped = _applied(problem, result)
         rows["q"].append(q)

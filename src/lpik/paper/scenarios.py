@@ -171,6 +171,7 @@ class Setup:
         dt: float | None = None,
         warm_start: bool = True,
         progress: Progress | None = None,
+        on_stall: int | None = None,
     ) -> SimulationLog:
         """Simulate this setup with one method (:func:`lpik.control.simulate.simulate`).
 
@@ -181,6 +182,7 @@ class Setup:
             dt: Control period [s]; default the scenario's.
             warm_start: Reuse one HiGHS instance across steps.
             progress: Called after every step with ``(done, steps)``.
+            on_stall: Opt-in progress step after this many steps with ``p = 0``.
 
         Raises:
             ValueError: For a bad method, step count, period or bound.
@@ -200,6 +202,7 @@ class Setup:
             name=label,
             warm_start=warm_start,
             progress=progress,
+            on_stall=on_stall,
         )
 
     def controller(
@@ -277,11 +280,12 @@ class Scenario:
         dt: float | None = None,
         warm_start: bool = True,
         progress: Progress | None = None,
+        on_stall: int | None = None,
     ) -> SimulationLog:
         """Simulate this scenario on ``robot`` with one method (see :meth:`Setup.run`)."""
         return self.setup(robot).run(
             method, lambda_bound=lambda_bound, steps=steps, dt=dt, warm_start=warm_start,
-            progress=progress,
+            progress=progress, on_stall=on_stall,
         )  # fmt: skip
 
 

@@ -1,0 +1,90 @@
+"""The opt-in progress step (``on_stall``): least task error within every limit, off the line."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+
+from lpik.methods import solve
+from lpik.methods.progress import StallWatch, progress_step
+from lpik.paper.scenarios import PLANAR, get_scenario
+from lpik.problem import Problem
+from lpik.result import OFF_DIRECTION, OPTIMAL, STATUSES
+
+
+def blocked() -> Problem:
+    """x and y each driven by one joint; joint 2 sits on its end-stop: the direction (1, 1)
+    is out of reach (p = 0 for every LP), but x can still be reduced."""
+    return Problem(J=np.eye(2), dw=[0.01, 0.01], q0=[0.0, 1.0], q_max=[5.0, 1.0],
+                   dq_min=[-0.1, -0.1], dq_max=[0.1, 0.1])  # fmt: skip
+
+
+def test_the_progress_step_reduces_the_error_the_direction_cannot() -> None:
+    P = blocked()
+    assert solve(P, "lp1").p == solve(P, "lp2").p == 0.0
+    res = progress_step(P)
+    assert (res.status, res.p, res.method) == (OFF_DIRECTION, 0.0, "progress")
+    np.testing.assert_allclose(res.dq, [0.01, 0.0], atol=1e-12)
+    assert res.residual == pytest.approx(0.01)  # what remains of the command: y
+    assert OFF_DIRECTION in STATUSES
+
+
+def test_the_progress_step_is_the_least_l1_error_of_an_independent_lp() -> None:
+    rng = np.random.default_rng(4)
+    for _ in range(30):
+        n, m = 4, 2
+        J = rng.normal(size=(m, n))
+        dw = rng.normal(size=m) * 0.05
+        q0 = np.zeros(n)
+        lo, hi = -rng.uniform(0, 0.02, n), rng.uniform(0, 0.02, n)
+        P = Problem(J=J, dw=dw, q0=q0, q_min=lo, q_max=hi)
+        res = progress_step(P)
+        # linprog: min sum t, t >= +-(J dq - dw), within the bounds
+        c = np.concatenate([np.zeros(n), np.ones(m)])
+        A = np.block([[J, -np.eye(m)], [-J, -np.eye(m)]])
+        bounds = [*zip(lo, hi), *[(0, None)] * m]
+        ref = linprog(c, A_ub=A, b_ub=np.concatenate([dw, -dw]), bounds=bounds, method="highs")
+        error = float(np.abs(J @ res.dq - dw).sum())
+        assert error == pytest.approx(ref.fun, abs=1e-6)
+        assert np.all(res.dq >= P.q_min - 1e-9) and np.all(res.dq <= P.q_max + 1e-9)
+
+
+def test_no_progress_possible_is_said_and_moves_nothing() -> None:
+    P = blocked().replace(q_max=[0.0, 1.0], q0=[0.0, 1.0])  # both joints on their end-stops
+    res = progress_step(P)
+    assert (res.status, res.binding) == (OPTIMAL, "no progress")
+    np.testing.assert_array_equal(res.dq, 0.0)
+
+
+def test_the_stall_watch_waits_for_its_steps() -> None:
+    with pytest.raises(ValueError, match="on_stall: must be a whole number"):
+        StallWatch(0)
+    P = blocked()
+    watch = StallWatch(3)
+    stalled = solve(P, "lp2")
+    statuses = [watch.check(stalled, lambda: P).status for _ in range(4)]
+    assert statuses == [OPTIMAL, OPTIMAL, OFF_DIRECTION, OFF_DIRECTION]
+    assert StallWatch(None).check(stalled, lambda: P) is stalled
+
+
+@pytest.mark.parametrize("robot", [PLANAR, "panda"])
+def test_on_stall_gets_the_arm_unstuck_alike_on_both_paths(robot: str) -> None:
+    pytest.importorskip("numba")
+    setup = get_scenario("pull-in").setup(robot)
+    target = setup.target[:3, 3] if setup.target.ndim == 2 else setup.target
+    stuck = setup.run("lp2")
+    log = setup.run("lp2", on_stall=20)
+    assert (log.status == OFF_DIRECTION).any()
+    gap = np.linalg.norm(log.position_end[:2] - target[:2])
+    assert gap < np.linalg.norm(stuck.position_end[:2] - target[:2])
+    controller = setup.controller()
+    controller = type(controller)(setup.model, dt=setup.dt, v_max=setup.v_max, w_max=setup.w_max,
+                                  on_stall=20, **dict(setup.weights))  # fmt: skip
+    q, prev = setup.q0.copy(), None
+    for k in range(setup.steps):
+        res = controller.step(q, setup.target, prev)
+        assert res.status == log.status[k], k
+        np.testing.assert_allclose(res.q, log.q[k + 1] if k + 1 < setup.steps else log.q_end,
+                                   rtol=0, atol=1e-9)  # fmt: skip
+        prev, q = q, res.q
