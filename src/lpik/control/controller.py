@@ -28,7 +28,6 @@ from lpik.control.inputs import (
     joint_rates,
     joint_vector,
     positive_number,
-    rotation_defect_kernel,
     row_names,
     stacked_rows,
     target_array,
@@ -48,7 +47,6 @@ from lpik.methods.progress import StallWatch
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
 from lpik.robots.base import TaskModel
-from lpik.tolerances import ROTATION_TOL
 from lpik.types import FloatArray
 
 
@@ -158,7 +156,6 @@ class Lp2Controller:
         #: The fields of an optimal compiled step that are the same on every step.
         self._optimal_fields = {"status": OPTIMAL, "method": self.method, "path": "compiled"}
         self._kernel = step_kernel()
-        self._defect = rotation_defect_kernel()  # checks rotation targets before the kernel
         self._out = self._state[layout.out_range(self._state)]  # the kernel writes here
         fields = layout.out_fields(self._state)
         self._q, self._dq, self._lam = fields["q"], fields["dq"], fields["lam"]
@@ -198,8 +195,6 @@ class Lp2Controller:
         start = perf_counter()
         prev = q0 if q_prev is None else q_prev
         try:
-            if getattr(target, "ndim", 0) == 2 and self._defect(target) > ROTATION_TOL:
-                q0, target, prev = self._converted(q0, target, q_prev, check_finite=True)
             code = self._kernel(self._state, q0, prev, target)
         except TypeError:  # not C-contiguous writable float64 arrays: convert them
             q0, target, prev = self._converted(q0, target, q_prev)
@@ -256,8 +251,6 @@ class Lp2Controller:
             return self._last.p
         prev = q0 if q_prev is None else q_prev
         try:
-            if getattr(target, "ndim", 0) == 2 and self._defect(target) > ROTATION_TOL:
-                q0, target, prev = self._converted(q0, target, q_prev, check_finite=True)
             code = self._kernel(self._state, q0, prev, target)
         except TypeError:  # not C-contiguous writable float64 arrays: convert them
             q0, target, prev = self._converted(q0, target, q_prev)

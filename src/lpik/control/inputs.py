@@ -15,29 +15,13 @@ import numpy as np
 
 from lpik.robots.base import TaskModel
 from lpik.robots.chain import SerialChain
-from lpik.robots.rotations import check_rotation, rotation_defect, rotation_defects
+from lpik.robots.rotations import check_rotation, rotation_defects
 from lpik.robots.tasks import OrientationTask, PositionTask
 from lpik.tolerances import MAX_MAGNITUDE, ROTATION_TOL
 from lpik.types import FloatArray
 
 #: The shapes a target may have: xyz, a rotation, a pose.
 TARGET_SHAPES = ((3,), (3, 3), (4, 4))
-#: The one signature :func:`rotation_defect_kernel` is compiled for.
-ROTATION_SIGNATURE = "float64(float64[:, ::1])"
-_compiled_defect: list[Any] = []
-
-
-def rotation_defect_kernel() -> Any:
-    """:func:`lpik.robots.rotations.rotation_defect`, compiled (a numba dispatcher).
-
-    For :data:`ROTATION_SIGNATURE` only (C-contiguous float64 matrices), so that
-    another argument raises ``TypeError`` instead of compiling in a control loop.
-    """
-    if not _compiled_defect:
-        import numba
-
-        _compiled_defect.append(numba.njit([ROTATION_SIGNATURE], cache=True)(rotation_defect))
-    return _compiled_defect[0]
 
 
 def positive_number(name: str, value: Any) -> float:

@@ -20,6 +20,8 @@ import math
 from numba import njit
 
 from lpik.fast.views import flat, matrix
+from lpik.robots.rotations import rotation_defect as _rotation_defect
+from lpik.tolerances import ROTATION_TOL
 
 
 @njit(cache=True)
@@ -168,11 +170,17 @@ def pose_error(T, target, e6, scratch):
     e6[3], e6[4], e6[5] = w[0], w[1], w[2]
 
 
+#: :func:`lpik.robots.rotations.rotation_defect`, compiled.
+rotation_defect = njit(cache=True)(_rotation_defect)
+
+
 @njit(cache=True)
 def target_pose(target, T):
     """The commanded pose ``T`` (4, 4) from xyz (3,), a rotation (3, 3) or a pose (4, 4).
 
-    Returns False for any other shape or a value that is not finite.
+    Returns False for any other shape, a value that is not finite, or a rotation
+    part farther from a rotation than :data:`~lpik.tolerances.ROTATION_TOL`
+    (:func:`lpik.robots.rotations.rotation_defect`, compiled here).
     """
     shape = target.shape
     values = flat(target)
@@ -195,4 +203,5 @@ def target_pose(target, T):
                 T[a, b] = values[4 * a + b]
     else:
         return False
-    return True
+    # a rotation part that is no rotation: the caller names it (as the numpy path does)
+    return shape == (3,) or rotation_defect(T) <= ROTATION_TOL

@@ -182,7 +182,7 @@ def rotation_defect(t: FloatArray) -> float:
     """How far a rotation (3, 3), or a pose's (4, 4) rotation part, is from a rotation.
 
     Written in plain loops so that the compiled controller compiles this very
-    function (:func:`lpik.control.inputs.rotation_defect_kernel`).
+    function (:func:`lpik.fast.kinematics.rotation_defect`).
 
     Args:
         t: A float array of shape (3, 3) or (4, 4), finite.
