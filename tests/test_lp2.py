@@ -331,6 +331,11 @@ def test_the_smoothing_pull_takes_at_most_its_share_of_a_joints_band() -> None:
     np.testing.assert_allclose(aff.a_q, [0.0, 0.05, 0.0], atol=1e-15)
     assert smoothing_scale(np.zeros(2), np.array([0.01, -0.01]), np.full(2, -0.1),
                            np.full(2, 0.1)) == 1.0  # a pull that fits is whole  # fmt: skip
+    # a rate that is 0 to rounding on a joint at its bound does not stop the pull (found by
+    # hypothesis: its sign decided between s = 0.28 and s = 0 on the two paths)
+    lower, upper = np.array([0.0, 0.0, -0.125]), np.full(3, 0.125)
+    e = np.array([-2.8e-17, 0.111, -0.222])
+    assert smoothing_scale(np.zeros(3), e, lower, upper) == pytest.approx(0.0625 / 0.222)
     # a joint outside its band (moving): the pull may only take it towards the band
     assert smoothing_scale(np.array([0.2]), np.array([0.1]), np.array([-0.1]),
                            np.array([0.1])) == 0.0  # fmt: skip

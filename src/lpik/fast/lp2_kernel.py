@@ -15,10 +15,13 @@ means none (:func:`lpik.labels.code_labels` spells them).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, prange
 
 from lpik.fast.linalg import cho_solve, cho_solve2, cholesky
+from lpik.fast.smoothing import add_smoothing
 from lpik.fast.views import matrix
 from lpik.tolerances import (
     EQUALITY_RTOL,
@@ -28,7 +31,6 @@ from lpik.tolerances import (
     MAX_SCHUR_CONDITION,
     RATE_TOL,
     SLACK_TOL,
-    SMOOTHING_SHARE,
 )
 
 #: Kernel outcome codes.
@@ -193,7 +195,7 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     for a in range(m):
         dmax = max(dmax, LS[a, a])
         dmin = min(dmin, LS[a, a])
-    if (dmax / dmin) ** 2 > MAX_SCHUR_CONDITION:
+    if not dmin > 0.0 or dmax > math.sqrt(MAX_SCHUR_CONDITION) * dmin:
         return SINGULAR, 0.0, -1, 0.0
     for a in range(m):
         s = 0.0
@@ -216,34 +218,8 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         if lower[i] != upper[i] and c_ref[i] != 0.0:
             smooth = True
     if smooth:
-        for i in range(n):
-            col[i] = 0.0 if lower[i] == upper[i] else c_ref[i]
-        if h_diag:
-            for i in range(n):
-                Hinvr[i] = col[i] / H[i, i] if lower[i] != upper[i] else 0.0
-        else:
-            cho_solve(LH, col, Hinvr)
-        for a in range(m):
-            s = 0.0
-            for i in range(n):
-                s += J[a, i] * Hinvr[i]
-            rhs3[a] = s
-        cho_solve(LS, rhs3, e_l)
-        scale = 1.0
-        for i in range(n):
-            s = Hinvr[i]
-            for k in range(m):
-                s -= HinvJt[i, k] * e_l[k]
-            e_q[i] = s
-            if s > 0.0:
-                scale = min(scale, max(0.0, SMOOTHING_SHARE * (upper[i] - a_q[i])) / s)
-            elif s < 0.0:
-                scale = min(scale, min(0.0, SMOOTHING_SHARE * (lower[i] - a_q[i])) / s)
-        scale = max(0.0, scale)
-        for i in range(n):
-            a_q[i] += scale * e_q[i]
-        for k in range(m):
-            a_l[k] += scale * e_l[k]
+        add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, a_q, a_l,
+                      (col, Hinvr, e_q), (rhs3, e_l))  # fmt: skip
     # --- ratio test over joints, multipliers, rows ---
     for i in range(n):
         av[i], bv[i], lo[i], hi[i] = a_q[i], b_q[i], lower[i], upper[i]

@@ -11,6 +11,7 @@ that alone would exceed one step made every step of LP2 infeasible.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,7 +19,7 @@ import scipy.linalg as sla
 
 from lpik.methods.assembly import criterion
 from lpik.problem import Problem
-from lpik.tolerances import MAX_SCHUR_CONDITION, SMOOTHING_SHARE
+from lpik.tolerances import MAX_SCHUR_CONDITION, RATE_TOL, SMOOTHING_SHARE
 from lpik.types import FloatArray
 
 
@@ -89,7 +90,7 @@ def affine_solution(problem: Problem) -> AffineSolution | None:
         return None
     diag = np.abs(np.diagonal(S_factor[0]))
     # the condition estimate of the compiled kernel: (max / min of L's diagonal)^2
-    if not diag.min() > 0 or (diag.max() / diag.min()) ** 2 > MAX_SCHUR_CONDITION:
+    if not diag.min() > 0 or diag.max() > math.sqrt(MAX_SCHUR_CONDITION) * diag.min():
         return None
     rhs = np.column_stack([J @ Hinvc[:, 0] + w_fixed, J @ Hinvc[:, 1], -problem.dw])
     lam = sla.cho_solve(S_factor, rhs)
@@ -120,10 +121,11 @@ def smoothing_scale(
     paper's term; a smaller ``s`` a weaker pull this step. Continuous in the state.
     """
     s = 1.0
+    eps = RATE_TOL * max(1.0, float(np.abs(e_q).max(initial=0.0)))  # a rate of 0, to rounding
     for a, e, lo, hi in zip(a_q, e_q, lower, upper):
-        if e > 0.0:
+        if e > eps:
             s = min(s, max(0.0, SMOOTHING_SHARE * (hi - a)) / e)
-        elif e < 0.0:
+        elif e < -eps:
             s = min(s, min(0.0, SMOOTHING_SHARE * (lo - a)) / e)
     return max(0.0, s)
 

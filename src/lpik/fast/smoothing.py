@@ -1,0 +1,59 @@
+"""Sec. 3.1's pull towards ``q_ref`` in the compiled LP2 kernel: resolved and scaled to fit.
+
+The loop twin of :func:`lpik.methods.kkt.smoothing_scale` and the pull's share
+of :func:`lpik.methods.kkt.affine_solution`, for :func:`lpik.fast.lp2_kernel.lp2_core`.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from lpik.fast.linalg import cho_solve
+from lpik.tolerances import RATE_TOL, SMOOTHING_SHARE
+
+
+@njit(cache=True)
+def add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, a_q, a_l, n_scratch,
+                  m_scratch):  # fmt: skip
+    """Add ``s`` times the pull's share of eq. 18's solution to ``a_q`` and ``a_l``.
+
+    Called when ``c_ref = Lambda (q_ref - q0)`` pulls a free joint; pinned joints
+    (``lower == upper``) take no pull. ``LH`` (unless ``h_diag``) and ``LS`` are
+    the Cholesky factors of ``H'`` and ``S`` the kernel computed; ``n_scratch``
+    holds three and ``m_scratch`` two work vectors.
+    """
+    m, n = J.shape
+    col, Hinvr, e_q = n_scratch
+    rhs3, e_l = m_scratch
+    for i in range(n):
+        col[i] = 0.0 if lower[i] == upper[i] else c_ref[i]
+    if h_diag:
+        for i in range(n):
+            Hinvr[i] = col[i] / H[i, i] if lower[i] != upper[i] else 0.0
+    else:
+        cho_solve(LH, col, Hinvr)
+    for a in range(m):
+        s = 0.0
+        for i in range(n):
+            s += J[a, i] * Hinvr[i]
+        rhs3[a] = s
+    cho_solve(LS, rhs3, e_l)
+    emax = 0.0
+    for i in range(n):
+        s = Hinvr[i]
+        for k in range(m):
+            s -= HinvJt[i, k] * e_l[k]
+        e_q[i] = s
+        emax = max(emax, abs(s))
+    eps, scale = RATE_TOL * max(1.0, emax), 1.0
+    for i in range(n):
+        s = e_q[i]
+        if s > eps:
+            scale = min(scale, max(0.0, SMOOTHING_SHARE * (upper[i] - a_q[i])) / s)
+        elif s < -eps:
+            scale = min(scale, min(0.0, SMOOTHING_SHARE * (lower[i] - a_q[i])) / s)
+    scale = max(0.0, scale)
+    for i in range(n):
+        a_q[i] += scale * e_q[i]
+    for k in range(m):
+        a_l[k] += scale * e_l[k]
