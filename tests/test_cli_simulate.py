@@ -135,3 +135,18 @@ def test_the_help_names_every_method_and_on_stall(capsys) -> None:
 def test_on_stall_must_be_a_positive_step_count(capsys) -> None:
     assert main(["simulate", "pull-in", "--on-stall", "0"]) == 2
     assert "--on-stall: must be in 1.." in capsys.readouterr().err
+
+
+def test_a_reader_that_closes_the_pipe_ends_lpik_quietly(monkeypatch, capsys) -> None:
+    """`lpik robots --json | head`: no 'lpik: error: Broken pipe', SIGPIPE's exit status."""
+
+    class ClosedPipe:
+        def write(self, text: str) -> int:
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def flush(self) -> None:
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr("sys.stdout", ClosedPipe())
+    assert main(["robots", "--json"]) == 141
+    assert capsys.readouterr().err == ""

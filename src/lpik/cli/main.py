@@ -21,6 +21,8 @@ SUBCOMMANDS = ("solve", "simulate", "reproduce", "robots", "bench", "compile")
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 1
+#: A reader that closed the pipe early, as a shell reports a process killed by SIGPIPE.
+EXIT_BROKEN_PIPE = 128 + 13
 
 
 class UsageError(Exception):
@@ -63,6 +65,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.handler(args))
     except UsageError as exc:
         return fail(str(exc).removeprefix("lpik: "))
+    except BrokenPipeError:  # the reader went away (lpik robots --json | head): stop quietly
+        try:  # and keep the interpreter's flush at exit quiet too
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (AttributeError, OSError, ValueError):  # a stdout without a file descriptor
+            pass
+        return EXIT_BROKEN_PIPE
     except ValueError as exc:  # InvalidProblemError and every other input error
         return fail(str(exc))
     except (OSError, ImportError) as exc:

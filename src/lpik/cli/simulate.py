@@ -65,14 +65,25 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         metavar="B",
         help="bound every Lagrange multiplier: -B <= lam_i <= B (lp2, sec. 3.2)",
     )
+    defaults = ", ".join(f"{s.name} {s.steps} steps at {s.dt:g} s" for s in SCENARIOS.values())
     parser.add_argument(
-        "--steps", type=int, metavar="N", help=f"number of steps (at most {MAX_STEPS:,})"
+        "--steps",
+        type=int,
+        metavar="N",
+        help=f"number of steps (at most {MAX_STEPS:,}; default the scenario's: {defaults})",
     )
     parser.add_argument(
-        "--dt", type=float, metavar="DT", help=f"control period [s] (at most {MAX_DT:g})"
+        "--dt",
+        type=float,
+        metavar="DT",
+        help=f"control period [s] (at most {MAX_DT:g}; default the scenario's)",
     )
     parser.add_argument("--plot", metavar="FIG.png", help="draw an overview figure of the run")
-    parser.add_argument("--animate", metavar="RUN.gif", help="write an animated GIF of the run")
+    parser.add_argument(
+        "--animate",
+        metavar="RUN.gif",
+        help=f"write an animated GIF of the run (the '{PLANAR}' arm only)",
+    )
     parser.add_argument(
         "--frames",
         type=int,
