@@ -322,13 +322,27 @@ def main(argv: list[str] | None = None, command: str | None = None) -> int:
     parser.add_argument("--peers", nargs="*", default=["drake", "pink", "mink", "rtb"])
     parser.add_argument("--variants", nargs="+", choices=list(VARIANTS), default=list(VARIANTS))
     parser.add_argument("--max-steps", type=int, help="cut every leg to this many steps")
+    parser.add_argument(
+        "--lambda-bound",
+        type=float,
+        nargs="+",
+        default=[],
+        metavar="B",
+        help="also run each chosen variant with |lam_i| <= B (sec. 3.2), for every B given",
+    )
     args = parser.parse_args(argv)
+    variants = list(args.variants)
+    for bound in args.lambda_bound:  # bounded-multiplier twins of the chosen variants
+        for name in args.variants:
+            twin = f"{name} |lam|<={bound:g}"
+            VARIANTS[twin] = {**VARIANTS[name], "lambda_bound": bound}
+            variants.append(twin)
     if command is None:
         command = "python -m lpik_bench.quality " + " ".join(sys.argv[1:] if argv is None else argv)
     suite = run_suite(
         tuple(args.scenarios),
         peers=tuple(args.peers),
-        variants=tuple(args.variants),
+        variants=tuple(variants),
         max_steps=args.max_steps,
         say=lambda m: print(m, file=sys.stderr, flush=True),
     )
