@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lpik.exceptions import InvalidProblemError
-from lpik.methods.assembly import criterion
+from lpik.methods.assembly import criterion, reference_pull
 from lpik.problem import Problem
 from lpik.tolerances import SYMMETRY_RTOL
 from lpik.types import FloatArray
@@ -33,7 +33,7 @@ def kernel_args(problem: Problem) -> tuple:
     sec. 3.1's pull, the bounds on ``dq`` (eqs. 13-14) and the rows ``G dq <= g``.
     """
     H, c = criterion(problem)
-    c_ref = problem.Lambda @ (problem.q_ref - problem.q0)
+    c_ref = reference_pull(problem)
     lower, upper = problem.step_bounds()[:2]
     h_diag = is_diagonal(H)
     g = problem.h - problem.G @ problem.q0

@@ -29,8 +29,13 @@ def criterion(problem: Problem) -> tuple[FloatArray, FloatArray]:
     ``1/2 dq^T H dq - c^T dq``; eqs. 7, 16 and 18 are its optimality conditions.
     """
     H = problem.M + problem.Lambda
-    c = problem.f + problem.Lambda @ (problem.q_ref - problem.q0)
+    c = problem.f + reference_pull(problem)
     return H, c
+
+
+def reference_pull(problem: Problem) -> FloatArray:
+    """``Lambda (q_ref - q0)``: sec. 3.1's part of ``c``, the pull towards ``q_ref``."""
+    return problem.Lambda @ (problem.q_ref - problem.q0)
 
 
 def lp_over(

@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import EllipsisType
 
 import numpy as np
 import scipy.linalg as sla
 
-from lpik.methods.assembly import criterion
+from lpik.methods.assembly import criterion, reference_pull
 from lpik.problem import Problem
 from lpik.tolerances import MAX_SCHUR_CONDITION, RATE_TOL, SMOOTHING_SHARE
 from lpik.types import FloatArray
@@ -104,8 +105,7 @@ def affine_solution(problem: Problem) -> AffineSolution | None:
 
 def smoothing_pull(problem: Problem) -> FloatArray:
     """``Lambda (q_ref - q0)`` on the free joints (0 on pinned ones): sec. 3.1's part of ``c``."""
-    pull = problem.Lambda @ (problem.q_ref - problem.q0)
-    return np.where(problem.pinned()[0], 0.0, pull)
+    return np.where(problem.pinned()[0], 0.0, reference_pull(problem))
 
 
 def smoothing_scale(
@@ -130,16 +130,19 @@ def smoothing_scale(
     return max(0.0, s)
 
 
-def smoothing(problem: Problem, affine: AffineSolution | None = None) -> float:
+def smoothing(problem: Problem, affine: AffineSolution | None | EllipsisType = ...) -> float:
     """The smoothing scale of ``problem``'s step (:func:`smoothing_scale`), on every path.
 
-    From the affine solution when ``S`` is regular (``affine`` when given), else
-    from the least-norm solution of the KKT rows at ``p = 0`` (a singular ``S``,
-    solved by HiGHS), so that both paths weigh the pull alike.
+    From the affine solution when ``S`` is regular, else from the least-norm
+    solution of the KKT rows at ``p = 0`` (a singular ``S``, solved by HiGHS), so
+    that both paths weigh the pull alike. ``affine`` is
+    :func:`affine_solution`'s answer when the caller has it (``None``: singular),
+    ``...`` to compute it here.
     """
     if not problem.Lambda.any():
         return 1.0
-    affine = affine if affine is not None else affine_solution(problem)
+    if affine is ...:
+        affine = affine_solution(problem)
     if affine is not None:
         return affine.smoothing
     J, H, c, w_fixed = pinned_system(problem)

@@ -29,7 +29,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from lpik.highs import HighsSolver
-from lpik.methods.assembly import criterion, finish, lp_over, solver_for, unsolved_step
+from lpik.methods.assembly import (
+    criterion,
+    finish,
+    lp_over,
+    reference_pull,
+    solver_for,
+    unsolved_step,
+)
 from lpik.methods.duals import binding_from_duals
 from lpik.methods.kkt import AffineSolution, affine_solution, smoothing
 from lpik.problem import Problem
@@ -139,7 +146,8 @@ def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = No
         from lpik.fast.batch import solve_compiled  # numba is optional: import on use
 
         return solve_compiled(problem, solver)
-    affine = affine_solution(problem)
+    # the HiGHS path needs the affine solution only to weigh sec. 3.1's pull
+    affine = affine_solution(problem) if path != "highs" or problem.Lambda.any() else None
     if path != "highs" and affine is not None:
         result = _ratio_path(problem, affine, start)
         if result.status != CHECK_FAILED:
@@ -187,7 +195,7 @@ def _highs_path(
 ) -> Result:
     n, m = problem.n, problem.m
     H, c = criterion(problem)
-    c = c - (1.0 - scale) * (problem.Lambda @ (problem.q_ref - problem.q0))  # sec. 3.1, scaled
+    c = c - (1.0 - scale) * reference_pull(problem)  # sec. 3.1's pull, scaled
     lower, upper = problem.step_bounds()[:2]
     pinned, d = problem.pinned()
     free = ~pinned
