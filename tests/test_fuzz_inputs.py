@@ -20,22 +20,11 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+from cli_documents import GOOD, OUTPUT_KEYS
 from core_strategies import examples
 from lpik.cli.main import main
 from lpik.problem_json import OPTIONAL_KEYS, REQUIRED_KEYS
 from lpik.result import STATUSES
-
-GOOD = {
-    "method": "lp2",
-    "J": [[-0.866, 0.0, 0.5, 0.5], [3.232, 2.732, 1.866, 0.866]],
-    "dw": [-0.005, 0.0],
-    "q0": [1.047, -0.524, -0.524, -0.524],
-    "q_min": [-3.14, -3.14, -3.14, -3.14],
-    "q_max": [1.658, 3.14, 3.14, 3.14],
-    "dq_min": [-0.01, -0.01, -0.01, -0.01],
-    "dq_max": [0.01, 0.01, 0.01, 0.01],
-}
-OUTPUT_KEYS = {"q", "dq", "p", "lam", "status", "binding"}
 
 #: Number tokens that Python's json.dumps never writes, spliced into the text by name.
 RAW_NUMBERS = {

@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cli_documents import GOOD as CLI_GOOD
+from cli_documents import LPIK
 from lpik import problem_json
 from lpik.cli import simulate as simulate_cli
 from lpik.cli.main import main
@@ -22,15 +24,8 @@ from lpik.problem import Problem
 from lpik.tolerances import MAX_MAGNITUDE
 
 ROOT = Path(__file__).resolve().parents[1]
-LPIK = Path(sys.executable).with_name("lpik")
-GOOD = {
-    "method": "lp2",
-    "J": [[-0.866, 0.0, 0.5, 0.5], [3.232, 2.732, 1.866, 0.866]],
-    "dw": [-0.005, 0.0],
-    "q0": [1.047, -0.524, -0.524, -0.524],
-    "q_min": [-3.14, -3.14, -3.14, -3.14],
-    "q_max": [1.658, 3.14, 3.14, 3.14],
-}
+#: The shared good document without step bounds.
+GOOD = {key: value for key, value in CLI_GOOD.items() if not key.startswith("dq_")}
 PROBLEM_ONLY = [name for name, spec in METHODS.items() if not spec.needs_model]
 
 
