@@ -187,10 +187,16 @@ class Bracket:
     exact: Reference
     loose: Reference
     exact_is_feasible: bool
+    tight_is_feasible: bool = True
 
     def attainable(self, sense: float = 1.0) -> float | None:
-        """The best value proven attainable (``sense`` 1 for max p, -1 for min objective)."""
-        values = [r.objective for r in (self.tight,) if r.feasible]
+        """The best value proven attainable (``sense`` 1 for max p, -1 for min objective).
+
+        The tightened optimum counts when its point keeps the limits as given: a
+        solver can return a point of a tightened program that is empty (a bound
+        and a row that meet exactly), inside its tolerance but outside the limits.
+        """
+        values = [r.objective for r in (self.tight,) if r.feasible and self.tight_is_feasible]
         if self.exact_is_feasible:
             values.append(self.exact.objective)
         values = [v for v in values if v is not None]
@@ -200,11 +206,14 @@ class Bracket:
 def bracket(reference, P: Problem, *args: object, criterion: bool = False) -> Bracket:  # type: ignore[no-untyped-def]
     """:class:`Bracket` of ``reference(P, *args, margin=...)``."""
     exact = reference(P, *args)
+    tight = reference(P, *args, margin=-MARGIN)
     return Bracket(
-        tight=reference(P, *args, margin=-MARGIN),
+        tight=tight,
         exact=exact,
         loose=reference(P, *args, margin=MARGIN),
         exact_is_feasible=exactly_feasible(P, exact, criterion=criterion),
+        # strictly: a tightened program's point lies inside the limits by about MARGIN
+        tight_is_feasible=tight.feasible and hard_violation(P, tight.q, tight.lam) <= 1e-12,
     )
 
 
