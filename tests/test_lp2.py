@@ -135,15 +135,16 @@ def test_multiplier_bounds_stop_the_step_near_the_edge_singularity(
     assert_matches_reference(bounded, res)
 
 
-def test_the_stretched_arm_is_solved_by_highs_and_names_the_singularity(
+def test_the_stretched_arm_is_solved_by_the_singular_path_and_names_the_singularity(
     paper_arm: TaskModel,
 ) -> None:
     q0 = np.zeros(4)  # the edge singularity: J has rank 1
     P = paper_problem(paper_arm, q0, np.array([0.005, 0.0]))
     assert affine_solution(P) is None
-    for path in ("auto", "ratio-test", "highs"):
+    for path in ("auto", "ratio-test", "singular", "highs", "compiled"):
         res = lp2(P, path=path)
-        assert res.path == "highs"  # the ratio test fails over to HiGHS
+        # the ratio test hands over to the singular path; HiGHS is the reference
+        assert res.path == {"highs": "highs", "compiled": "compiled"}.get(path, "singular")
         assert res.status == st.OPTIMAL
         assert res.p == 0.0
         assert res.binding == SINGULARITY
@@ -465,11 +466,12 @@ def test_a_singular_step_that_cannot_stop_in_time_names_the_acceleration_limit()
     from lpik.limits import AccelerationLimits, build_problem, standard_limits
 
     arm = planar_arm([1.0, 1.0, 1.0], qd_max=1.0)
-    q0 = np.zeros(3)  # stretched out: J has rank 1, K is singular, only HiGHS can answer
+    q0 = np.zeros(3)  # stretched out: J has rank 1, K is singular
     limits = [*standard_limits(arm), AccelerationLimits(np.full(3, 0.5))]
     moving = q0 - np.array([0.0, 0.0, 1e-4])  # joint 3 at 0.01 rad/s; it may shed 0.005
     P = build_problem(arm.jacobian(q0), np.array([-0.01, 0.0]), q0, limits, dt=0.01,
                       q_prev=moving)  # fmt: skip
-    res = lp2(P)
-    assert (res.status, res.path, res.p) == (st.INFEASIBLE, "highs", 0.0)
-    assert res.binding == "joint 3 lower acceleration limit"
+    for path, answered_by in (("auto", "singular"), ("highs", "highs"), ("compiled", "compiled")):
+        res = lp2(P, path=path)
+        assert (res.status, res.path, res.p) == (st.INFEASIBLE, answered_by, 0.0)
+        assert res.binding == "joint 3 lower acceleration limit"

@@ -114,7 +114,7 @@ def test_lp2_checks_the_criterion_rows_of_eq18(monkeypatch) -> None:
     assert "eq. 18" in res.binding
 
 
-def test_a_wrong_ratio_test_falls_back_to_highs(monkeypatch) -> None:
+def test_a_wrong_ratio_test_falls_back_to_the_singular_path_then_highs(monkeypatch) -> None:
     P = problem()
     good = lp2(P, path="highs")
     lp2_module = sys.modules["lpik.methods.lp2"]
@@ -125,11 +125,14 @@ def test_a_wrong_ratio_test_falls_back_to_highs(monkeypatch) -> None:
         return AffineSolution(np.zeros(n), np.full(n, 1e-3), np.zeros(m), np.zeros(m))
 
     monkeypatch.setattr(lp2_module, "affine_solution", wrong)
-    assert lp2(P, path="ratio-test").path == "highs"
-    res = lp2(P)
-    assert res.status == st.OPTIMAL and res.path == "highs"
-    assert res.p == pytest.approx(good.p, abs=1e-12)
-    np.testing.assert_allclose(res.q, good.q, atol=1e-12)
+    for expected in ("singular", "highs"):
+        assert lp2(P, path="ratio-test").path == expected
+        res = lp2(P)
+        assert res.status == st.OPTIMAL and res.path == expected
+        assert res.p == pytest.approx(good.p, abs=1e-12)
+        np.testing.assert_allclose(res.q, good.q, atol=1e-12)
+        # then the singular path fails its check too: HiGHS decides
+        monkeypatch.setattr(lp2_module, "singular_core", lambda *args: (3, 0.0, -1, 1.0))
 
 
 def test_nlp_failure_is_a_safe_step(monkeypatch) -> None:

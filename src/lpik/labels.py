@@ -57,7 +57,8 @@ def code_labels(
     """Labels indexed by the LP2 kernel's binding codes.
 
     Constraint ``k`` runs over the joints, then the ``m`` multipliers, then the
-    rows; code ``2 k`` is its lower side and ``2 k + 1`` its upper side.
+    rows; code ``2 k`` is its lower side and ``2 k + 1`` its upper side. The
+    two codes after them spell :data:`SINGULARITY`.
     """
     lam_lo, lam_hi = multiplier_labels(m)
     labels: list[str] = []
@@ -65,7 +66,9 @@ def code_labels(
         labels += [lo, hi]
     for row in row_labels:
         labels += [row, row]
-    return tuple(labels)
+    # LP2's singular path: p held by a direction J cannot move in
+    # (lpik.methods.singular.singularity_code)
+    return (*labels, SINGULARITY, SINGULARITY)
 
 
 def step_label_table(

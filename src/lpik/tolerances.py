@@ -41,8 +41,12 @@ FULL_P = 1.0 - 1e-9
 # -------------------------------------------------------- LP2's ratio test
 #: Above this condition number of the Schur complement ``J H^-1 J^T`` (estimated as
 #: ``(max L_ii / min L_ii)^2`` of its Cholesky factor, alike on every path) the ratio
-#: test hands over to HiGHS (eqs. 15-18 are then solved as a general LP).
+#: test hands over to LP2's singular path (:mod:`lpik.methods.singular`).
 MAX_SCHUR_CONDITION = 1e10
+#: On LP2's singular path, a singular value of ``J L^-T`` (``H = L L^T``) at or below this
+#: share of the largest counts as 0 (``J`` has the lower rank; what is left is rounding).
+#: Above it the decomposition solves eq. 18 exactly, however ill-conditioned.
+SINGULAR_RTOL = 1e-12
 #: A slack below zero by at most this (relative to the bound) counts as zero.
 SLACK_TOL = 1e-12
 #: A rate ``|b|`` at or below this (relative to the largest rate) counts as zero.

@@ -34,13 +34,13 @@ from lpik.control.inputs import (
     task_value,
 )
 from lpik.fast import layout
-from lpik.fast.arrays import is_diagonal
 from lpik.fast.batch import BatchResult
 from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.step import BAD_INPUT, chain_step_batch, step_kernel
 from lpik.labels import step_label_table
 from lpik.limits import AccelerationLimits, LinearRows, build_problem, standard_limits
+from lpik.methods.assembly import is_diagonal
 from lpik.methods.lp2 import lp2
 from lpik.methods.lp2s import lp2s
 from lpik.methods.progress import StallWatch

@@ -2,8 +2,8 @@
 
 :class:`BatchArrays` holds a batch of LP2 problems of equal ``n``, ``m`` and
 number of extra rows as stacked, validated arrays (the input of
-:func:`lpik.fast.batch.lp2_batch`); :func:`kernel_args` gives one problem's
-arguments of :func:`lpik.fast.lp2_kernel.lp2_kernel`.
+:func:`lpik.fast.batch.lp2_batch`), each problem's arguments those of
+:func:`lpik.methods.singular.kernel_args`.
 """
 
 from __future__ import annotations
@@ -14,43 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from lpik.exceptions import InvalidProblemError
-from lpik.methods.assembly import criterion, reference_pull
+from lpik.methods.assembly import kernel_args
 from lpik.problem import Problem
 from lpik.tolerances import SYMMETRY_RTOL
 from lpik.types import FloatArray
-
-
-def is_diagonal(H: FloatArray) -> bool:
-    """Whether ``H`` is diagonal, so that the kernels need not factorise it."""
-    return bool(np.count_nonzero(H - np.diag(np.diagonal(H))) == 0)
-
-
-def kernel_args(problem: Problem) -> tuple:
-    """The arguments of the LP2 kernel for ``problem``, up to its outputs ``dq`` and ``lam``.
-
-    ``(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g)`` with
-    ``H`` and ``c = f`` the criterion (eq. 3), ``c_ref = Lambda (q_ref - q0)``
-    sec. 3.1's pull, the bounds on ``dq`` (eqs. 13-14) and the rows ``G dq <= g``.
-    """
-    H, c = criterion(problem)
-    c_ref = reference_pull(problem)
-    lower, upper = problem.step_bounds()[:2]
-    h_diag = is_diagonal(H)
-    g = problem.h - problem.G @ problem.q0
-    return (
-        problem.J,
-        problem.dw,
-        H,
-        h_diag,
-        c - c_ref,
-        c_ref,
-        lower,
-        upper,
-        problem.lam_min,
-        problem.lam_max,
-        problem.G,
-        g,
-    )
 
 
 @dataclass(frozen=True, eq=False)

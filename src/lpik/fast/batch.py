@@ -21,10 +21,11 @@ from numpy.typing import NDArray
 from lpik.check import task_residual
 from lpik.exceptions import InvalidProblemError
 from lpik.fast import lp2_kernel as K
-from lpik.fast.arrays import BatchArrays, kernel_args, raw_problem
+from lpik.fast.arrays import BatchArrays, raw_problem
 from lpik.fast.saturation import lp2s_kernel
 from lpik.highs import HighsSolver
 from lpik.labels import code_labels
+from lpik.methods.assembly import kernel_args
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result, safe_step

@@ -22,7 +22,10 @@ from numba import njit, prange
 
 from lpik.fast.linalg import cho_solve, cho_solve2, cholesky
 from lpik.fast.smoothing import add_smoothing
+from lpik.fast.twins import compiled_twin
 from lpik.fast.views import matrix
+from lpik.methods import singular
+from lpik.methods.singular import CHECK_FAILED, INFEASIBLE, OK, SINGULAR
 from lpik.tolerances import (
     EQUALITY_RTOL,
     FEASIBILITY_TOL,
@@ -33,11 +36,17 @@ from lpik.tolerances import (
     SLACK_TOL,
 )
 
-#: Kernel outcome codes.
-OK = 0
-INFEASIBLE = 1
-SINGULAR = 2  # K singular or ill-conditioned: the caller solves the LP with HiGHS
-CHECK_FAILED = 3
+__all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kernel"]
+
+#: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
+singular_core = compiled_twin(
+    singular.singular_core,
+    **{
+        name: njit(cache=True)(getattr(singular, name))
+        for name in ("_forward", "_backward", "_interval", "_eliminate", "_free_range", "_stop",
+                     "singularity_code")
+    },
+)  # fmt: skip
 
 
 def workspace_size(n: int, m: int, r: int) -> int:
@@ -68,11 +77,13 @@ def lp2_kernel(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g,
     """:func:`lp2_core` with its own workspace."""
     m, n = J.shape
     ws = np.empty(_workspace_size(n, m, G.shape[0]))
-    return lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws)
+    return lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws,
+                    True)  # fmt: skip
 
 
 @njit(cache=True)
-def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws):
+def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws,
+             singular_path):  # fmt: skip
     """LP2 by the ratio test (eqs. 15-18). Writes ``dq`` and ``lam``.
 
     The equality rows of eq. 18 give ``dq = a_q + p b_q`` and
@@ -97,13 +108,18 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         dq: Output step, (n,).
         lam: Output multipliers, (m,).
         ws: Float workspace of length :func:`workspace_size` (no allocation inside).
+        singular_path: Whether a singular or ill-conditioned Schur complement, or
+            an answer that fails the check, goes to the singular path (else the
+            outcome is :data:`SINGULAR` or :data:`CHECK_FAILED`).
 
     Returns:
         ``(code, p, binding, residual)``: the outcome (:data:`OK`,
         :data:`INFEASIBLE`, :data:`SINGULAR` or :data:`CHECK_FAILED`), the
         affine dexterity, the binding code (``-1``: none) and
         ``max |J dq - p dw|`` (0 unless the step was computed). On
-        :data:`INFEASIBLE`, ``dq`` holds the safe step.
+        :data:`INFEASIBLE`, ``dq`` holds the safe step. The singular path
+        (:func:`lpik.methods.singular.singular_core`, compiled) returns
+        :data:`SINGULAR` or :data:`CHECK_FAILED` where only HiGHS can decide.
     """
     m, n = J.shape
     r = G.shape[0]
@@ -190,13 +206,17 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             S[a, b] = s
             S[b, a] = s
     if not cholesky(S, LS):
-        return SINGULAR, 0.0, -1, 0.0
+        if not singular_path:
+            return SINGULAR, 0.0, -1, 0.0
+        return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
     dmax, dmin = 0.0, np.inf
     for a in range(m):
         dmax = max(dmax, LS[a, a])
         dmin = min(dmin, LS[a, a])
     if not dmin > 0.0 or dmax > math.sqrt(MAX_SCHUR_CONDITION) * dmin:
-        return SINGULAR, 0.0, -1, 0.0
+        if not singular_path:
+            return SINGULAR, 0.0, -1, 0.0
+        return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
     for a in range(m):
         s = 0.0
         for i in range(n):
@@ -312,7 +332,10 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     for i in range(n):
         qmax = max(qmax, abs(dq[i]))
     if not (worst <= FEASIBILITY_TOL and res <= EQUALITY_RTOL * max(1.0, jmax * qmax + wmax)):
-        return CHECK_FAILED, p, binding, res
+        # rounding beyond the check's tolerance: the singular path decides, as in lpik.methods.lp2
+        if not singular_path:
+            return CHECK_FAILED, p, binding, res
+        return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
     return OK, p, binding, res
 
 
@@ -370,6 +393,7 @@ def lp2_batch_kernel(
                 dq[b],
                 lam[b],
                 ws,
+                True,
             )
             codes[b] = code
             ps[b] = p

@@ -27,13 +27,14 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
     Returns:
         ``(code, p, binding, residual)`` of the pass with the largest ``p``. A
         first pass other than OK is returned as it is (``SINGULAR`` and
-        ``CHECK_FAILED`` send the caller to the numpy method); a later singular
-        pass ends the passes (no well-conditioned redundancy left), a later
-        ``CHECK_FAILED`` hands the step to the numpy method.
+        ``CHECK_FAILED`` send the caller to the numpy method); later passes
+        skip the singular path, as :func:`lpik.methods.lp2s.saturation_passes`
+        does: a later singular pass ends the passes (no well-conditioned
+        redundancy left), a later ``CHECK_FAILED`` hands the step to the numpy method.
     """
     m, n = J.shape
     code, p, binding, residual = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min,
-                                          lam_max, G, g, dq, lam, ws)  # fmt: skip
+                                          lam_max, G, g, dq, lam, ws, True)  # fmt: skip
     if code != OK:
         return code, p, binding, residual
     free = 0
@@ -52,7 +53,8 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
             upper[joint] = lower[joint]
         free -= 1
         code2, p2, binding2, residual2 = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper,
-                                                  lam_min, lam_max, G, g, dq, lam, ws)  # fmt: skip
+                                                  lam_min, lam_max, G, g, dq, lam, ws,
+                                                  False)  # fmt: skip
         if code2 == CHECK_FAILED:  # the numpy method decides
             return code2, p2, binding2, residual2
         if code2 != OK or p2 < p:  # keep the best pass (SINGULAR: no redundancy left)

@@ -19,8 +19,6 @@ states, in parallel.
 from __future__ import annotations
 
 import math
-import types
-from collections.abc import Callable
 from typing import Any
 
 from numba import njit, prange
@@ -31,6 +29,7 @@ from lpik.fast import layout as L
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
 from lpik.fast.lp2_kernel import INFEASIBLE, lp2_core
 from lpik.fast.saturation import lp2s_core
+from lpik.fast.twins import compiled_twin
 
 #: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
 BAD_INPUT = 4
@@ -39,23 +38,11 @@ BAD_INPUT = 4
 clamp_command = njit(cache=True)(_clamp_command)
 
 
-def _compiled_rule(rule: Callable[..., Any], **helpers: Any) -> Any:
-    """A rule of :mod:`lpik.bands`, compiled, with the helpers it calls bound to compiled twins.
-
-    The rule's own code object is compiled (not a copy of its source), so the
-    numpy layers and the fused step run the same rule.
-    """
-    scope = dict(rule.__globals__)
-    scope.update(helpers)
-    clone = types.FunctionType(rule.__code__, scope, rule.__name__, rule.__defaults__)
-    return njit(cache=True)(clone)
-
-
 _yield_to = njit(cache=True)(bands.yield_to)
-rate_band = _compiled_rule(
+rate_band = compiled_twin(
     bands.rate_band, yield_to=_yield_to, braking_room=njit(cache=True)(bands.braking_room)
 )
-stop_band = _compiled_rule(
+stop_band = compiled_twin(
     bands.stop_band,
     yield_to=_yield_to,
     outside_tolerance=njit(cache=True)(bands.outside_tolerance),
@@ -169,7 +156,7 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     else:
         code, p, binding, residual = lp2_core(
             J, dw, H, h_diag, c, c_ref, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq,
-            lam, ws,
+            lam, ws, True,
         )  # fmt: skip
     q = L.vector(state, L.Q)
     for i in range(n):

@@ -137,3 +137,36 @@ def unsolved_step(
     return safe_step(
         problem, method, status, conflict, solve_time=time.perf_counter() - start, path="highs"
     )
+
+
+def is_diagonal(H: FloatArray) -> bool:
+    """Whether ``H`` is diagonal, so that the kernels need not factorise it."""
+    return bool(np.count_nonzero(H - np.diag(np.diagonal(H))) == 0)
+
+
+def kernel_args(problem: Problem) -> tuple:
+    """The arguments of the LP2 kernel for ``problem``, up to its outputs ``dq`` and ``lam``.
+
+    ``(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g)`` with
+    ``H`` and ``c = f`` the criterion (eq. 3), ``c_ref = Lambda (q_ref - q0)``
+    sec. 3.1's pull, the bounds on ``dq`` (eqs. 13-14) and the rows ``G dq <= g``.
+    """
+    H, c = criterion(problem)
+    c_ref = reference_pull(problem)
+    lower, upper = problem.step_bounds()[:2]
+    h_diag = is_diagonal(H)
+    g = problem.h - problem.G @ problem.q0
+    return (
+        problem.J,
+        problem.dw,
+        H,
+        h_diag,
+        c - c_ref,
+        c_ref,
+        lower,
+        upper,
+        problem.lam_min,
+        problem.lam_max,
+        problem.G,
+        g,
+    )

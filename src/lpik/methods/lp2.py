@@ -18,7 +18,10 @@ intersection of these intervals with [0, 1]: a ratio test. That is an exact
 solution of the LP, not an approximation. When ``K`` is singular or
 ill-conditioned (the Schur complement ``S = J (M + Lambda)^-1 J^T`` has a
 condition number above :data:`MAX_SCHUR_CONDITION`, e.g. at a singularity of
-``J``), the general LP is solved by HiGHS instead.
+``J``), or the ratio test's answer fails its check, the singular path
+(:mod:`lpik.methods.singular`) solves the LP through ``J``'s singular value
+decomposition; the general LP (HiGHS) takes what that path cannot (more than
+two free multiplier directions under finite multiplier bounds).
 """
 
 from __future__ import annotations
@@ -29,9 +32,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from lpik.highs import HighsSolver
+from lpik.labels import code_labels
 from lpik.methods.assembly import (
     criterion,
     finish,
+    kernel_args,
     lp_over,
     reference_pull,
     solver_for,
@@ -39,6 +44,9 @@ from lpik.methods.assembly import (
 )
 from lpik.methods.duals import binding_from_duals
 from lpik.methods.kkt import AffineSolution, affine_solution, smoothing
+from lpik.methods.singular import INFEASIBLE as SINGULAR_INFEASIBLE
+from lpik.methods.singular import OK as SINGULAR_OK
+from lpik.methods.singular import singular_core
 from lpik.problem import Problem
 from lpik.result import CHECK_FAILED, INFEASIBLE, OPTIMAL, Result, safe_step
 from lpik.tolerances import (
@@ -51,7 +59,7 @@ from lpik.tolerances import (
 from lpik.types import FloatArray
 
 #: The ways :func:`lp2` can solve a step (its ``path`` argument).
-PATHS = ("auto", "ratio-test", "highs", "compiled")
+PATHS = ("auto", "ratio-test", "singular", "highs", "compiled")
 
 
 @dataclass(frozen=True)
@@ -123,10 +131,11 @@ def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = No
     Args:
         problem: The step to solve. ``M``, ``f``, ``Lambda``, ``q_ref`` weight the
             criterion; ``lam_min``/``lam_max`` bound the multipliers.
-        path: ``"auto"`` (ratio test when valid, else HiGHS), ``"ratio-test"``
-            (fails over to HiGHS all the same when ``K`` is singular), ``"highs"``
-            (the general LP, the reference) or ``"compiled"`` (the ratio test
-            compiled by numba, :mod:`lpik.fast`; HiGHS when ``K`` is singular).
+        path: ``"auto"`` (ratio test when valid, else the singular path, else
+            HiGHS; ``"ratio-test"`` is the same), ``"singular"`` (the singular
+            path first, :mod:`lpik.methods.singular`), ``"highs"`` (the general
+            LP, the reference) or ``"compiled"`` (the same order compiled by
+            numba, :mod:`lpik.fast`).
         solver: A :class:`~lpik.highs.HighsSolver` to reuse across steps.
 
     Returns:
@@ -147,12 +156,33 @@ def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = No
 
         return solve_compiled(problem, solver)
     # the HiGHS path needs the affine solution only to weigh sec. 3.1's pull
-    affine = affine_solution(problem) if path != "highs" or problem.Lambda.any() else None
-    if path != "highs" and affine is not None:
+    ratio = path in ("auto", "ratio-test")
+    affine = affine_solution(problem) if ratio or problem.Lambda.any() else None
+    if ratio and affine is not None:
         result = _ratio_path(problem, affine, start)
         if result.status != CHECK_FAILED:
             return result
+    if path != "highs":
+        result = _singular_path(problem, start)
+        if result is not None:
+            return result
     return _highs_path(problem, solver, start, smoothing(problem, affine))
+
+
+def _singular_path(problem: Problem, start: float) -> Result | None:
+    """LP2 by :func:`~lpik.methods.singular.singular_core`; ``None`` where HiGHS must decide."""
+    J, dw, H, _, c, c_ref, lower, upper, lam_min, lam_max, G, g = kernel_args(problem)
+    dq, lam = np.empty(problem.n), np.empty(problem.m)
+    code, p, binding, _ = singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G,
+                                        g, dq, lam)  # fmt: skip
+    if code not in (SINGULAR_OK, SINGULAR_INFEASIBLE):
+        return None
+    labels = code_labels(*problem.step_bounds()[2:], problem.m, problem.row_labels)
+    label = None if binding < 0 else labels[binding]
+    if code == SINGULAR_INFEASIBLE:
+        return safe_step(problem, "lp2", INFEASIBLE, label,
+                         solve_time=time.perf_counter() - start, path="singular")  # fmt: skip
+    return finish(problem, "lp2", dq, p, lam, label, start, "singular")
 
 
 def _ratio_path(problem: Problem, aff: AffineSolution, start: float) -> Result:

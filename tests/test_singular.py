@@ -1,0 +1,180 @@
+"""LP2's singular path (lpik.methods.singular): exact against HiGHS, the same compiled."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from core_strategies import examples
+from lpik.check import check_step
+from lpik.labels import SINGULARITY
+from lpik.methods.kkt import affine_solution
+from lpik.methods.lp2 import lp2
+from lpik.methods.singular import MAX_FREE_MULTIPLIERS
+from lpik.problem import Problem
+from lpik.result import INFEASIBLE, OPTIMAL
+
+
+def singular_problem(seed: int) -> Problem:
+    """A step whose J (m = 6, n = 7) has rank 3 to 5 (4 to 5 under multiplier bounds)."""
+    rng = np.random.default_rng(seed)
+    n, m = 7, 6
+    bounded = seed % 3 != 0  # multiplier bounds: at most MAX_FREE_MULTIPLIERS free directions
+    rank = int(rng.integers(m - MAX_FREE_MULTIPLIERS if bounded else 3, m))
+    J = rng.normal(size=(m, rank)) @ rng.normal(size=(rank, n))
+    in_range = seed % 2 == 0
+    dw = J @ rng.normal(size=n) * 1e-3 if in_range else rng.normal(size=m) * 1e-3
+    step = rng.uniform(5e-4, 3e-3, size=n)
+    kw: dict = {"dq_min": -step, "dq_max": step}
+    if bounded:
+        bound = rng.uniform(1e-4, 1e-2)
+        kw.update(lam_min=np.full(m, -bound), lam_max=np.full(m, bound))
+    if seed % 5 == 0:  # a pinned joint
+        kw["dq_min"][0] = kw["dq_max"][0] = rng.uniform(-1e-4, 1e-4)
+    if seed % 7 == 0:  # sec. 3.1's smoothing term
+        kw.update(Lambda=np.full(n, 0.1), q_ref=rng.normal(size=n) * 0.1)
+    if seed % 4 == 1:  # an extra row
+        kw.update(G=rng.normal(size=(1, n)), h=[1e-3])
+    return Problem(J=J, dw=dw, q0=np.zeros(n), q_min=-np.ones(n), q_max=np.ones(n), **kw)
+
+
+def assert_equals_highs(problem: Problem) -> None:
+    reference = lp2(problem, path="highs")
+    for path in ("auto", "compiled"):
+        res = lp2(problem, path=path)
+        assert res.path in ("singular", "compiled"), res
+        assert res.status == reference.status, (res, reference)
+        assert abs(res.p - reference.p) <= 1e-7, (res, reference)
+        np.testing.assert_allclose(res.q, reference.q, atol=1e-9, rtol=0)  # dq is unique
+        if res.status == OPTIMAL:
+            assert check_step(problem, res.dq, res.p, res.lam) is None
+            if res.p < 1.0:
+                assert res.binding == SINGULARITY or res.binding in reference_labels(problem)
+    auto, compiled = lp2(problem), lp2(problem, path="compiled")
+    assert_alike(auto, compiled)
+
+
+def assert_alike(a, b) -> None:
+    """The numpy and the compiled singular path: the same code, to LAPACK's rounding."""
+    assert (a.status, a.binding) == (b.status, b.binding)
+    assert abs(a.p - b.p) <= 1e-12
+    np.testing.assert_allclose(a.q, b.q, atol=1e-12, rtol=0)
+
+
+def reference_labels(problem: Problem) -> set[str]:
+    lower, upper = problem.step_bounds()[2:]
+    lam_lo, lam_hi = problem.multiplier_labels()
+    return {*lower, *upper, *lam_lo, *lam_hi, *problem.row_labels}
+
+
+@pytest.mark.parametrize("seed", range(120))
+def test_the_singular_path_equals_highs(seed: int) -> None:
+    pytest.importorskip("numba")
+    problem = singular_problem(seed)
+    assert affine_solution(problem) is None  # K is singular: the ratio test cannot answer
+    assert_equals_highs(problem)
+
+
+@settings(max_examples=examples(60), deadline=None)
+@given(
+    # J's rows are 0 or of order 1 (a row of order 1e-10 makes HiGHS's answer a tolerance's)
+    heading=st.one_of(st.just(0.0), st.floats(0.01, 3.0), st.floats(-3.0, -0.01)),
+    stretch=st.one_of(st.just(0.0), st.floats(0.0, 1e-7)),
+    # each component 0 or above the tolerances of the paths (HiGHS's and the singular path's)
+    target=st.tuples(*[st.one_of(st.just(0.0), st.floats(-0.01, 0.01))] * 2),
+    bound=st.one_of(st.none(), st.floats(1e-4, 10.0)),
+)
+def test_the_stretched_planar_arm_equals_highs(heading, stretch, target, bound) -> None:
+    """At the edge singularity (all relative angles 0) the answer is HiGHS's; within a hair
+    of it a valid step of the nearby singular J (lpik.methods.singular), the same compiled."""
+    pytest.importorskip("numba")
+    from lpik.robots.planar import planar_arm
+
+    arm = planar_arm([1.0, 1.0, 1.0, 1.0], qd_max=1.0)
+    q0 = np.array([heading, stretch, -stretch, 0.0])
+    lam = {} if bound is None else {"lam_min": [-bound] * 2, "lam_max": [bound] * 2}
+    problem = Problem(J=arm.jacobian(q0), dw=np.array(target), q0=q0, dq_min=np.full(4, -0.01),
+                      dq_max=np.full(4, 0.01), **lam)  # fmt: skip
+    if affine_solution(problem) is not None:
+        return  # regular enough for the ratio test
+    # the command's part that J cannot produce (along the arm): 0, or above the tolerances
+    out_of_range = abs(target[0] * np.cos(heading) + target[1] * np.sin(heading))
+    if stretch == 0.0 and (out_of_range == 0.0 or out_of_range > 1e-6):
+        assert_equals_highs(problem)
+    else:
+        assert_valid_and_compiled_alike(problem)
+
+
+def assert_valid_and_compiled_alike(problem: Problem) -> None:
+    res, compiled = lp2(problem), lp2(problem, path="compiled")
+    assert res.path == "singular" and compiled.path == "compiled"
+    assert_alike(res, compiled)
+    if res.status == OPTIMAL:
+        assert 0.0 <= res.p <= 1.0 and check_step(problem, res.dq, res.p, res.lam) is None
+
+
+def test_a_command_out_of_range_holds_p_at_zero_and_names_the_singularity() -> None:
+    J = np.array([[1.0, 1.0, 1.0], [0.0, 0.0, 0.0]])  # y cannot move
+    problem = Problem(J=J, dw=[0.01, 0.01], q0=np.zeros(3), dq_min=-np.ones(3), dq_max=np.ones(3))
+    res = lp2(problem)
+    assert (res.path, res.status, res.p, res.binding) == ("singular", OPTIMAL, 0.0, SINGULARITY)
+    along = lp2(Problem(J=J, dw=[0.01, 0.0], q0=np.zeros(3), dq_min=-np.ones(3),
+                        dq_max=np.ones(3)))  # fmt: skip
+    assert (along.path, along.p, along.binding) == ("singular", 1.0, None)
+    np.testing.assert_allclose(along.dq, np.full(3, 0.01 / 3))  # the least-norm step
+
+
+def test_a_pinned_joint_whose_motion_is_out_of_range_is_infeasible() -> None:
+    J = np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    # joint 3 is pinned at dq = 0.01 but its motion (y) is not commanded: no p can hold it
+    problem = Problem(J=J, dw=[0.01, 0.0], q0=np.zeros(3), dq_min=[-1, -1, 0.01],
+                      dq_max=[1, 1, 0.01])  # fmt: skip
+    res = lp2(problem)
+    reference = lp2(problem, path="highs")
+    assert res.status == reference.status == INFEASIBLE
+    assert res.binding == SINGULARITY
+
+
+def test_many_free_multiplier_directions_under_bounds_go_to_highs() -> None:
+    n, m = 5, 4  # J = 0: every multiplier direction is free
+    problem = Problem(J=np.zeros((m, n)), dw=np.zeros(m), q0=np.zeros(n),
+                      lam_min=np.full(m, -1.0), lam_max=np.full(m, 1.0))  # fmt: skip
+    assert m > MAX_FREE_MULTIPLIERS
+    assert lp2(problem).path == "highs"
+    unbounded = Problem(J=np.zeros((m, n)), dw=np.zeros(m), q0=np.zeros(n))
+    assert lp2(unbounded).path == "singular" and lp2(unbounded).p == 1.0
+
+
+def test_the_controller_takes_the_panda_singularity_compiled() -> None:
+    """The Panda stretched out (joint 4 at its singular angle, then exactly singular J):
+    every step compiled, the numpy singular path's answer; HiGHS's where J is singular."""
+    pytest.importorskip("numba")
+    from lpik.control.controller import Lp2Controller
+    from lpik.robots.registry import home_configuration, load_robot
+
+    model = load_robot("panda")
+    q = home_configuration("panda")
+    q[3] = -0.467002424  # sigma_min(J) ~ 1e-10
+    rng = np.random.default_rng(3)
+    for bound in (None, 0.1):
+        controller = Lp2Controller(model, dt=1e-3, lambda_bound=bound)
+        for _ in range(20):
+            target = model.pose(q)
+            target[:3, 3] += rng.normal(size=3) * 0.05
+            res = controller.step(q, target)
+            assert res.path == "compiled"
+            problem = controller.problem(q, target)
+            assert affine_solution(problem) is None
+            numpy = lp2(problem)
+            assert (numpy.path, numpy.status, numpy.binding) == ("singular", res.status,
+                                                                 res.binding)  # fmt: skip
+            # J's rounding (fused kinematics against numpy's) times J's condition number
+            assert abs(res.p - numpy.p) <= 1e-6
+            np.testing.assert_allclose(res.q, numpy.q, atol=1e-7, rtol=0)
+            # the same J made exactly singular: HiGHS's answer
+            u, s, vt = np.linalg.svd(problem.J)
+            s[-1] = 0.0
+            exact = problem.replace(J=(u[:, :6] * s) @ vt[:6])
+            assert_equals_highs(exact)
