@@ -19,7 +19,7 @@ def controller_run(setup: Setup) -> tuple[np.ndarray, np.ndarray, list[str]]:
         path.append(q)
         result = controller.step(q, setup.target, q_prev)
         p.append(result.p if result.moved else 0.0)
-        binding.append(result.binding or "")
+        binding.append(result.binding)
         q_prev, q = q, result.q
     return np.array(path), np.array(p), binding
 

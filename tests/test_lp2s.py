@@ -102,7 +102,7 @@ def test_the_controller_saturates_as_simulate_does(robot: str) -> None:
         assert res.method == "lp2s"
         expected = log.q[k + 1] if k + 1 < setup.steps else log.q_end
         np.testing.assert_allclose(res.q, expected, rtol=0, atol=1e-9)
-        assert (res.binding or "") == log.binding[k]
+        assert res.binding == log.binding[k]
         prev, q = q, res.q
 
 

@@ -115,7 +115,7 @@ def test_a_start_past_an_end_stop_recovers_on_every_path(
         res = controller.step(q, target, prev)
         np.testing.assert_allclose(res.q, log.q[k + 1] if k + 1 < steps else log.q_end,
                                    rtol=0, atol=1e-12)  # fmt: skip
-        assert (res.status, res.binding or "") == (log.status[k], log.binding[k]), k
+        assert (res.status, res.binding) == (log.status[k], log.binding[k]), k
         prev, q = q, res.q
     past = np.array([outside_by(model, q)[joint] for q in [*log.q, log.q_end]])
     assert np.all(np.diff(past) <= 1e-15)  # never further out

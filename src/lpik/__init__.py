@@ -3,7 +3,8 @@
 Every step reports the affine dexterity ``p`` (how much of the command the
 robot follows, 0..1) and the limit that stops it. What a user needs is here:
 
-- one step: :class:`Problem`, :func:`solve`, :class:`Result`, with limits as data
+- one step: :class:`Problem`, :func:`solve`, :class:`Result` (its binding limit a
+  :class:`Binding`), with limits as data
   (:class:`EndStops`, :class:`VelocityLimits`, :class:`AccelerationLimits`,
   :class:`MultiplierBounds`, :class:`LinearRows`) stacked by :func:`build_problem`;
 - robots: :func:`load_robot` (bundled arms), :func:`load_urdf` and :func:`make_task`
@@ -19,6 +20,7 @@ from typing import Any
 
 from lpik.control import ClampedTarget, SimulationLog, simulate
 from lpik.exceptions import InvalidProblemError, LpikError, MissingBackendError
+from lpik.labels import Binding
 from lpik.limits import (
     AccelerationLimits,
     EndStops,
@@ -49,6 +51,7 @@ __all__ = [
     "AccelerationLimits",
     "BatchArrays",
     "BatchResult",
+    "Binding",
     "ClampedTarget",
     "EndStops",
     "InvalidProblemError",

@@ -53,6 +53,7 @@ class Piece:
     G: FloatArray | None = None
     h: FloatArray | None = None
     row_labels: tuple[str, ...] = ()
+    joint_names: tuple[str, ...] = ()
 
 
 class Limit(Protocol):
@@ -72,14 +73,21 @@ def _vec(name: str, value: Any) -> FloatArray:
 
 @dataclass(frozen=True, eq=False)
 class EndStops:
-    """Mechanical end-stops ``q_min <= q <= q_max`` (eq. 13) [rad or m]."""
+    """Mechanical end-stops ``q_min <= q <= q_max`` (eq. 13) [rad or m].
+
+    ``joint_names`` (optional) name the joints in binding labels when
+    :func:`build_problem` is given no names of its own; :func:`standard_limits`
+    passes the model's.
+    """
 
     q_min: Any
     q_max: Any
+    joint_names: tuple[str, ...] = ()
 
     def apply(self, context: StepContext) -> Piece:
         """Absolute bounds on ``q``."""
-        return Piece(q_min=_vec("q_min", self.q_min), q_max=_vec("q_max", self.q_max))
+        q_min, q_max = _vec("q_min", self.q_min), _vec("q_max", self.q_max)
+        return Piece(q_min=q_min, q_max=q_max, joint_names=tuple(self.joint_names))
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,18 +159,24 @@ class MultiplierBounds:
 
 @dataclass(frozen=True, eq=False)
 class LinearRows:
-    """Extra rows ``G q <= h`` with one label each (e.g. obstacle half-spaces)."""
+    """Extra rows ``G q <= h`` with one label each (e.g. obstacle half-spaces).
+
+    ``kind`` is what a binding row is called in its :class:`~lpik.labels.Binding`:
+    ``"row"``, or ``"collision"`` for distance rows.
+    """
 
     G: Any
     h: Any
     labels: tuple[str, ...] = field(default=())
+    kind: str = "row"
 
     def apply(self, context: StepContext) -> Piece:
         """The rows as they are."""
         G = np.atleast_2d(np.asarray(self.G, dtype=np.float64))
         h = _vec("h", self.h)
         names = self.labels or labels.default_row_labels(h.size)
-        return Piece(G=G, h=h, row_labels=tuple(names))
+        rows = tuple(labels.row_label(j, v, self.kind) for j, v in enumerate(names))
+        return Piece(G=G, h=h, row_labels=rows)
 
 
 def standard_limits(
@@ -175,7 +189,7 @@ def standard_limits(
         velocity: Whether the model's ``qd_max`` bounds each step (eq. 14).
         lambda_bound: Symmetric bound on every multiplier (sec. 3.2); none when None.
     """
-    limits: list[Limit] = [EndStops(model.q_min, model.q_max)]
+    limits: list[Limit] = [EndStops(model.q_min, model.q_max, tuple(model.joint_names))]
     if velocity and np.isfinite(model.qd_max).any():
         limits.append(VelocityLimits(model.qd_max))
     if lambda_bound is not None:
@@ -202,7 +216,10 @@ def build_problem(
         limits: The limits in force.
         dt: Control period [s] (> 0).
         q_prev: Joint coordinates one period ago, for acceleration limits.
-        **weights: ``M``, ``f``, ``Lambda``, ``q_ref``, ``k``, ``joint_names`` of the problem.
+        **weights: ``M``, ``f``, ``Lambda``, ``q_ref``, ``k`` of the problem, and
+            ``joint_names``, the names binding labels use (default: the names an
+            :class:`EndStops` carries, as :func:`standard_limits` gives them, else
+            ``"joint 1"`` ... ``"joint n"``).
 
     Raises:
         ValueError: Naming the bad argument or field.
@@ -221,8 +238,10 @@ def build_problem(
     lo_kind, hi_kind = [labels.VELOCITY_LIMIT] * n, [labels.VELOCITY_LIMIT] * n
     lam_min, lam_max = np.full(m, -np.inf), np.full(m, np.inf)
     rows, rhs, row_labels = [], [], []
+    named: tuple[str, ...] = ()
     for limit in limits:
         piece = limit.apply(context)
+        named = named or piece.joint_names
         if piece.q_min is not None:
             q_min = np.maximum(q_min, np.broadcast_to(piece.q_min, (n,)))
         if piece.q_max is not None:
@@ -247,6 +266,8 @@ def build_problem(
             rows.append(piece.G)
             rhs.append(piece.h)
             row_labels.extend(piece.row_labels)
+    if not weights.get("joint_names") and len(named) == n:
+        weights = {**weights, "joint_names": named}
     names = weights.get("joint_names") or labels.default_joint_names(n)
     last = np.zeros(n) if context.q_prev is None else context.q0 - context.q_prev
     outside: list[str] = []
@@ -304,4 +325,4 @@ def _rate_bands(
         if verdict != bands.MET:
             side = "upper" if verdict == bands.UPPER_YIELDED else "lower"
             kind = hi_kind[i] if verdict == bands.UPPER_YIELDED else lo_kind[i]
-            outside.append(labels.bound_label(str(names[i]), side, kind))
+            outside.append(labels.bound_label(str(names[i]), side, kind, i).outside())

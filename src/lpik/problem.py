@@ -246,7 +246,7 @@ class Problem:
         outside = () if self.outside_limits is None else self.outside_limits
         if isinstance(outside, str):
             outside = (outside,)
-        set_(self, "outside_limits", tuple(str(v) for v in outside))
+        set_(self, "outside_limits", tuple(_outside_label(v) for v in outside))
 
     def _init_rows(self, n: int) -> None:
         set_ = object.__setattr__
@@ -275,8 +275,11 @@ class Problem:
         r = G.shape[0]
         set_(self, "G", G)
         set_(self, "h", _vector("h", self.h, r))
-        default = labels.default_row_labels(r)
-        set_(self, "row_labels", _labels("row_labels", self.row_labels, r, None) or default)
+        given = self.row_labels
+        names = _labels("row_labels", given, r, None) or labels.default_row_labels(r)
+        if given is not None and not isinstance(given, str):  # keep a row's kind (collision)
+            names = tuple(g if isinstance(g, labels.Binding) else v for g, v in zip(given, names))
+        set_(self, "row_labels", tuple(labels.row_label(j, v) for j, v in enumerate(names)))
 
     @property
     def n(self) -> int:
@@ -314,11 +317,11 @@ class Problem:
                 lower[i], upper[i] = lo, hi
                 lo_kind = labels.END_STOP if lo_stop else self.dq_min_kind[i]
                 hi_kind = labels.END_STOP if hi_stop else self.dq_max_kind[i]
-                lower_labels.append(labels.bound_label(name, "lower", lo_kind))
-                upper_labels.append(labels.bound_label(name, "upper", hi_kind))
+                lower_labels.append(labels.bound_label(name, "lower", lo_kind, i))
+                upper_labels.append(labels.bound_label(name, "upper", hi_kind, i))
                 if out:
                     side = "upper" if out > 0 else "lower"
-                    outside.append(labels.bound_label(name, side, labels.END_STOP))
+                    outside.append(labels.bound_label(name, side, labels.END_STOP, i).outside())
             self._cache["bounds"] = (lower, upper, tuple(lower_labels), tuple(upper_labels))
             self._cache["outside"] = tuple(outside)
         return self._cache["bounds"]  # type: ignore[no-any-return]
@@ -355,6 +358,14 @@ class Problem:
         }
         fields.update(changes)
         return Problem(**fields)
+
+
+def _outside_label(value: Any) -> str:
+    """A limit the state is outside of, as a :class:`~lpik.labels.Binding` marked recovering.
+
+    Plain words (a caller's own) stay words.
+    """
+    return value.outside() if isinstance(value, labels.Binding) else str(value)
 
 
 def _check_ordered(lo_name: str, lo: FloatArray, hi_name: str, hi: FloatArray) -> None:

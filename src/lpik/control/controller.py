@@ -348,7 +348,9 @@ class Lp2Controller:
                     "p": out.item(self._p) if moved else 0.0,
                     "lam": out[self._lam] if moved else None,
                     "status": RECOVERING if outside >= 0 else INFEASIBLE,
-                    "binding": self._labels[label],
+                    "binding": self._labels[label].outside()
+                    if outside >= 0
+                    else self._labels[label],
                     "method": self.method,
                     "solve_time": perf_counter() - start,
                     "residual": out.item(self._residual),

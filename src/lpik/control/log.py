@@ -71,7 +71,8 @@ class SimulationLog:
         lam: Lagrange multipliers of each step, shape (N, m); NaN when the
             method has none or the step was a safe step.
         status: Status word of each step, shape (N,).
-        binding: Binding (or broken) limit of each step, ``""`` when none, shape (N,).
+        binding: Binding (or broken) limit of each step, a :class:`~lpik.labels.Binding`
+            or ``None`` when none (the CSV writes an empty field), shape (N,).
         path: How each step was computed (``"ratio-test"``, ``"highs"``, ...), shape (N,).
         clamped: True where a classical step was clamped to the end-stops, shape (N,).
         solve_time: Wall time of each step's method [s], shape (N,).
@@ -90,7 +91,7 @@ class SimulationLog:
     p: FloatArray
     lam: FloatArray
     status: NDArray[np.str_]
-    binding: NDArray[np.str_]
+    binding: NDArray[np.object_]
     path: NDArray[np.str_]
     clamped: NDArray[np.bool_]
     solve_time: FloatArray
@@ -181,7 +182,7 @@ class SimulationLog:
                     [
                         *(f"{v:.12g}" for v in numbers),
                         self.status[k],
-                        self.binding[k],
+                        self.binding[k] or "",
                         self.path[k],
                         int(self.clamped[k]),
                         f"{self.solve_time[k] * 1e6:.1f}",

@@ -31,6 +31,7 @@ from functools import partial
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from lpik.control.command import CommandLaw
 from lpik.control.log import SimulationLog
@@ -136,7 +137,7 @@ def simulate(
         rows["p"].append(result.p if result.moved else 0.0)
         rows["lam"].append(_nan_if_none(result.lam if result.moved else None, m))
         rows["st"].append(result.status)
-        rows["bd"].append(result.binding or "")
+        rows["bd"].append(result.binding)
         rows["pa"].append(result.path)
         rows["cl"].append(clamped)
         q_prev, q = q, q_next
@@ -151,7 +152,7 @@ def simulate(
         p=np.array(rows["p"], dtype=np.float64),
         lam=np.array(rows["lam"]).reshape(steps, m),
         status=np.array(rows["st"], dtype=str),
-        binding=np.array(rows["bd"], dtype=str),
+        binding=_object_array(rows["bd"]),
         path=np.array(rows["pa"], dtype=str),
         clamped=np.array(rows["cl"], dtype=bool),
         solve_time=times,
@@ -161,6 +162,13 @@ def simulate(
         name=name,
         warm_start=warm_start,
     )
+
+
+def _object_array(values: list[Any]) -> NDArray[np.object_]:
+    """``values`` as a 1-D object array (each a :class:`~lpik.labels.Binding` or ``None``)."""
+    out = np.empty(len(values), dtype=object)
+    out[:] = values
+    return out
 
 
 def _applied(problem: Problem, result: Result) -> tuple[FloatArray, bool]:

@@ -171,7 +171,8 @@ def dexterity_figure(
 
 def shade_binding(ax: Axes, log: SimulationLog) -> None:
     """Shade the time spans where one limit binds, labelled with its name (most frequent first)."""
-    names, counts = np.unique(log.binding[log.binding != ""], return_counts=True)
+    named = np.array([b is not None for b in log.binding], dtype=bool)
+    names, counts = np.unique(log.binding[named].astype(str), return_counts=True)
     colors = ["tab:orange", "tab:green", "tab:purple", "tab:brown"]
     for color, name in zip(colors, names[np.argsort(-counts)][: len(colors)]):
         on = log.binding == name
