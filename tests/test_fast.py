@@ -473,7 +473,7 @@ def test_controller_rejects_bad_input() -> None:
             controller.step(*args)
     with pytest.raises(ValueError, match="dt"):
         Lp2Controller(planar_arm([1, 1, 1]), dt=0.0)
-    with pytest.raises(ValueError, match="model: the compiled path supports tasks over a Serial"):
+    with pytest.raises(ValueError, match="model: expected a task model"):
         Lp2Controller(object(), dt=0.01)
     pose = Lp2Controller(_panda("pose"), dt=0.001)
     for target in (np.ones((2, 2)), np.ones(4), np.eye(4)[:3], np.full((4, 4), np.nan)):

@@ -26,7 +26,7 @@ LAYERS = (
     ("lpik.robots",),
     ("lpik.control",),
     ("lpik.fast",),
-    ("lpik.control.controller", "lpik.control.inputs"),
+    ("lpik.control.controller", "lpik.control.inputs", "lpik.control.backend_step"),
     ("lpik.paper",),
     ("lpik.cli",),
     ("lpik",),

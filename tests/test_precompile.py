@@ -13,6 +13,7 @@ from lpik.fast.precompile import compile_kernels  # noqa: E402
 
 NAMES = [
     "fused step, serial chain",
+    "fused step, a backend's kinematics",
     "fused step batch, serial chain",
     'LP2 ratio test (lp2, path="compiled")',
     "LP2 batch (lp2_batch)",

@@ -66,9 +66,11 @@ def test_adapter_errors_name_the_body() -> None:
         MujocoChain(model, "nope")
     with pytest.raises(ValueError, match="do not form a chain"):
         MujocoChain(model, "panda_leftfinger", "panda_rightfinger")
-    with pytest.raises(ValueError, match="qd_max: expected shape"):
+    with pytest.raises(ValueError, match="qd_max: expected one number or shape"):
         MujocoChain(model, "panda_link8", qd_max=np.ones(2))
-    assert MujocoChain(model, "panda_link8").qd_max[0] == np.inf
+    with pytest.raises(ValueError, match="velocity limits are needed .*panda_joint1"):
+        MujocoChain(model, "panda_link8")  # MuJoCo keeps none: never a silent inf
+    assert MujocoChain(model, "panda_link8", qd_max=np.inf).qd_max[0] == np.inf
 
 
 def test_missing_mujoco_raises_the_install_command(monkeypatch: pytest.MonkeyPatch) -> None:

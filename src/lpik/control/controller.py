@@ -20,6 +20,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
+from lpik.control.backend_step import step_functions
 from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, clamp_command, task_rows
 from lpik.control.inputs import (
     TARGET_SHAPES,
@@ -37,7 +38,7 @@ from lpik.fast import layout
 from lpik.fast.batch import BatchResult
 from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
-from lpik.fast.step import BAD_INPUT, chain_step_batch, step_kernel
+from lpik.fast.step import BAD_INPUT
 from lpik.labels import step_label_table
 from lpik.limits import AccelerationLimits, LinearRows, build_problem, standard_limits
 from lpik.methods.assembly import is_diagonal
@@ -47,6 +48,7 @@ from lpik.methods.progress import StallWatch
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
 from lpik.robots.base import TaskModel
+from lpik.robots.tasks import as_task_model
 from lpik.types import FloatArray
 
 
@@ -54,9 +56,11 @@ class Lp2Controller:
     """Compiled LP2 steps for one task model with fixed limits and weights.
 
     Args:
-        model: A task of :mod:`lpik.robots.tasks` over a
-            :class:`~lpik.robots.chain.SerialChain`: :func:`~lpik.robots.planar.planar_arm`,
-            :func:`~lpik.robots.registry.load_robot`, :func:`~lpik.robots.urdf.load_urdf`.
+        model: A task of :mod:`lpik.robots.tasks` (:func:`~lpik.robots.planar.planar_arm`,
+            :func:`~lpik.robots.registry.load_robot`, ``make_task(load_urdf(...))``), or
+            a chain alone (its pose task, :func:`~lpik.robots.tasks.as_task_model`). Over a
+            :class:`~lpik.robots.chain.SerialChain` the step is one compiled call; over
+            Pinocchio or MuJoCo their kinematics run first (:mod:`lpik.control.backend_step`).
         dt: Control period [s].
         v_max: Largest commanded linear speed of the task point [m/s].
         w_max: Largest commanded angular speed of the task frame [rad/s].
@@ -100,7 +104,7 @@ class Lp2Controller:
         saturate: bool = False,
         on_stall: int | None = None,
     ) -> None:
-        self.model = model
+        self.model = model = as_task_model(model)
         self.dt = positive_number("dt", dt)
         self.v_max, self.w_max = positive_number("v_max", v_max), positive_number("w_max", w_max)
         if not isinstance(velocity_limits, bool | np.bool_):
@@ -155,7 +159,7 @@ class Lp2Controller:
         )  # fmt: skip
         #: The fields of an optimal compiled step that are the same on every step.
         self._optimal_fields = {"status": OPTIMAL, "method": self.method, "path": "compiled"}
-        self._kernel = step_kernel()
+        self._kernel, self._batch = step_functions(model, self._state)
         self._out = self._state[layout.out_range(self._state)]  # the kernel writes here
         fields = layout.out_fields(self._state)
         self._q, self._dq, self._lam = fields["q"], fields["dq"], fields["lam"]
@@ -315,7 +319,7 @@ class Lp2Controller:
         T = stacked_rows("targets", targets, TARGET_SHAPES, B)
         outs = np.empty((B, self._out.shape[0]))
         codes = np.empty(B, dtype=np.int64)
-        chain_step_batch(self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads())
+        self._batch(self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads())
         if (codes == BAD_INPUT).any():  # every row was checked: a bug if it happens
             raise ValueError(f"row {int(np.argmax(codes == BAD_INPUT))}: rejected by the step")
         q, dq = outs[:, self._q].copy(), outs[:, self._dq].copy()

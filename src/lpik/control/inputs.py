@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from lpik.control.backend_step import placeholder_chain
 from lpik.robots.base import TaskModel
 from lpik.robots.chain import SerialChain
 from lpik.robots.rotations import check_rotation, rotation_defects
@@ -95,17 +96,22 @@ def row_names(value: Any) -> tuple[str, ...]:
 def chain_arrays(model: TaskModel) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """The model's chain as the compiled kinematics' arrays: origins, axes, revolute, tip.
 
-    See :meth:`lpik.robots.chain.SerialChain.arrays`; ``revolute`` as floats.
+    See :meth:`lpik.robots.chain.SerialChain.arrays`; ``revolute`` as floats. A
+    task over another backend (Pinocchio, MuJoCo) gets placeholders: its own
+    kinematics run each step (:mod:`lpik.control.backend_step`).
 
     Raises:
-        ValueError: For a model that is not a task over a :class:`~lpik.robots.chain.SerialChain`.
+        ValueError: For a model that is not a task of :mod:`lpik.robots.tasks`.
     """
     chain = getattr(model, "kinematics", None)
-    if not isinstance(chain, SerialChain) or getattr(model, "row_names", None) is None:
+    if chain is None or getattr(model, "row_names", None) is None:
         raise ValueError(
-            "model: the compiled path supports tasks over a SerialChain (planar_arm, "
-            f"load_robot, load_urdf), not {type(model).__name__}"
+            "model: Lp2Controller takes a task of lpik.robots.tasks (PoseTask, PositionTask, "
+            "OrientationTask, make_task) over a SerialChain, a PinocchioChain or a MujocoChain, "
+            f"or such a chain itself (a pose task); got {type(model).__name__}"
         )
+    if not isinstance(chain, SerialChain):
+        return placeholder_chain(model.n_joints)
     origins, axes, revolute, tip = chain.arrays()
     return origins, axes, revolute.astype(np.float64), tip
 

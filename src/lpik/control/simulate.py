@@ -42,6 +42,7 @@ from lpik.methods.registry import get_method
 from lpik.problem import Problem
 from lpik.result import VIOLATES_LIMITS, Result
 from lpik.robots.base import TaskModel
+from lpik.robots.tasks import as_task_model
 from lpik.types import FloatArray
 
 #: Called after every step with ``(steps done, steps in all)``.
@@ -81,7 +82,8 @@ def simulate(
     """Run the closed loop for ``steps`` control steps and return the log.
 
     Args:
-        model: The task model (pose, difference, jacobian, position).
+        model: The task model (pose, difference, jacobian, position), or a chain
+            alone (its pose task: :func:`lpik.robots.tasks.as_task_model`).
         command: The command law (e.g. :class:`~lpik.control.command.ClampedTarget`).
         q0: Start configuration, shape (n,) [rad or m].
         steps: Number of control steps (> 0).
@@ -112,6 +114,7 @@ def simulate(
         raise ValueError(f"steps: must be a whole number > 0, got {steps!r}")
     if not (isinstance(dt, int | float) and np.isfinite(dt) and dt > 0):
         raise ValueError(f"dt: must be a finite number > 0, got {dt!r}")
+    model = as_task_model(model)  # a chain alone: its pose task
     q = np.array(q0, dtype=np.float64)
     n = model.n_joints
     if q.shape != (n,) or not np.isfinite(q).all():

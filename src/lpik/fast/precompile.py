@@ -74,6 +74,8 @@ def compile_kernels() -> list[KernelLoad]:
 
     # The step kernel compiles (or loads) when step_kernel first asks for it.
     ready("fused step, serial chain", step.step_kernel, step.loaded_step_kernel())
+    ready("fused step, a backend's kinematics", step.task_step_kernel,
+          step.loaded_task_step_kernel())  # fmt: skip
     panda = load_robot("panda", task="pose")
     q = home_configuration("panda")
     pose = panda.pose(q)

@@ -203,17 +203,37 @@ def chain_step(state, q0, q_prev, target):
     Returns:
         The LP2 kernel's outcome code (:mod:`lpik.fast.lp2_kernel`), or :data:`BAD_INPUT`.
     """
+    n = int(state[L.N])
+    if not _finite_joints(q0, q_prev, n):
+        return BAD_INPUT
+    chain_fk_jacobian(
+        L.tensor_at(state, L.ORIGINS, n, 4, 4), L.matrix_at(state, L.AXES, n, 3),
+        L.vector(state, L.REVOLUTE), L.matrix_at(state, L.TIP, 4, 4), q0,
+        L.matrix_at(state, L.FRAME, 4, 4), L.matrix_at(state, L.JACOBIAN6, 6, n),
+        L.tensor_at(state, L.JOINTS, 2, n, 3),
+    )  # fmt: skip
+    return task_step(state, q0, q_prev, target)
+
+
+@njit(cache=True)
+def task_step(state, q0, q_prev, target):
+    """The fused step once the kinematics are known: command (eq. 2), limits and LP2.
+
+    Reads the task frame at ``q0`` from the ``frame`` block (4, 4) and the
+    world-aligned Jacobian from ``jacobian6`` (6, n), as :func:`chain_step`
+    leaves them, or as a kinematics backend (Pinocchio, MuJoCo) writes them
+    (:mod:`lpik.control.backend_step`); then the pose error to the target,
+    the task rows, the clamped command, the bounds and LP2.
+
+    Returns:
+        The LP2 kernel's outcome code, or :data:`BAD_INPUT`.
+    """
     n, m = int(state[L.N]), int(state[L.M])
     goal = L.matrix_at(state, L.GOAL, 4, 4)
     if not (_finite_joints(q0, q_prev, n) and target_pose(target, goal)):
         return BAD_INPUT
     T = L.matrix_at(state, L.FRAME, 4, 4)
     J6 = L.matrix_at(state, L.JACOBIAN6, 6, n)
-    chain_fk_jacobian(
-        L.tensor_at(state, L.ORIGINS, n, 4, 4), L.matrix_at(state, L.AXES, n, 3),
-        L.vector(state, L.REVOLUTE), L.matrix_at(state, L.TIP, 4, 4), q0, T, J6,
-        L.tensor_at(state, L.JOINTS, 2, n, 3),
-    )  # fmt: skip
     e6 = L.vector(state, L.ERROR6)
     pose_error(T, goal, e6, L.vector(state, L.LOG_SCRATCH))
     rows = L.vector(state, L.ROW_INDEX)
@@ -249,6 +269,21 @@ def step_kernel() -> Any:
     if not _compiled_step:
         _compiled_step.append(njit(list(STEP_SIGNATURES), cache=True)(chain_step))
     return _compiled_step[0]
+
+
+_compiled_task_step: list[Any] = []
+
+
+def task_step_kernel() -> Any:
+    """The compiled :func:`task_step`, for :data:`STEP_SIGNATURES` only (as :func:`step_kernel`)."""
+    if not _compiled_task_step:
+        _compiled_task_step.append(njit(list(STEP_SIGNATURES), cache=True)(task_step.py_func))
+    return _compiled_task_step[0]
+
+
+def loaded_task_step_kernel() -> Any:
+    """The compiled task step if :func:`task_step_kernel` has readied it, else None."""
+    return _compiled_task_step[0] if _compiled_task_step else None
 
 
 def loaded_step_kernel() -> Any:

@@ -14,7 +14,10 @@ tasks it is ``b - a``, for orientations a log map.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
 
 from lpik.types import FloatArray
 
@@ -56,3 +59,28 @@ class TaskModel(Protocol):
     def position(self, q: FloatArray) -> FloatArray:
         """Cartesian position of the task point at ``q``: (x, y) or (x, y, z) [m]."""
         ...
+
+
+def velocity_limits(value: Any, joint_names: Sequence[str], missing: str) -> FloatArray:
+    """Velocity limits [rad/s or m/s] of the named joints: one number for all, or one each.
+
+    ``inf`` means no limit. A backend whose model keeps none demands them
+    (``missing`` says why they are needed).
+
+    Raises:
+        ValueError: For ``None`` (naming the joints), a wrong length, NaN or a value <= 0.
+    """
+    n = len(joint_names)
+    if value is None:
+        raise ValueError(
+            f"qd_max: velocity limits are needed ({missing}); pass one number or {n} "
+            f"[rad/s] for {', '.join(joint_names)}, or float('inf') for none"
+        )
+    arr = np.array(value, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise ValueError(f"qd_max: expected one number or shape ({n},), got {arr.shape}")
+    if np.isnan(arr).any() or (arr <= 0).any():
+        raise ValueError(f"qd_max: every limit must be > 0 (inf: none), got {arr.tolist()}")
+    return arr

@@ -8,11 +8,15 @@
     task = PoseTask(MujocoChain.from_urdf("arm.urdf", tip_link="tool0"))
 
 The chain is the hinge and slide joints on the path from the base body to the
-tip body; other joints stay at the model's ``qpos0``. MuJoCo keeps no velocity
-limits: pass ``qd_max``, or use :meth:`MujocoChain.from_urdf`, which reads
-them from the URDF. Poses and Jacobians are in the base body's frame, the
-Jacobian world-aligned at the task point, as for
-:class:`~lpik.robots.chain.SerialChain`.
+tip body (``tip_link``: the name every backend uses, a URDF link is a MuJoCo
+body). The other joints (``held_joints``: fingers, a second arm) cannot move
+the tip relative to the base; lpik's kinematics hold them at ``qpos0`` and
+:meth:`MujocoChain.write_qpos` never touches them in yours. Chain joint ``i``
+is ``qpos[qpos_index[i]]`` (:meth:`MujocoChain.read_qpos`). MuJoCo keeps no
+velocity limits: pass ``qd_max`` (``inf`` for none), or use
+:meth:`MujocoChain.from_urdf`, which reads them from the URDF. Poses and
+Jacobians are in the base body's frame, the Jacobian world-aligned at the task
+point, as for :class:`~lpik.robots.chain.SerialChain`.
 """
 
 from __future__ import annotations
@@ -25,6 +29,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from lpik.naming import renamed_keyword
+from lpik.robots.base import velocity_limits
 from lpik.robots.rotations import as_transform
 from lpik.robots.urdf import parse_urdf, read_urdf_text
 from lpik.types import FloatArray
@@ -87,36 +93,50 @@ class MujocoChain:
         joint_names: Chain joint names, base to tip.
         q_min: Lower end-stops, shape (n,) [rad or m]; infinite where unlimited.
         q_max: Upper end-stops, shape (n,) [rad or m].
-        qd_max: Velocity limits, shape (n,) [rad/s or m/s]; ``inf`` unless given.
+        qd_max: Velocity limits, shape (n,) [rad/s or m/s], as given.
         model: The ``mujoco.MjModel``.
+        qpos_index: Where each chain joint sits in MuJoCo's ``qpos``, shape (n,).
+        dof_index: Where each chain joint sits in MuJoCo's ``qvel``, shape (n,).
+        held_joints: The model's other joints, held at ``qpos0`` by lpik's kinematics.
     """
 
     def __init__(
         self,
         model: Any,
-        tip_body: str,
-        base_body: str | None = None,
+        tip_link: str | None = None,
+        base_link: str | None = None,
         tool: ArrayLike | None = None,
         qd_max: ArrayLike | None = None,
         name: str | None = None,
+        *,
+        tip_body: str | None = None,
+        base_body: str | None = None,
     ) -> None:
         """Wrap a MuJoCo model.
 
         Args:
             model: A ``mujoco.MjModel``.
-            tip_body: Body of the task point (a URDF link name).
-            base_body: Body whose frame is the world frame; MuJoCo's world
+            tip_link: Body of the task point (a URDF link name).
+            base_link: Body whose frame is the world frame; MuJoCo's world
                 when None.
             tool: Offset of the task point from the tip body: 4 x 4, xyz (3,)
                 [m] or xyz + rpy (6,) [m, rad].
-            qd_max: Velocity limits of the chain joints, shape (n,).
+            qd_max: Velocity limits of the chain joints [rad/s or m/s]: one
+                number or one per joint, ``inf`` for none. Required: MuJoCo
+                keeps none (:meth:`from_urdf` reads the URDF's).
             name: Model name.
+            tip_body: Former name of ``tip_link`` (deprecated).
+            base_body: Former name of ``base_link`` (deprecated).
 
         Raises:
             ImportError: MuJoCo is not installed (message: the pip command).
             ValueError: Unknown bodies, a base that is not an ancestor of the
-                tip, or a ball or free joint on the chain.
+                tip, a ball or free joint on the chain, or no ``qd_max``.
         """
+        tip_body = renamed_keyword(tip_link, tip_body, "tip_body", "tip_link")
+        base_body = renamed_keyword(base_link, base_body, "base_body", "base_link")
+        if tip_body is None:
+            raise ValueError("tip_link: name the body of the task point")
         mj = import_mujoco()
         self._mj = mj
         self.model = model
@@ -149,14 +169,14 @@ class MujocoChain:
         ranges = np.array([model.jnt_range[j] for j in joints], dtype=float)
         self.q_min = np.where(limited, ranges[:, 0], -np.inf)
         self.q_max = np.where(limited, ranges[:, 1], np.inf)
-        self.qd_max = np.full(self.n_joints, np.inf)
-        if qd_max is not None:
-            arr = np.asarray(qd_max, dtype=float)
-            if arr.shape != (self.n_joints,):
-                raise ValueError(f"qd_max: expected shape ({self.n_joints},), got {arr.shape}")
-            self.qd_max = arr.copy()
+        self.qd_max = velocity_limits(qd_max, self.joint_names, "MuJoCo models keep none")
         self._qadr = np.array([model.jnt_qposadr[j] for j in joints])
         self._dadr = np.array([model.jnt_dofadr[j] for j in joints])
+        self.qpos_index = self._qadr.copy()
+        self.dof_index = self._dadr.copy()
+        self.held_joints = tuple(
+            model.joint(j).name for j in range(model.njnt) if j not in set(joints)
+        )
         self._tool = as_transform(tool, what="tool")
         self.name = name or "mujoco"
         self._jacp = np.zeros((3, model.nv))
@@ -190,13 +210,37 @@ class MujocoChain:
         text, _ = read_urdf_text(source)
         robot = parse_urdf(text)
         model = mj.MjModel.from_xml_string(kinematic_urdf(text))
-        chain = cls(model, tip_link, base_link, tool, name=robot.name)
+        chain = cls(model, tip_link, base_link, tool, qd_max=np.inf, name=robot.name)
         velocity = []
         for joint_name in chain.joint_names:
             limit = robot.joint_map[joint_name].limit
             velocity.append(np.inf if limit is None or limit.velocity is None else limit.velocity)
         chain.qd_max = np.array(velocity, dtype=float)
         return chain
+
+    def read_qpos(self, qpos: ArrayLike) -> FloatArray:
+        """The chain's joint coordinates ``q`` (n,) out of a MuJoCo ``qpos`` (the whole model's).
+
+        Raises:
+            ValueError: For a ``qpos`` that is not the model's size.
+        """
+        qpos = np.asarray(qpos, dtype=float)
+        if qpos.shape != (self.model.nq,):
+            raise ValueError(f"qpos: expected shape ({self.model.nq},), got {qpos.shape}")
+        return qpos[self._qadr].copy()
+
+    def write_qpos(self, q: ArrayLike, qpos: Any) -> None:
+        """Write the chain's ``q`` (n,) into a MuJoCo ``qpos`` in place; other joints stay.
+
+        Raises:
+            ValueError: For a ``q`` or ``qpos`` of the wrong size.
+        """
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.n_joints,):
+            raise ValueError(f"q: expected shape ({self.n_joints},), got {q.shape}")
+        if np.shape(qpos) != (self.model.nq,):
+            raise ValueError(f"qpos: expected shape ({self.model.nq},), got {np.shape(qpos)}")
+        qpos[self._qadr] = q
 
     def _update(self, q: ArrayLike, jacobian: bool) -> None:
         q = np.asarray(q, dtype=float)
@@ -211,6 +255,18 @@ class MujocoChain:
 
     def _world_pose(self, body: int) -> FloatArray:
         return _pose(self._data.xmat[body], self._data.xpos[body])
+
+    def fk_jacobian(self, q: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """:meth:`fk` and :meth:`jacobian` at ``q`` in one pass of MuJoCo's kinematics."""
+        self._update(q, jacobian=True)
+        pose = self._world_pose(self._tip) @ self._tool
+        self._mj.mj_jac(self.model, self._data, self._jacp, self._jacr, pose[:3, 3], self._tip)
+        jac = np.vstack((self._jacp[:, self._dadr], self._jacr[:, self._dadr]))
+        if self._base == 0:
+            return pose, jac
+        base = self._world_pose(self._base)
+        rot_t = base[:3, :3].T
+        return np.linalg.inv(base) @ pose, np.vstack((rot_t @ jac[:3], rot_t @ jac[3:]))
 
     def fk(self, q: ArrayLike) -> FloatArray:
         """Pose of the task frame in the base frame, shape (4, 4)."""

@@ -29,7 +29,7 @@ the planar position task of the paper's 4-link arm, and ``mask=(1, 1, 1, 0, 0,
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -261,3 +261,26 @@ def make_task(
     except KeyError:
         raise ValueError(f"unknown task '{task}'; available: " + ", ".join(TASKS)) from None
     return cls(kinematics, mask=mask, name=name)
+
+
+def as_task_model(model: Any) -> Any:
+    """``model`` itself when it is a task model; a chain alone becomes its task.
+
+    A :class:`~lpik.robots.chain.SerialChain` (e.g. from
+    :func:`~lpik.robots.urdf.load_urdf`) or an adapter (Pinocchio, MuJoCo) has
+    no task: a planar chain gets the planar position task (rows x, y, as
+    :func:`~lpik.robots.planar.planar_arm`), any other the full pose task.
+
+    Raises:
+        ValueError: For anything else, saying what to pass.
+    """
+    if hasattr(model, "task_dim"):
+        return model
+    if isinstance(model, Kinematics):
+        if getattr(model, "planar", False):
+            return PositionTask(model, mask="xy")
+        return PoseTask(model)
+    raise ValueError(
+        f"model: expected a task model (planar_arm, load_robot, make_task(chain, 'pose')) or "
+        f"a chain (load_urdf, PinocchioChain, MujocoChain), got {type(model).__name__}"
+    )

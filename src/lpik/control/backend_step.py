@@ -1,0 +1,109 @@
+"""The compiled step for a task model whose kinematics lpik cannot compile (Pinocchio, MuJoCo).
+
+:class:`~lpik.control.controller.Lp2Controller` fuses a
+:class:`~lpik.robots.chain.SerialChain`'s forward kinematics into its one
+compiled call (:func:`lpik.fast.step.chain_step`). Any other backend of
+:class:`~lpik.robots.tasks.Kinematics` (a Pinocchio or MuJoCo model, or your
+own) computes the task frame and the world-aligned Jacobian (eqs. 1-2) itself;
+:class:`BackendKinematicsStep` writes them into the controller's state buffer
+and runs the rest of the step compiled (:func:`lpik.fast.step.task_step`: the
+command, the limits of eqs. 13-14 and sec. 3.2, LP2's ratio test of eqs.
+15-18). The answers equal those of the numpy layers over the same backend
+(tests hold them equal).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from lpik.fast import layout
+from lpik.fast.step import BAD_INPUT, chain_step_batch, step_kernel, task_step_kernel
+from lpik.robots.base import TaskModel
+from lpik.robots.chain import SerialChain
+from lpik.types import FloatArray
+
+#: A compiled-step callable: ``(state, q0, q_prev, target) -> outcome code``.
+StepKernel = Callable[[FloatArray, FloatArray, FloatArray, FloatArray], int]
+#: A batch runner: ``(state, Q0, Q_prev, targets, outs, codes, chunks) -> None``.
+BatchRunner = Callable[..., None]
+
+
+def _pose_and_jacobian(kinematics: Any) -> Callable[[FloatArray], tuple[Any, Any]]:
+    both = getattr(kinematics, "fk_jacobian", None)
+    if both is not None:
+        return both  # type: ignore[no-any-return]
+    return lambda q: (kinematics.fk(q), kinematics.jacobian(q))
+
+
+class BackendKinematicsStep:
+    """The fused step's callable for a backend's own kinematics.
+
+    Called as the compiled :func:`lpik.fast.step.chain_step` is, with
+    C-contiguous float64 arrays (anything else raises ``TypeError``, which the
+    controller answers by converting them): the backend's pose (4, 4) and
+    Jacobian (6, n) at ``q0`` go into the ``frame`` and ``jacobian6`` blocks of
+    ``state``; :func:`lpik.fast.step.task_step` does the rest.
+
+    Args:
+        kinematics: The backend (anything with ``fk`` and ``jacobian``, and
+            ``fk_jacobian`` when it can give both in one pass).
+        state: A state buffer of the controller (:func:`lpik.fast.layout.pack`),
+            for the blocks' places.
+    """
+
+    def __init__(self, kinematics: Any, state: FloatArray) -> None:
+        self.kinematics = kinematics
+        self._both = _pose_and_jacobian(kinematics)
+        self._n = int(state[layout.N])
+        frame, jac = int(state[layout.FRAME]), int(state[layout.JACOBIAN6])
+        self._frame = slice(frame, frame + 16)
+        self._jacobian = slice(jac, jac + 6 * self._n)
+        self._kernel = task_step_kernel()
+
+    def __call__(self, state: FloatArray, q0: Any, q_prev: Any, target: Any) -> int:
+        """One step: the backend's kinematics at ``q0``, then the compiled rest (its code)."""
+        if type(q0) is not np.ndarray or q0.dtype != np.float64 or not q0.flags.c_contiguous:
+            raise TypeError("q0: the step takes a C-contiguous float64 array")
+        if q0.shape != (self._n,):
+            return BAD_INPUT
+        pose, jacobian = self._both(q0)  # NaN in q0: the compiled rest answers BAD_INPUT
+        state[self._frame] = np.ravel(pose)
+        state[self._jacobian] = np.ravel(jacobian)
+        return int(self._kernel(state, q0, q_prev, target))
+
+    def batch(
+        self,
+        state: FloatArray,
+        q0: FloatArray,
+        q_prev: FloatArray,
+        targets: FloatArray,
+        outs: FloatArray,
+        codes: Any,
+        chunks: int,
+    ) -> None:
+        """Every row of a batch, one after the other (the backend is not thread-safe)."""
+        local = state.copy()
+        for b in range(q0.shape[0]):
+            codes[b] = self(local, q0[b], q_prev[b], targets[b])
+            layout.copy_out(local, outs, b)
+
+
+def fuses_kinematics(model: TaskModel) -> bool:
+    """Whether the controller compiles ``model``'s kinematics into its step (a SerialChain)."""
+    return isinstance(getattr(model, "kinematics", None), SerialChain)
+
+
+def placeholder_chain(n: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Chain blocks for a backend step, which does not read them: origins, axes, revolute, tip."""
+    return np.tile(np.eye(4), (n, 1, 1)), np.zeros((n, 3)), np.ones(n), np.eye(4)
+
+
+def step_functions(model: TaskModel, state: FloatArray) -> tuple[StepKernel, BatchRunner]:
+    """The step and batch runner for ``model``: fused for a SerialChain, else the backend's."""
+    if fuses_kinematics(model):
+        return step_kernel(), chain_step_batch
+    runner = BackendKinematicsStep(model.kinematics, state)  # type: ignore[attr-defined]
+    return runner, runner.batch
