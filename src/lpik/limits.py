@@ -1,5 +1,14 @@
 """Technical limits as data: each turns one step's context into bounds or labelled rows.
 
+This is the one way to give limits: the same values (:class:`EndStops`,
+:class:`VelocityLimits` in rad/s, :class:`AccelerationLimits`,
+:class:`MultiplierBounds`, :class:`LinearRows`) go to :func:`build_problem`,
+:func:`lpik.control.simulate.simulate` and
+:class:`~lpik.control.controller.Lp2Controller` (``limits=[...]``), and the
+per-step bounds are derived from them here and in :mod:`lpik.bands` only.
+:class:`~lpik.problem.Problem`'s ``dq_min``/``dq_max`` are the low-level form:
+one step's bounds on ``q - q0``, already multiplied by ``dt``.
+
 A limit is a small immutable value with an ``apply(context)`` method that
 returns a :class:`Piece`: absolute bounds on ``q`` (end-stops), bounds on
 ``dq = q - q0`` for this step (velocity, acceleration), bounds on the
@@ -197,6 +206,44 @@ def standard_limits(
     return limits
 
 
+#: The limits whose bounds do not depend on the state: what a compiled step can hold.
+STATE_FREE_LIMITS = (EndStops, VelocityLimits, AccelerationLimits, MultiplierBounds, LinearRows)
+
+
+def rate_limits(limits: Sequence[Limit], n: int) -> FloatArray:
+    """The joints' velocity and acceleration limits the ``limits`` set, per second.
+
+    Read from the same pieces :func:`build_problem` stacks (a velocity limit's
+    step bound at ``dt = 1`` s is the limit itself), so that the compiled step
+    (:class:`~lpik.control.controller.Lp2Controller`) and the numpy layers
+    derive each step's bounds (eq. 14, :mod:`lpik.bands`) from the same values.
+
+    Returns:
+        (4, n): ``qd_min, qd_max`` [rad/s], ``qdd_min, qdd_max`` [rad/s^2];
+        ``-inf``/``inf`` where none.
+
+    Raises:
+        ValueError: For a limit whose bounds depend on the state (not one of
+            :data:`STATE_FREE_LIMITS`): the compiled step cannot hold it.
+    """
+    out = np.vstack([np.full(n, -np.inf), np.full(n, np.inf)] * 2)
+    context = StepContext(q0=np.zeros(n), dt=1.0)
+    for limit in limits:
+        if not isinstance(limit, STATE_FREE_LIMITS):
+            names = ", ".join(cls.__name__ for cls in STATE_FREE_LIMITS)
+            raise ValueError(
+                f"limits: the compiled step holds {names}; {type(limit).__name__} depends on "
+                "the state: run it with simulate(..., method='lp2') or build_problem"
+            )
+        piece = limit.apply(context)
+        values = (piece.dq_min, piece.dq_max, piece.qdd_min, piece.qdd_max)
+        for row, value in enumerate(values):
+            if value is not None:
+                tighter = np.maximum if row % 2 == 0 else np.minimum  # lower rows: the largest
+                out[row] = tighter(out[row], np.broadcast_to(value, (n,)))
+    return out
+
+
 def build_problem(
     J: Any,
     dw: Any,
@@ -265,7 +312,8 @@ def build_problem(
         if piece.G is not None and piece.h is not None:
             rows.append(piece.G)
             rhs.append(piece.h)
-            row_labels.extend(piece.row_labels)
+            start, count = len(row_labels), np.atleast_2d(piece.G).shape[0]
+            row_labels.extend(piece.row_labels or labels.default_row_labels(start + count)[start:])
     if not weights.get("joint_names") and len(named) == n:
         weights = {**weights, "joint_names": named}
     names = weights.get("joint_names") or labels.default_joint_names(n)

@@ -127,8 +127,11 @@ class Problem:
         q_min: Lower end-stops, shape (n,); ``None`` entries or ``-inf`` mean unbounded (eq. 13).
         q_max: Upper end-stops, shape (n,); ``None`` entries or ``+inf`` mean unbounded (eq. 13).
         dq_min: Lower bound on ``q - q0`` for this step, shape (n,) (eq. 14: velocity
-            limit times dt).
-        dq_max: Upper bound on ``q - q0`` for this step, shape (n,) (eq. 14).
+            limit times dt). The low-level form: one step's bounds, in radians
+            (or metres), not per second. :func:`lpik.limits.build_problem` derives
+            them from limits as data (``VelocityLimits`` in rad/s,
+            ``AccelerationLimits``), as ``simulate`` and ``Lp2Controller`` do.
+        dq_max: Upper bound on ``q - q0`` for this step, shape (n,) (eq. 14); as ``dq_min``.
         M: Positive definite weight matrix of eq. 3, (n, n) or its diagonal (n,); default identity.
         f: Weight vector (artificial generalised force) of eq. 3, shape (n,); default zero.
         Lambda: Positive semidefinite smoothing weight of sec. 3.1, (n, n) or diagonal;

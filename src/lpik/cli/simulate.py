@@ -65,6 +65,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         metavar="B",
         help="bound every Lagrange multiplier: -B <= lam_i <= B (lp2, sec. 3.2)",
     )
+    parser.add_argument(
+        "--qdd-max",
+        type=float,
+        metavar="A",
+        help="acceleration limit of every joint [rad/s^2] (default: none; the velocity limits "
+        "and end-stops always hold)",
+    )
     defaults = ", ".join(f"{s.name} {s.steps} steps at {s.dt:g} s" for s in SCENARIOS.values())
     parser.add_argument(
         "--steps",
@@ -151,6 +158,12 @@ def _check_options(args: argparse.Namespace) -> None:
                 f"--lambda-bound: method {args.method!r} does not bound its multipliers; "
                 f"use {', '.join(bounded)}"
             )
+    if args.qdd_max is not None and not (
+        math.isfinite(args.qdd_max) and 0 < args.qdd_max <= MAX_MAGNITUDE
+    ):
+        raise ValueError(
+            f"--qdd-max: must be a number in (0, {MAX_MAGNITUDE:g}] [rad/s^2], got {args.qdd_max}"
+        )
     if args.on_stall is not None and not 0 < args.on_stall <= MAX_STEPS:
         raise ValueError(f"--on-stall: must be in 1..{MAX_STEPS:,} steps, got {args.on_stall:,}")
     if not 2 <= args.frames <= MAX_FRAMES:
@@ -165,6 +178,7 @@ def run_options(args: argparse.Namespace) -> dict[str, object]:
         "dt": args.dt,
         "warm_start": not args.cold_start,
         "on_stall": args.on_stall,
+        "qdd_max": args.qdd_max,
     }
 
 

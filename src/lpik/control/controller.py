@@ -12,6 +12,7 @@ cannot take (singular KKT matrix) go to the HiGHS path.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from functools import partial
 from time import perf_counter
 from typing import Any
@@ -25,11 +26,9 @@ from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, clamp_command, ta
 from lpik.control.inputs import (
     TARGET_SHAPES,
     chain_arrays,
-    extra_rows,
-    joint_rates,
+    controller_limits,
     joint_vector,
     positive_number,
-    row_names,
     stacked_rows,
     target_array,
     task_value,
@@ -40,7 +39,7 @@ from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.step import BAD_INPUT
 from lpik.labels import step_label_table
-from lpik.limits import AccelerationLimits, LinearRows, build_problem, standard_limits
+from lpik.limits import Limit, MultiplierBounds, build_problem, rate_limits
 from lpik.methods.assembly import is_diagonal
 from lpik.methods.lp2 import lp2
 from lpik.methods.lp2s import lp2s
@@ -64,9 +63,14 @@ class Lp2Controller:
         dt: Control period [s].
         v_max: Largest commanded linear speed of the task point [m/s].
         w_max: Largest commanded angular speed of the task frame [rad/s].
+        limits: The limits, as :func:`~lpik.limits.build_problem` and ``simulate`` take
+            them (:class:`~lpik.limits.EndStops`, ``VelocityLimits`` [rad/s],
+            ``AccelerationLimits``, ``MultiplierBounds``, ``LinearRows``); default the
+            model's end-stops and velocity limits. The keywords below add to them.
         qdd_max: Symmetric joint acceleration limits [rad/s^2] (scalar or (n,)); none when None.
-        velocity_limits: Whether the model's ``qd_max`` bounds each step (eq. 14).
-        lambda_bound: Symmetric bound on every multiplier (sec. 3.2); none when None.
+        velocity_limits: Without ``limits``: whether the model's ``qd_max`` bounds each step.
+        lambda_bound: A bound ``B`` on every multiplier (``|lam_i| <= B``) or a
+            :class:`~lpik.limits.MultiplierBounds` (sec. 3.2); none when None.
         M: Weight matrix of the criterion (eq. 3), as in :class:`~lpik.problem.Problem`.
         f: Weight vector of the criterion (eq. 3).
         Lambda: Smoothing weight (sec. 3.1).
@@ -91,9 +95,10 @@ class Lp2Controller:
         dt: float,
         v_max: float = DEFAULT_V_MAX,
         w_max: float = DEFAULT_W_MAX,
+        limits: Sequence[Limit] | None = None,
         qdd_max: ArrayLike | None = None,
         velocity_limits: bool = True,
-        lambda_bound: float | None = None,
+        lambda_bound: float | MultiplierBounds | None = None,
         M: Any = None,
         f: Any = None,
         Lambda: Any = None,
@@ -114,19 +119,12 @@ class Lp2Controller:
         self.method = "lp2s" if saturate else "lp2"
         self._stall = StallWatch(on_stall)
         self._fallback = lp2s if saturate else partial(lp2, path="highs")
-        if lambda_bound is not None:
-            lambda_bound = positive_number("lambda_bound", lambda_bound)
         origins, axes, revolute, tip = chain_arrays(model)
         self._row_index = task_rows(model)
         n, m = model.n_joints, self._row_index.size
-        qdd_max = None if qdd_max is None else joint_rates("qdd_max", qdd_max, n)
-        limits = standard_limits(model, velocity=velocity_limits, lambda_bound=lambda_bound)
-        if qdd_max is not None:
-            limits.append(AccelerationLimits(qdd_max))
-        if G is not None or h is not None:
-            G, h = extra_rows(G, h, n)
-            limits.append(LinearRows(G, h, row_names(row_labels)))
-        self.limits = tuple(limits)
+        self.limits = controller_limits(model, limits, velocity_limits=velocity_limits,
+                                        qdd_max=qdd_max, lambda_bound=lambda_bound,
+                                        rows=(G, h, row_labels))  # fmt: skip
         self._weights = {
             "M": M,
             "f": f,
@@ -142,12 +140,8 @@ class Lp2Controller:
         # NaN where q_ref follows q0 (Problem's default), filled in by the step.
         ref = template.q_ref if q_ref is not None else reference_configuration(
             template.q_min, template.q_max, np.full(n, np.nan))  # fmt: skip
-        qd = np.broadcast_to(np.asarray(model.qd_max, float), (n,)) if velocity_limits else \
-            np.full(n, np.inf)  # fmt: skip
-        qdd = np.full(n, np.inf) if qdd_max is None else np.broadcast_to(
-            np.asarray(qdd_max, float), (n,))  # fmt: skip
         # (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max.
-        bounds = np.vstack([template.q_min, template.q_max, -qd, qd, -qdd, qdd])
+        bounds = np.vstack([template.q_min, template.q_max, rate_limits(self.limits, n)])
         self._state = layout.pack(
             n, m, template.G.shape[0],
             h_diag=is_diagonal(H), dt=self.dt, v_max=self.v_max, w_max=self.w_max,

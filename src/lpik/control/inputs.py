@@ -9,11 +9,20 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from lpik.control.backend_step import placeholder_chain
+from lpik.limits import (
+    AccelerationLimits,
+    Limit,
+    LinearRows,
+    MultiplierBounds,
+    rate_limits,
+    standard_limits,
+)
 from lpik.robots.base import TaskModel
 from lpik.robots.chain import SerialChain
 from lpik.robots.rotations import check_rotation, rotation_defects
@@ -91,6 +100,52 @@ def row_names(value: Any) -> tuple[str, ...]:
     if not all(isinstance(label, str) for label in value):
         raise ValueError("row_labels: must be a list of strings")
     return tuple(value)
+
+
+def controller_limits(
+    model: TaskModel,
+    limits: Sequence[Limit] | None,
+    *,
+    velocity_limits: bool,
+    qdd_max: Any,
+    lambda_bound: float | MultiplierBounds | None,
+    rows: tuple[Any, Any, Any],
+) -> tuple[Limit, ...]:
+    """The limits a controller holds: ``limits`` as given, else the model's, plus the keywords.
+
+    ``limits`` are the values :func:`lpik.limits.build_problem` takes; without
+    them, the model's end-stops and (``velocity_limits``) velocity limits
+    (:func:`lpik.limits.standard_limits`). The keywords add to either:
+    ``qdd_max`` [rad/s^2] an :class:`~lpik.limits.AccelerationLimits`,
+    ``lambda_bound`` a number ``B`` (``|lam_i| <= B``) or a
+    :class:`~lpik.limits.MultiplierBounds` (sec. 3.2), ``rows`` ``(G, h,
+    row_labels)`` a :class:`~lpik.limits.LinearRows`.
+
+    Raises:
+        ValueError: Naming the argument that is wrong.
+    """
+    n = model.n_joints
+    if limits is None:
+        held: list[Limit] = standard_limits(model, velocity=velocity_limits)
+    elif isinstance(limits, Sequence) and all(hasattr(v, "apply") for v in limits):
+        held = list(limits)
+    else:
+        raise ValueError(
+            "limits: must be a list of limits (EndStops, VelocityLimits, AccelerationLimits, "
+            f"MultiplierBounds, LinearRows), got {type(limits).__name__}"
+        )
+    if qdd_max is not None:
+        held.append(AccelerationLimits(joint_rates("qdd_max", qdd_max, n)))
+    if isinstance(lambda_bound, MultiplierBounds):
+        held.append(lambda_bound)
+    elif lambda_bound is not None:
+        held.append(MultiplierBounds.symmetric(positive_number("lambda_bound", lambda_bound)))
+    G, h, row_labels = rows
+    if G is not None or h is not None:
+        G, h = extra_rows(G, h, n)
+        held.append(LinearRows(G, h, row_names(row_labels)))
+    rate_limits(held, n)  # refuses, naming it, a limit the compiled step cannot hold
+    return tuple(held)
 
 
 def chain_arrays(model: TaskModel) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:

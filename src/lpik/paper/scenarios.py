@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from lpik.control.command import DEFAULT_W_MAX, ClampedTarget
-from lpik.limits import Limit, standard_limits
+from lpik.limits import AccelerationLimits, Limit, standard_limits
 from lpik.naming import lookup
 from lpik.robots.base import TaskModel
 from lpik.robots.planar import planar_arm
@@ -158,9 +158,15 @@ class Setup:
         """The command law: toward ``target`` at most ``v_max`` and ``w_max`` fast."""
         return ClampedTarget(self.target, self.v_max, self.w_max)
 
-    def limits(self, lambda_bound: float | None = None) -> list[Limit]:
-        """End-stops, velocity limits and, when given, ``|lam_i| <= lambda_bound`` (sec. 3.2)."""
-        return standard_limits(self.model, lambda_bound=lambda_bound)
+    def limits(
+        self, lambda_bound: float | None = None, qdd_max: float | None = None
+    ) -> list[Limit]:
+        """End-stops, velocity limits and, when given, multiplier and acceleration limits.
+
+        ``|lam_i| <= lambda_bound`` (sec. 3.2), ``|qdd_i| <= qdd_max`` [rad/s^2].
+        """
+        limits = standard_limits(self.model, lambda_bound=lambda_bound)
+        return limits if qdd_max is None else [*limits, AccelerationLimits(qdd_max)]
 
     def run(
         self,
@@ -172,12 +178,14 @@ class Setup:
         warm_start: bool = True,
         progress: Progress | None = None,
         on_stall: int | None = None,
+        qdd_max: float | None = None,
     ) -> SimulationLog:
         """Simulate this setup with one method (:func:`lpik.control.simulate.simulate`).
 
         Args:
             method: A name from :data:`lpik.methods.METHODS`.
             lambda_bound: Symmetric bound on every multiplier (sec. 3.2); ``None``: unbounded.
+            qdd_max: Acceleration limit of every joint [rad/s^2]; ``None``: none.
             steps: Number of steps; default the scenario's.
             dt: Control period [s]; default the scenario's.
             warm_start: Reuse one HiGHS instance across steps.
@@ -197,7 +205,7 @@ class Setup:
             self.steps if steps is None else steps,
             method=method,
             dt=self.dt if dt is None else dt,
-            limits=self.limits(lambda_bound),
+            limits=self.limits(lambda_bound, qdd_max),
             weights=self.weights,
             name=label,
             warm_start=warm_start,
@@ -281,11 +289,12 @@ class Scenario:
         warm_start: bool = True,
         progress: Progress | None = None,
         on_stall: int | None = None,
+        qdd_max: float | None = None,
     ) -> SimulationLog:
         """Simulate this scenario on ``robot`` with one method (see :meth:`Setup.run`)."""
         return self.setup(robot).run(
             method, lambda_bound=lambda_bound, steps=steps, dt=dt, warm_start=warm_start,
-            progress=progress, on_stall=on_stall,
+            progress=progress, on_stall=on_stall, qdd_max=qdd_max,
         )  # fmt: skip
 
 
