@@ -33,17 +33,43 @@ MAX_FRAMES = 1000
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Register ``lpik simulate`` (light: the methods are imported only when it runs)."""
-    from lpik.paper.scenarios import PLANAR, SCENARIOS
+    import textwrap
 
+    from lpik.methods.registry import METHODS
+    from lpik.paper.scenarios import PLANAR, SCENARIOS
+    from lpik.robots.registry import robot_names
+
+    def paragraph(text: str) -> str:
+        return textwrap.fill(text, 78, subsequent_indent="  " if ": " in text[:20] else "")
+
+    bounded = ", ".join(name for name, spec in METHODS.items() if spec.bounds_multipliers)
+    epilog = "\n\n".join(
+        [
+            "scenarios:",
+            *(paragraph(s.describe()) for s in SCENARIOS.values()),
+            paragraph(f"robots: {PLANAR} (default), {', '.join(robot_names())}."),
+            paragraph(
+                "CSV columns, one row per step: t, q1..qn [rad], x, y (planar) or x, y, z [m], "
+                "p, lam1..lamm (the state before the step, the step's dexterity and "
+                "multipliers; nan for methods without them), then status, binding (the limit "
+                "that keeps p below 1, empty when none), path, clamped, solve_time_us."
+            ),
+            paragraph(
+                f"refused combinations (exit 2, one line): --lambda-bound with a method that "
+                f"does not bound its multipliers (only {bounded} do); --animate with a 3-D "
+                f"--robot (use --plot); --plot or --animate without matplotlib."
+            ),
+        ]
+    )
     parser = sub.add_parser(
         "simulate",
         help="run a scenario in closed loop and write the log as CSV",
-        description="Run one of the paper's scenarios in closed loop, on the paper's planar arm "
-        "or a bundled 3-D arm. The CSV has one row per step: t, q1..qn [rad], x, y[, z] [m], "
-        "p, lam1..lamm (the state before the step, the step's dexterity and multipliers), "
-        "then status, binding, path, clamped, solve_time_us. Scenarios: "
-        + "; ".join(f"{s.name}: {s.description}" for s in SCENARIOS.values())
-        + ".",
+        description=paragraph(
+            "Run one of the paper's scenarios in closed loop, on the paper's planar arm or a "
+            "bundled 3-D arm, and report p and the binding limit of every step."
+        ),
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("scenario", metavar="SCENARIO", help=f"one of {', '.join(SCENARIOS)}")
     parser.add_argument(

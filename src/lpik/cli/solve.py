@@ -47,7 +47,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "--indent",
         type=int,
         default=None,
-        help=f"indent the JSON output by this many spaces (0 to {MAX_INDENT})",
+        help=f"indent the JSON output by this many spaces (0 to {MAX_INDENT}; default: one line)",
     )
     parser.set_defaults(handler=run)
 

@@ -1,0 +1,46 @@
+"""``lpik simulate --help`` describes every scenario (planar and 3-D), its defaults and refusals."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+
+import pytest
+
+from lpik.cli.main import main
+from lpik.methods.registry import METHODS
+from lpik.paper.scenarios import SCENARIOS
+from lpik.robots.registry import robot_names
+
+
+def _help() -> str:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    return " ".join(out.getvalue().split())  # unwrapped
+
+
+def test_every_scenario_is_described_on_both_kinds_of_arm_with_its_defaults() -> None:
+    text = _help()
+    for scenario in SCENARIOS.values():
+        described = " ".join(scenario.describe().split())
+        assert described in text
+        assert f"Default {scenario.steps} steps at dt = {scenario.dt:g} s" in described
+        assert "Planar (--robot planar)" in described and "3-D (--robot NAME)" in described
+    for name in robot_names():
+        assert name in text
+    assert "empty when none" in text and "x, y, z [m]" in text
+
+
+def test_each_refused_combination_is_explained_and_refused_in_one_line() -> None:
+    text = _help()
+    unbounded = next(name for name, spec in METHODS.items() if not spec.bounds_multipliers)
+    assert "refused combinations" in text and "--animate with a 3-D --robot" in text
+    for args, option in (
+        (["--method", unbounded, "--lambda-bound", "1"], "--lambda-bound"),
+        (["--robot", "panda", "--animate", "x.gif"], "--animate"),
+    ):
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            assert main(["simulate", "pull-in", *args]) == 2
+        assert err.getvalue().count("\n") == 1 and option in err.getvalue()
