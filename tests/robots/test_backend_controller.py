@@ -145,3 +145,20 @@ def test_pinocchio_from_urdf_takes_text_and_maps_its_q() -> None:
     with pytest.raises(ValueError) as info:
         PinocchioChain.from_urdf("<robot name='x'><link name='a'/><joint/></robot>", "a")
     assert len(str(info.value)) < 300 and "\n" not in str(info.value)
+
+
+def test_a_joint_the_chain_cannot_move_is_refused_with_the_fix() -> None:
+    mujoco = pytest.importorskip("mujoco")
+    from lpik.robots.mujoco_adapter import MujocoChain
+
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body name="cart"><freejoint name="float"/><geom size=".1"/>'
+        '<body name="l1"><joint name="j1" type="hinge" axis="0 0 1"/><geom size=".1"/>'
+        '<body name="tip" pos="1 0 0"><geom size=".1"/></body></body></body></worldbody>'
+        "</mujoco>"
+    )
+    with pytest.raises(ValueError, match="'float' is a ball or free joint .* base_link="):
+        MujocoChain(model, tip_link="tip", qd_max=1.0)
+    arm = MujocoChain(model, tip_link="tip", base_link="cart", qd_max=1.0)
+    assert arm.joint_names == ("j1",) and arm.held_joints == ("float",)
+    np.testing.assert_allclose(arm.fk(np.array([np.pi / 2]))[:3, 3], [0.0, 1.0, 0.0], atol=1e-12)

@@ -160,8 +160,10 @@ class MujocoChain:
         for j in joints:
             if int(model.jnt_type[j]) not in kinds:
                 raise ValueError(
-                    f"joint '{model.joint(j).name}' is a ball or free joint; "
-                    "only hinge and slide joints are supported on the chain"
+                    f"joint '{model.joint(j).name}' is a ball or free joint on the chain "
+                    f"to '{tip_body}', which lpik would have to move; only hinge and slide "
+                    "joints are supported: pass base_link=<the arm's first body> to start "
+                    "the chain after it"
                 )
         self.n_joints = len(joints)
         self.joint_names = tuple(model.joint(j).name for j in joints)

@@ -157,8 +157,10 @@ class PinocchioChain:
             iq, iv = int(joint.idx_q), int(joint.idx_v)
             if joint.nv != 1 or joint.nq not in (1, 2):
                 raise ValueError(
-                    f"joint '{model.names[j]}' of type {kind} is not supported "
-                    "(revolute, continuous and prismatic joints are)"
+                    f"joint '{model.names[j]}' of type {kind} is on the chain, which lpik "
+                    "would have to move, and is not supported (revolute, continuous and "
+                    "prismatic joints are): pass base_link=<the arm's base frame> to start "
+                    "the chain after it"
                 )
             names.append(str(model.names[j]))
             idx_q.append(iq)
