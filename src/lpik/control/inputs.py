@@ -134,12 +134,12 @@ def controller_limits(
             "limits: must be a list of limits (EndStops, VelocityLimits, AccelerationLimits, "
             f"MultiplierBounds, LinearRows), got {type(limits).__name__}"
         )
-    if qdd_max is not None:
-        held.append(AccelerationLimits(joint_rates("qdd_max", qdd_max, n)))
-    if isinstance(lambda_bound, MultiplierBounds):
+    if isinstance(lambda_bound, MultiplierBounds):  # (the order of earlier releases)
         held.append(lambda_bound)
     elif lambda_bound is not None:
         held.append(MultiplierBounds.symmetric(positive_number("lambda_bound", lambda_bound)))
+    if qdd_max is not None:
+        held.append(AccelerationLimits(joint_rates("qdd_max", qdd_max, n)))
     G, h, row_labels = rows
     if G is not None or h is not None:
         G, h = extra_rows(G, h, n)
