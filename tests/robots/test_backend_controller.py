@@ -162,3 +162,35 @@ def test_a_joint_the_chain_cannot_move_is_refused_with_the_fix() -> None:
     arm = MujocoChain(model, tip_link="tip", base_link="cart", qd_max=1.0)
     assert arm.joint_names == ("j1",) and arm.held_joints == ("float",)
     np.testing.assert_allclose(arm.fk(np.array([np.pi / 2]))[:3, 3], [0.0, 1.0, 0.0], atol=1e-12)
+
+
+def test_fk_jacobian_equals_lpik_s_chain_with_an_inner_base_and_a_tool() -> None:
+    """The one-pass kinematics the backend step uses, on every joint type, a base inside the
+    model and a tool offset: equal to lpik's own chain (an independent implementation)."""
+    from robot_cases import MIXED_URDF
+
+    from lpik.robots.urdf import load_urdf
+
+    tool = (0.01, -0.03, 0.12, 0.2, 0.0, -0.4)
+    chain = load_urdf(MIXED_URDF, "tool", base_link="l1", tool=tool)
+    adapters = []
+    if BACKENDS and any(name == "pinocchio" for name, _ in BACKENDS):
+        from lpik.robots.pinocchio_adapter import PinocchioChain
+
+        adapters.append(PinocchioChain.from_urdf(MIXED_URDF, "tool", "l1", tool))
+    if any(name == "mujoco" for name, _ in BACKENDS):
+        from lpik.robots.mujoco_adapter import MujocoChain
+
+        no_float = MIXED_URDF.replace(
+            '<joint name="float" type="floating"><origin xyz="0 0 0.1" rpy="0 0 0"/>'
+            '<parent link="l2"/><child link="branch"/><axis xyz="0 0 1"/></joint>',
+            "",
+        ).replace('<link name="branch"/>', "")
+        adapters.append(MujocoChain.from_urdf(no_float, "tool", "l1", tool))
+    if not adapters:
+        pytest.skip("neither Pinocchio nor MuJoCo is installed")
+    for adapter in adapters:
+        for q in random_configurations(chain, 30, seed=4):
+            pose, jac = adapter.fk_jacobian(q)
+            np.testing.assert_allclose(pose, chain.fk(q), atol=1e-10)
+            np.testing.assert_allclose(jac, chain.jacobian(q), atol=1e-10)
