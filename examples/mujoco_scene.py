@@ -34,7 +34,7 @@ controller = Lp2Controller(task, dt=0.002, qdd_max=20.0)  # compiled LP2, MuJoCo
 goal = task.pose(chain.read_qpos(data.qpos))
 goal[:3, 3] += [0.1, -0.15, -0.1]  # 20 cm away
 q_prev = chain.read_qpos(data.qpos)
-for _ in range(steps(600)):
+for _ in range(steps(1500)):  # 3 s
     q = chain.read_qpos(data.qpos)
     result = controller.step(q, goal, q_prev)
     chain.write_qpos(result.q, data.qpos)  # kinematic control: the joints go where LP2 says
