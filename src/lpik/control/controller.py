@@ -282,7 +282,7 @@ class Lp2Controller:
     def step_batch(
         self, q0: ArrayLike, targets: ArrayLike, q_prev: ArrayLike | None = None
     ) -> BatchResult:
-        """Many independent steps at once, one per row, in parallel (numba threads).
+        """Many independent steps, one per row: in parallel over a SerialChain, else in turn.
 
         Row ``b`` of the answer equals ``step(q0[b], targets[b], q_prev[b])``
         (tests hold them equal): for sweeps over configurations (how much of a
