@@ -3,7 +3,7 @@
 :class:`BatchArrays` holds a batch of LP2 problems of equal ``n``, ``m`` and
 number of extra rows as stacked, validated arrays (the input of
 :func:`lpik.fast.batch.lp2_batch`), each problem's arguments those of
-:func:`lpik.methods.singular.kernel_args`.
+:func:`lpik.methods.assembly.kernel_args`.
 """
 
 from __future__ import annotations
