@@ -14,7 +14,8 @@ which joint, which kind and which side without reading the words:
 - a multiplier bound (sec. 3.2): ``"multiplier 2 upper bound"`` (``kind``
   ``"multiplier"``, ``index`` the task row);
 - an extra row ``G q <= h``: the row's own label (default ``"row 1"``;
-  ``kind`` ``"row"``, or ``"collision"`` for a distance row);
+  ``kind`` ``"row"``); a distance row of collision avoidance:
+  ``"collision panda_link5 - shelf"`` (``kind`` ``"collision"``);
 - ``p < 1`` with no limit active (``J`` cannot produce ``dw``): ``"singularity"``.
 
 A step from a state outside its limits (status ``recovering``) names the
@@ -191,3 +192,17 @@ def step_label_table(
             joints += [bound_label(name, side, kind, i) for kind in BOUND_KINDS]
     rest = code_labels((), (), m, row_labels)
     return (*joints, *rest)
+
+
+#: First word of the label of a pair of bodies that a distance row or the field watches.
+COLLISION = "collision"
+
+
+def pair_name(body: str, other: str) -> str:
+    """A pair of bodies, e.g. ``"panda_link5 - shelf"`` (the robot's link first)."""
+    return f"{body} - {other}"
+
+
+def collision_label(body: str, other: str) -> str:
+    """The distance row of a pair of bodies, e.g. ``"collision panda_link5 - shelf"``."""
+    return f"{COLLISION} {pair_name(body, other)}"

@@ -3,7 +3,8 @@
 Row ``k`` of a :class:`SimulationLog` holds the state *before* step ``k`` and
 that step's outcome. The CSV columns are ``t, q1..qn, x, y[, z], p,
 lam1..lamm`` (positions in the task's plane or space), then ``status,
-binding, path, clamped, solve_time_us``.
+binding, path, clamped, solve_time_us``, and for a run with a scene
+``min_distance, closest`` (the smallest signed distance before the step [m] and its pair).
 """
 
 from __future__ import annotations
@@ -81,6 +82,9 @@ class SimulationLog:
         joint_names: One name per joint.
         name: Name of the run (e.g. the scenario's).
         warm_start: Whether the LP solver was warm-started across steps.
+        min_distance: Smallest signed distance between the robot and the obstacles (and
+            between its links) before each step, shape (N,) [m]; None without a scene.
+        closest: The pair at that distance, shape (N,); None without a scene.
     """
 
     method: str
@@ -100,6 +104,8 @@ class SimulationLog:
     joint_names: tuple[str, ...]
     name: str = ""
     warm_start: bool = True
+    min_distance: FloatArray | None = None
+    closest: NDArray[np.str_] | None = None
 
     def __post_init__(self) -> None:
         for value in vars(self).values():
@@ -158,7 +164,13 @@ class SimulationLog:
             "path",
             "clamped",
             "solve_time_us",
+            *(("min_distance", "closest") if self.min_distance is not None else ()),
         ]
+
+    def _distance_cells(self, k: int) -> list[str]:
+        if self.min_distance is None or self.closest is None:
+            return []
+        return [f"{self.min_distance[k]:.12g}", str(self.closest[k])]
 
     def to_csv(self, path: str | Path) -> Path:
         """Write the log as CSV, one row per step (the ``lpik simulate`` contract).
@@ -186,6 +198,7 @@ class SimulationLog:
                         self.path[k],
                         int(self.clamped[k]),
                         f"{self.solve_time[k] * 1e6:.1f}",
+                        *self._distance_cells(k),
                     ]
                 )
         return out

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from lpik.collision.model import as_avoidance
 from lpik.control.command import CommandLaw
 from lpik.control.log import SimulationLog
 from lpik.highs import HighsSolver
@@ -78,6 +79,7 @@ def simulate(
     warm_start: bool = True,
     progress: Progress | None = None,
     on_stall: int | None = None,
+    scene: Any = None,
 ) -> SimulationLog:
     """Run the closed loop for ``steps`` control steps and return the log.
 
@@ -103,6 +105,10 @@ def simulate(
             progress step (:func:`lpik.methods.progress.progress_step`: least task
             error within every limit, status ``off_direction``) while ``p`` stays 0.
             ``None`` (default): the method's steps only.
+        scene: Obstacles to avoid: a :class:`~lpik.collision.Scene` (the velocity
+            damper's rows, self-collision included) or a
+            :class:`~lpik.collision.CollisionAvoidance` (rows, field or both). The log
+            then records each step's smallest distance and its pair.
 
     Returns:
         The :class:`SimulationLog` of the run.
@@ -126,11 +132,17 @@ def simulate(
     weights.setdefault("joint_names", model.joint_names)
     m = model.task_dim
     rows: dict[str, list[Any]] = {k: [] for k in ("q", "pos", "p", "lam", "st", "bd", "pa", "cl")}
+    avoid, near = as_avoidance(model, scene, q), []
     times = np.empty(steps)
     q_prev: FloatArray | None = None
     for k in range(steps):
         dw = command(model, q, float(dt))
-        problem = build_problem(model.jacobian(q), dw, q, limits, dt=dt, q_prev=q_prev, **weights)
+        J, step_limits, step_weights = model.jacobian(q), limits, weights
+        if avoid is not None:
+            near.append(avoid.closest(q))
+            step_limits = [*limits, *avoid.limits()]
+            step_weights = avoid.weights(weights, q, float(dt), J)
+        problem = build_problem(J, dw, q, step_limits, dt=dt, q_prev=q_prev, **step_weights)
         start = time.perf_counter()
         result = stall.check(step_fn(problem), lambda problem=problem: problem)
         times[k] = time.perf_counter() - start
@@ -164,6 +176,8 @@ def simulate(
         joint_names=tuple(model.joint_names),
         name=name,
         warm_start=warm_start,
+        min_distance=None if avoid is None else np.array([d for d, _ in near]),
+        closest=None if avoid is None else np.array([c for _, c in near], dtype=str),
     )
 
 

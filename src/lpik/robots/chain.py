@@ -202,6 +202,22 @@ class SerialChain:
         """Names of the frames that :meth:`fk` and :meth:`jacobian` accept."""
         return tuple(self._links)
 
+    def link_anchor(self, link: str) -> tuple[int, FloatArray]:
+        """Where a named frame sits on the chain.
+
+        Returns:
+            The index of the last moving joint before it (-1 for the base) and
+            the frame's transform (4, 4) in that joint's frame of :meth:`joint_frames`.
+
+        Raises:
+            ValueError: For an unknown link, listing the known ones.
+        """
+        if link not in self._links:
+            known = ", ".join(self._links)
+            raise ValueError(f"unknown link '{link}' on chain '{self.name}'; available: {known}")
+        ref = self._links[link]
+        return ref.joint, ref.offset.copy()
+
     def with_tool(self, tool: ArrayLike | None) -> SerialChain:
         """Same chain with another task-point offset from the tip link.
 

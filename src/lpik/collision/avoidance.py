@@ -1,0 +1,207 @@
+"""Collision avoidance in the step's LP: hard distance rows and the paper's potential field.
+
+Two mechanisms, usable alone or together:
+
+* **Hard distance rows** (the velocity damper of Faverjon and Tournassoud,
+  "A local based approach for path planning of manipulators with a high
+  number of degrees of freedom", ICRA 1987). For every pair closer than the
+  influence distance ``d_i``, one labelled row bounds the approach along the
+  normal in this step::
+
+      -grad . (q - q0) <= xi dt max(d - d_s, 0) / (d_i - d_s)
+
+  ``grad = d d / d q`` (:mod:`lpik.collision.distance`), ``xi`` the largest
+  approach speed [m/s]. To first order the distance after the step is then
+  at least ``d - r (d - d_s)`` with ``r = xi dt / (d_i - d_s)``, which is
+  ``>= d_s`` as long as ``r <= 1``; lpik caps ``r`` at 1. A pair already
+  closer than ``d_s`` (or overlapping) may only move apart. The rows go into
+  the problem as ``G q <= h`` (:class:`DistanceRows`, a limit of
+  :mod:`lpik.limits`), so ``lp1``, ``l1`` and ``lp2`` keep them and name the
+  one that stops the arm, e.g. ``"collision panda_link5 - shelf"``.
+* **Potential field** (the paper, sec. 1 and eq. 3, after Khatib, "Real-time
+  obstacle avoidance for manipulators and mobile robots", IJRR 1986): the
+  artificial generalized force of the criterion ``Z = 1/2 dq^T M dq - f^T q``
+  is Khatib's FIRAS repulsion summed over the pairs within ``d_i``::
+
+      f = dt sum_pairs eta (1/d - 1/d_i) / d^2 grad
+
+  pointing the null-space motion away from the obstacles (``weighted``,
+  ``robust``, ``lp2`` take ``f``). ``eta`` is the gain [m^3/s]; ``d`` is
+  floored at :data:`DISTANCE_FLOOR` so that the force stays finite.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from lpik.collision.distance import Proximities, Proximity
+from lpik.limits import Piece, StepContext
+from lpik.types import FloatArray
+
+#: Default largest approach speed ``xi`` of the velocity damper [m/s].
+DEFAULT_APPROACH_SPEED = 0.5
+#: Default gain ``eta`` of the potential field [m^3/s].
+DEFAULT_FIELD_GAIN = 2e-3
+#: Smallest distance the potential field divides by [m].
+DISTANCE_FLOOR = 1e-3
+#: The field's own step (the step at ``p = 0`` that ``f`` alone drives) may take at
+#: most this share of the room between a joint and its limits for the step.
+FIELD_SHARE = 0.5
+#: The mechanisms ``mechanism=`` accepts.
+MECHANISMS = ("rows", "field", "both")
+
+
+@dataclass(frozen=True, eq=False)
+class DistanceRows:
+    """The velocity damper's rows, one per pair within the influence distance (a limit).
+
+    Args:
+        proximities: The robot's bodies and the scene.
+        approach_speed: ``xi``, the largest approach speed of a pair [m/s] (> 0).
+    """
+
+    proximities: Proximities
+    approach_speed: float = DEFAULT_APPROACH_SPEED
+
+    def __post_init__(self) -> None:
+        xi = self.approach_speed
+        if not (isinstance(xi, int | float) and np.isfinite(xi) and xi > 0):
+            raise ValueError(f"approach_speed: must be a finite number > 0, got {xi!r}")
+
+    def rows(self, q0: FloatArray, dt: float) -> tuple[FloatArray, FloatArray, tuple[str, ...]]:
+        """``G (r, n)``, ``h (r,)`` and labels of the rows at ``q0`` for a step of ``dt`` [s]."""
+        scene = self.proximities.scene
+        d_s, d_i = scene.safety_distance, scene.influence_distance
+        near = [p for p in self.proximities.at(q0) if p.distance < d_i]
+        n = q0.size
+        if not near:
+            return np.zeros((0, n)), np.zeros(0), ()
+        share = min(1.0, self.approach_speed * dt / (d_i - d_s))
+        G = np.array([-p.gradient for p in near]).reshape(-1, n)
+        allowed = np.array([share * max(p.distance - d_s, 0.0) for p in near])
+        return G, allowed + G @ q0, tuple(p.label for p in near)
+
+    def apply(self, context: StepContext) -> Piece:
+        """Labelled rows ``G q <= h`` for this step (none when no pair is within ``d_i``)."""
+        G, h, names = self.rows(np.asarray(context.q0, dtype=np.float64), context.dt)
+        if not names:
+            return Piece()
+        return Piece(G=G, h=h, row_labels=names)
+
+
+def repulsion(distance: float, gain: float, influence: float) -> float:
+    """Khatib's FIRAS magnitude ``eta (1/d - 1/d_i) / d^2`` (0 beyond ``d_i``) [m/s]."""
+    if distance >= influence:
+        return 0.0
+    d = max(distance, DISTANCE_FLOOR)
+    return gain * (1.0 / d - 1.0 / influence) / d**2
+
+
+def field_force(found: Sequence[Proximity], gain: float, influence: float, dt: float) -> FloatArray:
+    """The paper's artificial generalized force ``f`` (eq. 3) from Khatib's field, shape (n,)."""
+    if not found:
+        return np.zeros(0)
+    f = np.zeros_like(found[0].gradient)
+    for p in found:
+        f += dt * repulsion(p.distance, gain, influence) * p.gradient
+    return f
+
+
+def field_scale(
+    force: FloatArray, J: FloatArray, M: FloatArray, lo: FloatArray, hi: FloatArray
+) -> float:
+    """The largest ``s`` in [0, 1] for which the step ``f`` alone drives stays in the limits.
+
+    At ``p = 0`` the paper's criterion (eq. 3) with eq. 12 moves ``dq = a``,
+    ``[[M, J^T], [J, 0]] [a; lam] = [f; 0]`` (the null-space share of ``f``).
+    ``s a`` may take at most :data:`FIELD_SHARE` of the room ``[lo, hi]`` of each
+    joint, so that LP2 keeps a solution at ``p = 0`` (a field too strong for a
+    joint at its limit made the step infeasible) and the command keeps the rest.
+    """
+    n, m = M.shape[0], J.shape[0]
+    kkt = np.block([[M, J.T], [J, np.zeros((m, m))]])
+    a = np.linalg.lstsq(kkt, np.concatenate([force, np.zeros(m)]), rcond=None)[0][:n]
+    scale = 1.0
+    for i in range(n):
+        if a[i] > 0:
+            scale = min(scale, max(0.0, FIELD_SHARE * hi[i]) / a[i])
+        elif a[i] < 0:
+            scale = min(scale, min(0.0, FIELD_SHARE * lo[i]) / a[i])
+    return scale
+
+
+@dataclass(frozen=True, eq=False)
+class CollisionAvoidance:
+    """What a closed loop needs for collision avoidance: rows, force, the closest pair.
+
+    Attributes:
+        proximities: The robot's bodies and the scene.
+        mechanism: ``"rows"`` (velocity damper), ``"field"`` (potential field) or ``"both"``.
+        approach_speed: ``xi`` of the damper [m/s].
+        field_gain: ``eta`` of the field [m^3/s].
+    """
+
+    proximities: Proximities
+    mechanism: str = "rows"
+    approach_speed: float = DEFAULT_APPROACH_SPEED
+    field_gain: float = DEFAULT_FIELD_GAIN
+
+    def __post_init__(self) -> None:
+        if self.mechanism not in MECHANISMS:
+            raise ValueError(
+                f"mechanism: must be one of {', '.join(MECHANISMS)}; got {self.mechanism!r}"
+            )
+        eta = self.field_gain
+        if not (isinstance(eta, int | float) and np.isfinite(eta) and eta >= 0):
+            raise ValueError(f"field_gain: must be a finite number >= 0, got {eta!r}")
+        DistanceRows(self.proximities, self.approach_speed)  # checks approach_speed
+
+    @property
+    def scene(self) -> Any:
+        """The scene."""
+        return self.proximities.scene
+
+    def limits(self) -> list[DistanceRows]:
+        """The hard rows as a limit (none for the field alone)."""
+        if self.mechanism == "field":
+            return []
+        return [DistanceRows(self.proximities, self.approach_speed)]
+
+    def weights(
+        self, weights: Mapping[str, Any], q: FloatArray, dt: float, J: FloatArray
+    ) -> dict[str, Any]:
+        """``weights`` with the field's force added to ``f`` (unchanged for the rows alone).
+
+        The force is scaled by :func:`field_scale` so that LP2's step at ``p = 0`` stays
+        within the joints' limits.
+
+        Args:
+            weights: The step's weights (``M``, ``f``, ...).
+            q: Joint coordinates now, shape (n,).
+            dt: Control period [s].
+            J: The task Jacobian at ``q``, shape (m, n).
+        """
+        out = dict(weights)
+        if self.mechanism == "rows":
+            return out
+        found = self.proximities.at(q)
+        force = field_force(found, self.field_gain, self.scene.influence_distance, dt)
+        if not force.size or not force.any():
+            return out
+        chain = self.proximities.bodies.chain
+        M = np.asarray(out.get("M", np.eye(q.size)), dtype=np.float64)
+        M = np.diag(M) if M.ndim == 1 else M
+        room = chain.qd_max * dt
+        lo = np.maximum(chain.q_min - q, -room)
+        hi = np.minimum(chain.q_max - q, room)
+        force = field_scale(force, np.atleast_2d(J), M, lo, hi) * force
+        out["f"] = force + np.asarray(out.get("f", 0.0), dtype=np.float64)
+        return out
+
+    def closest(self, q: FloatArray) -> tuple[float, str]:
+        """Smallest signed distance at ``q`` [m] and the pair's name."""
+        return self.proximities.closest(q)

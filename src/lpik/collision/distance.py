@@ -1,0 +1,163 @@
+"""Signed distances between the robot's capsules, the obstacles and each other (coal).
+
+Every distance, witness point and normal comes from ``coal`` (the maintained
+successor of hpp-fcl): ``coal.distance`` with signed distances, so that
+overlapping shapes give a negative distance (their penetration depth) and a
+normal that still says how to separate them. lpik adds the kinematics: the
+velocity of each witness point on the robot, hence the rate of change of the
+distance, ``d_dot = grad . q_dot`` with ``grad = -n^T (J_1 - J_2)`` (``n``
+the unit normal from the robot's body 1 toward body 2; ``J_2 = 0`` for a
+fixed obstacle). Tests hold ``grad`` to a finite difference of the distance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from lpik.collision.bodies import RobotBodies, candidate_self_pairs
+from lpik.collision.shapes import Scene, capsule_geometry, coal_module
+from lpik.labels import collision_label, pair_name
+from lpik.types import FloatArray
+
+
+@dataclass(frozen=True, eq=False)
+class Proximity:
+    """How close one pair is at one configuration.
+
+    Attributes:
+        body: The robot's link.
+        other: The obstacle, or the other link.
+        distance: Signed distance [m]; negative when the two overlap.
+        point: Witness point on the robot's body, world frame, shape (3,) [m].
+        other_point: Witness point on the other body, shape (3,) [m].
+        normal: Unit normal from the robot's body toward the other, shape (3,).
+        gradient: ``d distance / d q`` at this configuration, shape (n,) [m/rad].
+    """
+
+    body: str
+    other: str
+    distance: float
+    point: FloatArray
+    other_point: FloatArray
+    normal: FloatArray
+    gradient: FloatArray
+
+    @property
+    def pair(self) -> str:
+        """The pair's name, ``"<link> - <other>"``."""
+        return pair_name(self.body, self.other)
+
+    @property
+    def label(self) -> str:
+        """The label of the pair's distance row, ``"collision <link> - <other>"``."""
+        return collision_label(self.body, self.other)
+
+
+def point_jacobian(bodies: RobotBodies, frames: FloatArray, joint: int, point: FloatArray):
+    """Jacobian (3, n) of the velocity of ``point``, fixed in the frame of ``joint``."""
+    chain = bodies.chain
+    jac = np.zeros((3, chain.n_joints))
+    for k in range(joint + 1):
+        axis = frames[k][:3, :3] @ chain.joints[k].axis
+        if chain.joints[k].kind == "revolute":
+            jac[:, k] = np.cross(axis, point - frames[k][:3, 3])
+        else:
+            jac[:, k] = axis
+    return jac
+
+
+def signed_distance(shape_1: tuple[Any, Any], shape_2: tuple[Any, Any]):
+    """The signed distance (by coal) between two placed shapes: distance, witness points, normal."""
+    coal = coal_module()
+    request = coal.DistanceRequest()
+    request.enable_signed_distance = True
+    result = coal.DistanceResult()
+    distance = coal.distance(shape_1[0], shape_1[1], shape_2[0], shape_2[1], request, result)
+    return (
+        float(distance),
+        np.array(result.getNearestPoint1()),
+        np.array(result.getNearestPoint2()),
+        np.array(result.normal),
+    )
+
+
+class Proximities:
+    """The distances between a robot's bodies and a scene, self-collision included.
+
+    Obstacle shapes are built once; the robot's are placed at each call.
+    """
+
+    def __init__(self, bodies: RobotBodies, scene: Scene) -> None:
+        """Keep the bodies and the scene; build the obstacles' coal shapes."""
+        self.bodies = bodies
+        self.scene = scene
+        self._obstacles = [(o.name, o.geometry()) for o in scene.obstacles]
+        self._cache: tuple[bytes, list[Proximity]] | None = None
+
+    def at(self, q: Sequence[float] | FloatArray) -> list[Proximity]:
+        """Every checked pair's :class:`Proximity` at ``q`` (robot-obstacle pairs first)."""
+        q = np.asarray(q, dtype=np.float64)
+        key = q.tobytes()
+        if self._cache is not None and self._cache[0] == key:
+            return self._cache[1]
+        capsules = self.bodies.capsules
+        ends_a, ends_b, frames = self.bodies.world_capsules(q)
+        placed = [capsule_geometry(ends_a[i], ends_b[i], c.radius) for i, c in enumerate(capsules)]
+        found: list[Proximity] = []
+        for i, capsule in enumerate(capsules):
+            for name, shape in self._obstacles:
+                d, p1, p2, n = signed_distance(placed[i], shape)
+                jac = point_jacobian(self.bodies, frames, capsule.joint, p1)
+                found.append(Proximity(capsule.link, name, d, p1, p2, n, -n @ jac))
+        for i, j in self.bodies.self_pairs:
+            d, p1, p2, n = signed_distance(placed[i], placed[j])
+            jac = point_jacobian(self.bodies, frames, capsules[i].joint, p1)
+            jac -= point_jacobian(self.bodies, frames, capsules[j].joint, p2)
+            found.append(Proximity(capsules[i].link, capsules[j].link, d, p1, p2, n, -n @ jac))
+        self._cache = (key, found)
+        return found
+
+    def closest(self, q: Sequence[float] | FloatArray) -> tuple[float, str]:
+        """The smallest signed distance at ``q`` [m] and its pair (``(inf, "")`` when none)."""
+        found = self.at(q)
+        if not found:
+            return float("inf"), ""
+        best = min(found, key=lambda p: p.distance)
+        return best.distance, best.pair
+
+
+def robot_bodies(
+    model: Any,
+    capsules: Sequence[Any],
+    home: Sequence[float] | FloatArray | None,
+    *,
+    self_collision: bool = True,
+    touching: float = 0.0,
+) -> RobotBodies:
+    """A :class:`RobotBodies` with the documented self-collision pair filter.
+
+    Args:
+        model: The chain or a task on it.
+        capsules: Its capsules (:func:`~lpik.collision.bodies.frame_capsules`,
+            :func:`~lpik.collision.bodies.urdf_capsules`).
+        home: The home configuration; pairs closer than ``touching`` there are
+            dropped (they touch by design). ``None``: no pair is dropped so.
+        self_collision: Whether to check self-collision at all.
+        touching: Distance under which a pair counts as touching at home [m].
+    """
+    chain = getattr(model, "kinematics", model)
+    bodies = RobotBodies(chain, tuple(capsules))
+    if not self_collision:
+        return bodies
+    pairs = candidate_self_pairs(bodies.capsules)
+    if home is not None and pairs:
+        ends_a, ends_b, _ = bodies.world_capsules(np.asarray(home, dtype=np.float64))
+        placed = [capsule_geometry(ends_a[i], ends_b[i], c.radius) for i, c in enumerate(capsules)]
+        pairs = tuple(
+            (i, j) for i, j in pairs if signed_distance(placed[i], placed[j])[0] > touching
+        )
+    return RobotBodies(chain, bodies.capsules, pairs)
