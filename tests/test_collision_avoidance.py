@@ -1,0 +1,148 @@
+"""The velocity damper's rows and the potential field, step by step and over whole runs."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from tests.collision_cases import PULL_IN, Q0, arm, circle_scene
+from tests.core_reference import hard_violation, lp1_reference, lp2_reference
+
+from lpik.collision import DistanceRows, collision_avoidance, field_force, repulsion
+from lpik.collision.avoidance import field_scale
+from lpik.control.command import ClampedTarget
+from lpik.control.simulate import simulate
+from lpik.limits import build_problem, standard_limits
+from lpik.methods import solve
+
+DT = 0.01
+
+
+def step_problem(model, avoid, q, target):  # type: ignore[no-untyped-def]
+    J = model.jacobian(q)
+    dw = ClampedTarget(target, v_max=0.5)(model, q, DT)
+    limits = [*standard_limits(model), *avoid.limits()]
+    return build_problem(J, dw, q, limits, dt=DT, **avoid.weights({}, q, DT, J))
+
+
+def test_a_row_bounds_the_approach_as_faverjon_and_tournassoud_write_it() -> None:
+    model = arm()
+    scene = circle_scene((1.3, 1.75), 0.2)
+    avoid = collision_avoidance(model, scene, None, self_collision=False)
+    G, h, names = DistanceRows(avoid.proximities, approach_speed=0.4).rows(Q0, DT)
+    near = [p for p in avoid.proximities.at(Q0) if p.distance < scene.influence_distance]
+    assert names == tuple(p.label for p in near) and names
+    for row, rhs, p in zip(G, h, near):
+        np.testing.assert_allclose(row, -p.gradient)
+        allowed = 0.4 * DT * max(p.distance - 0.05, 0.0) / (0.3 - 0.05)
+        assert rhs - row @ Q0 == pytest.approx(allowed)
+
+
+@settings(deadline=None, max_examples=40)
+@given(
+    q=st.lists(st.floats(-2.5, 2.5), min_size=4, max_size=4),
+    center=st.tuples(st.floats(-3.5, 3.5), st.floats(-3.5, 3.5)),
+    radius=st.floats(0.05, 0.5),
+    target=st.tuples(st.floats(-3, 3), st.floats(-3, 3)),
+    method=st.sampled_from(["lp1", "l1", "lp2"]),
+)
+def test_no_step_of_a_hard_row_method_brings_a_pair_below_the_safety_distance(
+    q, center, radius, target, method
+) -> None:  # type: ignore[no-untyped-def]
+    model, q = arm(), np.array(q)
+    avoid = collision_avoidance(model, circle_scene(center, radius), None)
+    P = step_problem(model, avoid, q, np.array([*target, 0.0]))
+    result = solve(P, method, model=model)
+    assert 0.0 <= result.p <= 1.0
+    assert hard_violation(P, result.q) <= 1e-7
+    if result.moved:
+        np.testing.assert_allclose(P.J @ (result.q - q), result.p * P.dw, atol=1e-7)
+    # the LP's own answer against HiGHS on the paper's LP, written independently
+    reference = {"lp1": lp1_reference, "lp2": lp2_reference}.get(method)
+    if reference is not None and result.status == "optimal":
+        ref = reference(P)
+        assert ref.feasible and result.p == pytest.approx(ref.p, abs=1e-6)
+    # the true distance after the step: never below d_s (or, when already closer, no
+    # closer), up to the second-order term of the linearisation
+    step = float(np.abs(result.q - q).max())
+    slack = 4.0 * 4 * step**2  # |d2 d / dq2| <= (sum of link lengths)^2, |dq|_1 <= 4 |dq|_inf
+    before = {p.label: p.distance for p in avoid.proximities.at(q)}
+    for p in avoid.proximities.at(result.q):
+        assert p.distance >= min(0.05, before[p.label]) - slack, p.label
+
+
+def test_the_field_is_khatibs_force_along_the_distance_gradient() -> None:
+    model = arm()
+    scene = circle_scene((1.3, 1.75), 0.2)
+    found = collision_avoidance(model, scene, None, self_collision=False).proximities.at(Q0)
+    f = field_force(found, 0.01, 0.3, DT)
+    expected = sum(DT * 0.01 * (1 / p.distance - 1 / 0.3) / p.distance**2 * p.gradient
+                   for p in found if p.distance < 0.3)  # fmt: skip
+    np.testing.assert_allclose(f, expected)
+    assert repulsion(0.31, 1.0, 0.3) == 0.0
+    assert repulsion(0.1, 1.0, 0.3) == pytest.approx((10 - 1 / 0.3) / 0.01)
+    # the force increases every distance it acts on, to first order
+    for p in found:
+        if p.distance < 0.3:
+            assert p.gradient @ f > 0
+
+
+def test_the_fields_own_step_keeps_within_the_limits() -> None:
+    J = np.array([[1.0, 1.0, 0.0]])
+    force = np.array([0.0, 0.0, 1.0])
+    lo, hi = np.full(3, -0.01), np.array([0.01, 0.01, 0.004])
+    assert field_scale(force, J, np.eye(3), lo, hi) == pytest.approx(0.5 * 0.004)
+    assert field_scale(force, J, np.eye(3), lo, np.array([0.01, 0.01, 0.0])) == 0.0
+
+
+def run(method, mechanism, scene, target, steps):  # type: ignore[no-untyped-def]
+    model = arm()
+    avoid = collision_avoidance(model, scene, Q0, mechanism=mechanism, field_gain=0.02)
+    return model, simulate(model, ClampedTarget(target, v_max=0.5), Q0, steps,
+                           method=method, dt=DT, scene=avoid)  # fmt: skip
+
+
+ELBOW = circle_scene((0.8, 2.0), 0.15)
+
+
+@pytest.mark.parametrize(("method", "mechanism"), [("lp1", "rows"), ("lp2", "both")])
+def test_beside_the_elbow_redundancy_moves_the_elbow_and_the_tool_arrives(
+    method, mechanism
+) -> None:  # type: ignore[no-untyped-def]
+    _, log = run(method, mechanism, ELBOW, PULL_IN, 700)
+    assert np.linalg.norm(log.position_end - PULL_IN[:2]) < 1e-3
+    assert log.min_distance.min() >= 0.05 - 1e-3
+    assert (log.min_distance < 0.3).any()  # the obstacle did act
+
+
+def test_lp2_with_rows_alone_stops_at_the_obstacle_beside_the_elbow_and_names_it() -> None:
+    _, log = run("lp2", "rows", ELBOW, PULL_IN, 400)
+    assert log.p[-1] < 0.05
+    assert log.binding[-1].startswith("collision link") and log.binding[-1].endswith("- ball")
+    assert log.min_distance.min() >= 0.05 - 1e-3
+
+
+def test_on_the_tools_path_the_tool_stops_at_the_safety_distance(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    scene = circle_scene((2.4, 0.866), 0.1)
+    _, log = run("lp2", "rows", scene, np.array([1.5, 0.866, 0.0]), 300)
+    assert log.p[-1] < 1e-2
+    assert log.binding[-1] == "collision link 4 - ball"
+    assert log.min_distance[-1] == pytest.approx(0.05, abs=2e-3)
+    assert log.min_distance.min() >= 0.05 - 1e-3
+    rows = list(csv.DictReader(open(log.to_csv(tmp_path / "run.csv"), encoding="utf-8")))
+    assert rows[-1]["closest"] == "link 4 - ball"
+    assert float(rows[-1]["min_distance"]) == pytest.approx(log.min_distance[-1])
+
+
+def test_a_scene_for_the_plane_needs_a_planar_arm() -> None:
+    from lpik.robots.registry import load_robot
+
+    with pytest.raises(ValueError, match="^scene: a 2-D scene needs a planar arm"):
+        collision_avoidance(load_robot("panda"), ELBOW, None)
+    with pytest.raises(ValueError, match="^mechanism:"):
+        collision_avoidance(arm(), ELBOW, None, mechanism="magic")
+    with pytest.raises(ValueError, match="^approach_speed:"):
+        collision_avoidance(arm(), ELBOW, None, approach_speed=float("nan"))
