@@ -132,6 +132,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "every limit (status off_direction) while p stays 0; default: never",
     )
     parser.add_argument(
+        "--scene",
+        metavar="SCENE.json",
+        help="obstacles to avoid (JSON: obstacles, safety_distance, influence_distance; 2-D "
+        "points for the planar arm); the CSV gains min_distance and closest",
+    )
+    parser.add_argument(
+        "--avoid",
+        choices=("rows", "field", "both"),
+        default="rows",
+        help="with --scene: hard distance rows (velocity damper; lp1, l1, lp2), the paper's "
+        "potential field (weighted, robust, lp2) or both (default rows)",
+    )
+    parser.add_argument(
         "--cold-start",
         action="store_true",
         help="solve every step's LP on its own instead of warm-starting HiGHS across steps",
@@ -208,6 +221,16 @@ def run_options(args: argparse.Namespace) -> dict[str, object]:
     }
 
 
+def _avoidance(args: argparse.Namespace, setup: Setup) -> object:
+    """The run's collision avoidance from ``--scene`` and ``--avoid`` (None without a scene)."""
+    if args.scene is None:
+        return None
+    from lpik.collision import collision_avoidance, load_scene
+
+    scene = load_scene(args.scene)
+    return collision_avoidance(setup.model, scene, setup.q0, mechanism=args.avoid)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the scenario; write the CSV, figure and animation that were asked for."""
     from lpik.cli.progress import LazyProgress
@@ -225,7 +248,9 @@ def run(args: argparse.Namespace) -> int:
 
         require_backend(animation=gif is not None)  # fail before the run, not after it
     with LazyProgress(f"{setup.name} {args.method}") as progress:
-        log = setup.run(args.method, progress=progress, **run_options(args))
+        log = setup.run(
+            args.method, progress=progress, scene=_avoidance(args, setup), **run_options(args)
+        )
     written = [] if out is None else [log.to_csv(out)]
     written += _draw(args, setup, log, fig, gif)
     m = log.metrics()

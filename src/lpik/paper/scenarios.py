@@ -179,6 +179,7 @@ class Setup:
         progress: Progress | None = None,
         on_stall: int | None = None,
         qdd_max: float | None = None,
+        scene: Any = None,
     ) -> SimulationLog:
         """Simulate this setup with one method (:func:`lpik.control.simulate.simulate`).
 
@@ -191,6 +192,8 @@ class Setup:
             warm_start: Reuse one HiGHS instance across steps.
             progress: Called after every step with ``(done, steps)``.
             on_stall: Opt-in progress step after this many steps with ``p = 0``.
+            scene: Obstacles to avoid (a :class:`~lpik.collision.Scene` or
+                :class:`~lpik.collision.CollisionAvoidance`); none when None.
 
         Raises:
             ValueError: For a bad method, step count, period or bound.
@@ -211,6 +214,7 @@ class Setup:
             warm_start=warm_start,
             progress=progress,
             on_stall=on_stall,
+            scene=scene,
         )
 
     def controller(
