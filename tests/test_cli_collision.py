@@ -44,3 +44,43 @@ def test_a_bad_scene_is_one_line_and_exit_2(tmp_path, capsys, scene, message) ->
     assert main(["simulate", "pull-in", "--scene", str(path), "--steps", "5"]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_reach_moves_the_panda_into_the_shelf_keeping_its_distance(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    from importlib.resources import files
+
+    scene = files("lpik") / "data" / "scenes" / "panda-shelf.json"
+    out = tmp_path / "reach.csv"
+    args = ["simulate", "reach", "--robot", "panda", "--target", "0.72,0,0.36"]
+    assert main([*args, "--scene", str(scene), "--steps", "150", "--out", str(out)]) == 0
+    rows = list(csv.DictReader(out.open(encoding="utf-8")))
+    end = [float(rows[-1][k]) for k in "xyz"]
+    assert end == pytest.approx([0.72, 0.0, 0.36], abs=2e-3)
+    assert min(float(r["min_distance"]) for r in rows) >= 0.02 - 1e-3
+    assert any(r["binding"].startswith("collision panda_link") for r in rows)
+
+
+def test_the_obstacle_scenario_carries_its_scene(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    out = tmp_path / "obstacle.csv"
+    assert (
+        main(["simulate", "obstacle", "--avoid", "rows", "--steps", "400", "--out", str(out)]) == 0
+    )
+    rows = list(csv.DictReader(out.open(encoding="utf-8")))
+    assert rows[-1]["binding"].endswith("- obstacle") and float(rows[-1]["p"]) < 0.05
+    assert min(float(r["min_distance"]) for r in rows) >= 0.05 - 1e-3
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["reach", "--robot", "panda"], "--target: reach needs"),
+        (["reach", "--robot", "panda", "--target", "1,x,2"], "--target: must be numbers"),
+        (["reach", "--robot", "panda", "--target", "1,2"], "--target: a 3-D arm needs"),
+        (["pull-in", "--target", "1,2,3"], "--target: only for the scenario 'reach'"),
+        (["obstacle", "--robot", "panda"], "robot: scenario 'obstacle' runs on the 'planar'"),
+    ],
+)
+def test_bad_reach_options_are_one_line(capsys, args, message) -> None:  # type: ignore[no-untyped-def]
+    assert main(["simulate", *args]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1

@@ -100,7 +100,7 @@ def test_the_fields_own_step_keeps_within_the_limits() -> None:
 
 def run(method, mechanism, scene, target, steps):  # type: ignore[no-untyped-def]
     model = arm()
-    avoid = collision_avoidance(model, scene, Q0, mechanism=mechanism, field_gain=0.02)
+    avoid = collision_avoidance(model, scene, Q0, mechanism=mechanism)
     return model, simulate(model, ClampedTarget(target, v_max=0.5), Q0, steps,
                            method=method, dt=DT, scene=avoid)  # fmt: skip
 

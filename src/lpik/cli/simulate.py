@@ -1,5 +1,8 @@
 """``lpik simulate SCENARIO [--robot NAME] --method METHOD --out RUN.csv``: one closed-loop run.
 
+``lpik simulate reach --robot NAME --target X,Y,Z`` moves the tool point from the
+home configuration straight to a point, its orientation held (:mod:`lpik.paper.reach`).
+
 One path for every robot: :meth:`lpik.paper.scenarios.Scenario.setup` gives the
 run, :mod:`lpik.paper.run_figures` draws it.
 """
@@ -71,7 +74,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         epilog=epilog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("scenario", metavar="SCENARIO", help=f"one of {', '.join(SCENARIOS)}")
+    parser.add_argument(
+        "scenario",
+        metavar="SCENARIO",
+        help=f"one of {', '.join(SCENARIOS)}, or reach (with --target)",
+    )
+    parser.add_argument(
+        "--target",
+        metavar="X,Y,Z",
+        help="reach: the point [m] the tool point moves to from the home configuration at "
+        "v_max, its orientation held",
+    )
     parser.add_argument(
         "--robot",
         metavar="NAME",
@@ -221,26 +234,45 @@ def run_options(args: argparse.Namespace) -> dict[str, object]:
     }
 
 
+def _setup(args: argparse.Namespace) -> Setup:
+    """The run: a scenario on ``--robot``, or ``reach`` to ``--target``."""
+    from lpik.paper.scenarios import get_scenario
+
+    if args.scenario != "reach":
+        if args.target is not None:
+            raise ValueError("--target: only for the scenario 'reach'")
+        return get_scenario(args.scenario).setup(args.robot)
+    from lpik.paper.reach import reach_setup
+
+    if args.target is None:
+        raise ValueError("--target: reach needs the point X,Y,Z [m]")
+    try:
+        point = [float(v) for v in args.target.split(",")]
+    except ValueError:
+        raise ValueError(f"--target: must be numbers X,Y,Z [m], got {args.target!r}") from None
+    return reach_setup(args.robot, point)
+
+
 def _avoidance(args: argparse.Namespace, setup: Setup) -> object:
-    """The run's collision avoidance from ``--scene`` and ``--avoid`` (None without a scene)."""
-    if args.scene is None:
-        return None
+    """The run's collision avoidance from ``--scene`` (default the scenario's) and ``--avoid``."""
     from lpik.collision import collision_avoidance, load_scene
 
-    scene = load_scene(args.scene)
+    scene = setup.scene if args.scene is None else load_scene(args.scene)
+    if scene is None:
+        return None
     return collision_avoidance(setup.model, scene, setup.q0, mechanism=args.avoid)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the scenario; write the CSV, figure and animation that were asked for."""
     from lpik.cli.progress import LazyProgress
-    from lpik.paper.scenarios import PLANAR, get_scenario
+    from lpik.paper.scenarios import PLANAR
 
     _check_options(args)
     out = _writable("--out", args.out)
     fig = _writable("--plot", args.plot)
     gif = _writable("--animate", args.animate)
-    setup = get_scenario(args.scenario).setup(args.robot)
+    setup = _setup(args)
     if gif is not None and args.robot != PLANAR:
         raise ValueError("--animate: draws the planar arm only; use --plot for 3-D runs")
     if fig is not None or gif is not None:

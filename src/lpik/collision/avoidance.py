@@ -45,7 +45,7 @@ from lpik.types import FloatArray
 #: Default largest approach speed ``xi`` of the velocity damper [m/s].
 DEFAULT_APPROACH_SPEED = 0.5
 #: Default gain ``eta`` of the potential field [m^3/s].
-DEFAULT_FIELD_GAIN = 2e-3
+DEFAULT_FIELD_GAIN = 0.02
 #: Smallest distance the potential field divides by [m].
 DISTANCE_FLOOR = 1e-3
 #: The field's own step (the step at ``p = 0`` that ``f`` alone drives) may take at

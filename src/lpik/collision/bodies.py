@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from lpik.robots.chain import SerialChain
 from lpik.types import FloatArray
@@ -159,6 +160,16 @@ class RobotBodies:
     chain: SerialChain
     capsules: tuple[LinkCapsule, ...]
     self_pairs: tuple[tuple[int, int], ...] = ()
+
+    @property
+    def axes(self) -> FloatArray:
+        """The joints' unit axes in their own frames, shape (n, 3)."""
+        return np.array([j.axis for j in self.chain.joints])
+
+    @property
+    def revolute(self) -> NDArray[np.bool_]:
+        """Which joints are revolute, shape (n,)."""
+        return np.array([j.kind == "revolute" for j in self.chain.joints])
 
     def world_capsules(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Every capsule's ends in the world frame at ``q``.

@@ -57,16 +57,25 @@ class Proximity:
         return collision_label(self.body, self.other)
 
 
-def point_jacobian(bodies: RobotBodies, frames: FloatArray, joint: int, point: FloatArray):
-    """Jacobian (3, n) of the velocity of ``point``, fixed in the frame of ``joint``."""
-    chain = bodies.chain
-    jac = np.zeros((3, chain.n_joints))
-    for k in range(joint + 1):
-        axis = frames[k][:3, :3] @ chain.joints[k].axis
-        if chain.joints[k].kind == "revolute":
-            jac[:, k] = np.cross(axis, point - frames[k][:3, 3])
-        else:
-            jac[:, k] = axis
+def joint_axes(bodies: RobotBodies, frames: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Every joint's unit axis and origin in the world frame, (n, 3) each."""
+    axes = np.einsum("kij,kj->ki", frames[:, :3, :3], bodies.axes)
+    return axes, frames[:, :3, 3]
+
+
+def point_jacobian(
+    bodies: RobotBodies, axes: FloatArray, origins: FloatArray, joint: int, point: FloatArray
+) -> FloatArray:
+    """Jacobian (3, n) of the velocity of ``point``, fixed in the frame of ``joint``.
+
+    Column ``k <= joint``: ``z_k x (point - o_k)`` for a revolute joint, ``z_k`` for a
+    prismatic one (the geometric Jacobian's linear rows); zero beyond ``joint``.
+    """
+    jac = np.zeros((3, axes.shape[0]))
+    k = joint + 1
+    if k > 0:
+        lever = np.cross(axes[:k], point - origins[:k])
+        jac[:, :k] = np.where(bodies.revolute[:k, None], lever, axes[:k]).T
     return jac
 
 
@@ -106,17 +115,20 @@ class Proximities:
             return self._cache[1]
         capsules = self.bodies.capsules
         ends_a, ends_b, frames = self.bodies.world_capsules(q)
+        axes, origins = joint_axes(self.bodies, frames)
         placed = [capsule_geometry(ends_a[i], ends_b[i], c.radius) for i, c in enumerate(capsules)]
         found: list[Proximity] = []
         for i, capsule in enumerate(capsules):
+            if capsule.joint < 0:
+                continue  # the base does not move: its distances to the obstacles stay as they are
             for name, shape in self._obstacles:
                 d, p1, p2, n = signed_distance(placed[i], shape)
-                jac = point_jacobian(self.bodies, frames, capsule.joint, p1)
+                jac = point_jacobian(self.bodies, axes, origins, capsule.joint, p1)
                 found.append(Proximity(capsule.link, name, d, p1, p2, n, -n @ jac))
         for i, j in self.bodies.self_pairs:
             d, p1, p2, n = signed_distance(placed[i], placed[j])
-            jac = point_jacobian(self.bodies, frames, capsules[i].joint, p1)
-            jac -= point_jacobian(self.bodies, frames, capsules[j].joint, p2)
+            jac = point_jacobian(self.bodies, axes, origins, capsules[i].joint, p1)
+            jac -= point_jacobian(self.bodies, axes, origins, capsules[j].joint, p2)
             found.append(Proximity(capsules[i].link, capsules[j].link, d, p1, p2, n, -n @ jac))
         self._cache = (key, found)
         return found

@@ -302,6 +302,8 @@ def reproduce_3d(
     out = Path(out_dir)
     files: list[Path] = []
     for name, scenario in SCENARIOS.items():
+        if scenario.arm is None:
+            continue
         if progress is not None:
             progress(f"{name}, {robot} (3-D), {method}")
         setup = scenario.setup(robot)

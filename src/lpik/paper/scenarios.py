@@ -21,6 +21,10 @@ velocity limit 1 rad/s, ``dt = 0.01`` s, ``v_max = 0.5`` m/s, ``M = I``,
 * ``edge-singularity``: move toward (4.5, 0.3) m, beyond the 4 m reach, into
   the edge singularity (Figs. 7-9). On a 3-D arm (position task): stretch the
   tool horizontally :data:`STRETCH_BEYOND` further out, beyond its reach.
+* ``obstacle`` (beyond the paper; planar only): the pull-in with every joint
+  within +-180 deg past a circular obstacle (:data:`OBSTACLE`) beside the path
+  of the elbow, the collision avoidance the paper's abstract promises
+  (:mod:`lpik.collision`; ``d_s`` 0.05 m, ``d_i`` 0.3 m, links 0.05 m thick).
 
 3-D runs start at the arm's home configuration with its own end-stops and
 velocity limits, ``dt = 0.01`` s and ``v_max = 0.25`` m/s.
@@ -53,6 +57,10 @@ PLANAR = "planar"
 PULL_BEYOND = 0.3
 #: The 3-D edge-singularity target lies this far beyond the start, away from the base axis [m].
 STRETCH_BEYOND = 1.0
+#: The ``obstacle`` scenario's circle: centre x, y and radius [m], and its scene's
+#: safety and influence distances [m].
+OBSTACLE = (0.8, 2.0, 0.15)
+OBSTACLE_DISTANCES = (0.05, 0.3)
 
 
 def _deg(*values: float) -> tuple[float, ...]:
@@ -71,6 +79,7 @@ class PaperArm:
         q0: Start configuration [rad].
         qd_max: Joint velocity limit [rad/s].
         v_max: Largest commanded end-effector speed [m/s].
+        obstacle: A circle (x, y, radius) [m] in the way, or None.
     """
 
     q_min: tuple[float, ...]
@@ -80,6 +89,7 @@ class PaperArm:
     q0: tuple[float, ...] = _deg(60, -30, -30, -30)
     qd_max: float = 1.0
     v_max: float = 0.5
+    obstacle: tuple[float, float, float] | None = None
 
     @property
     def reach(self) -> float:
@@ -141,6 +151,7 @@ class Setup:
         dt: Control period [s].
         steps: Number of control steps.
         weights: ``M``, ``f``, ``Lambda`` of the criterion (eq. 3, sec. 3.1).
+        scene: The obstacles of the run (:class:`lpik.collision.Scene`), or None.
     """
 
     name: str
@@ -153,6 +164,7 @@ class Setup:
     dt: float
     steps: int
     weights: Mapping[str, Any] = field(default_factory=dict)
+    scene: Any = None
 
     def command(self) -> ClampedTarget:
         """The command law: toward ``target`` at most ``v_max`` and ``w_max`` fast."""
@@ -193,7 +205,7 @@ class Setup:
             progress: Called after every step with ``(done, steps)``.
             on_stall: Opt-in progress step after this many steps with ``p = 0``.
             scene: Obstacles to avoid (a :class:`~lpik.collision.Scene` or
-                :class:`~lpik.collision.CollisionAvoidance`); none when None.
+                :class:`~lpik.collision.CollisionAvoidance`); default the setup's.
 
         Raises:
             ValueError: For a bad method, step count, period or bound.
@@ -214,7 +226,7 @@ class Setup:
             warm_start=warm_start,
             progress=progress,
             on_stall=on_stall,
-            scene=scene,
+            scene=self.scene if scene is None else scene,
         )
 
     def controller(
@@ -241,7 +253,7 @@ class Scenario:
         description: One line saying what it shows.
         steps: Number of control steps.
         paper: The run on the paper's planar arm.
-        arm: The same experiment on a bundled 3-D arm.
+        arm: The same experiment on a bundled 3-D arm (None: planar only).
         dt: Control period [s].
         figures: The paper's figures the planar run reproduces.
     """
@@ -250,7 +262,7 @@ class Scenario:
     description: str
     steps: int
     paper: PaperArm
-    arm: ArmRun
+    arm: ArmRun | None
     dt: float = 0.01
     figures: str = ""
 
@@ -292,8 +304,14 @@ class Scenario:
                 target=np.array([*arm.target, 0.0]), v_max=arm.v_max, w_max=DEFAULT_W_MAX,
                 dt=self.dt, steps=self.steps,
                 weights={"M": np.ones(n), "f": np.zeros(n), "Lambda": np.zeros(n)},
+                scene=None if arm.obstacle is None else _circle_scene(arm.obstacle),
             )  # fmt: skip
         lookup(dict.fromkeys((PLANAR, *robot_names())), robot, "robot: unknown robot")
+        if self.arm is None:
+            raise ValueError(
+                f"robot: scenario '{self.name}' runs on the '{PLANAR}' arm only; on a 3-D arm "
+                "use lpik simulate reach --robot NAME --target X,Y,Z --scene SCENE.json"
+            )
         model = load_robot(robot, task=self.arm.task)
         q0 = home_configuration(robot)
         n = model.n_joints
@@ -352,8 +370,33 @@ SCENARIOS: dict[str, Scenario] = {
             arm=ArmRun("position", reach=STRETCH_BEYOND),
             figures="7, 8, 9",
         ),
+        Scenario(
+            "obstacle",
+            "the pull-in past a circular obstacle beside the elbow's path (planar only; "
+            "beyond the paper: its abstract's collision avoidance)",
+            steps=700,
+            paper=PaperArm(
+                q_min=_deg(-180, -180, -180, -180),
+                q_max=_deg(180, 180, 180, 180),
+                target=(0.2, 0.8660),
+                obstacle=OBSTACLE,
+            ),  # fmt: skip
+            arm=None,
+        ),
     )
 }
+
+
+def _circle_scene(circle: tuple[float, float, float]) -> Any:
+    """A planar scene with one circle, named ``"obstacle"``, and :data:`OBSTACLE_DISTANCES`."""
+    from lpik.collision import scene_from_dict
+
+    x, y, radius = circle
+    d_s, d_i = OBSTACLE_DISTANCES
+    obstacle = {"name": "obstacle", "type": "sphere", "center": [x, y], "radius": radius}
+    return scene_from_dict(
+        {"obstacles": [obstacle], "safety_distance": d_s, "influence_distance": d_i}
+    )
 
 
 def scenario_names() -> Sequence[str]:
