@@ -3,8 +3,8 @@
 #
 #   tools/update_docs_figures.sh        (from anywhere; uses .venv/bin/lpik when present)
 #
-# Writes docs/fig4-joint-motion.png, docs/fig9-bounded-multipliers.png and
-# docs/summary.md. Every number and curve in them is computed by the run.
+# Writes docs/fig4-joint-motion.png, docs/fig9-bounded-multipliers.png,
+# docs/fig11-obstacle.png and docs/summary.md. Every number and curve in them is computed by the run.
 set -eu
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -16,7 +16,7 @@ trap 'rm -rf "$out"' EXIT INT TERM
 
 MPLBACKEND=Agg "$lpik" reproduce --out "$out"
 mkdir -p docs
-for name in fig4-joint-motion.png fig9-bounded-multipliers.png summary.md; do
+for name in fig4-joint-motion.png fig9-bounded-multipliers.png fig11-obstacle.png summary.md; do
     cp "$out/$name" "docs/$name"
     echo "updated docs/$name"
 done

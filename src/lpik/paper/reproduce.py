@@ -1,7 +1,8 @@
 """Reproduce the paper's section 4: the runs, figures 3-9, their CSV logs and a summary.
 
 Six runs of the two scenarios (:mod:`lpik.paper.scenarios`), the sixth beyond
-the paper:
+the paper (and, beyond it too, the 3-D runs of :func:`reproduce_3d` and the
+collision-avoidance runs and Figs. 11-12 of :mod:`lpik.paper.collision_runs`):
 
 ==================================  =====================================  =========
 run                                 method, multipliers                    figures
@@ -36,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from lpik.control.log import RunMetrics, SimulationLog
+from lpik.paper.collision_runs import reproduce_collision
 from lpik.paper.scenarios import SCENARIOS, get_scenario
 from lpik.tolerances import FULL_P
 from lpik.version import __version__
@@ -271,6 +273,7 @@ def reproduce(out_dir: str | Path, progress: Progress | None = None) -> Reproduc
     say("figures")
     files += write_figures(out, logs, choice)
     files += reproduce_3d(out, "panda", progress=say)
+    files += reproduce_collision(out, progress=say)
     summary = out / "summary.md"
     summary.write_text(summary_markdown(logs, choice, sweep, version=__version__), "utf-8")
     files.append(summary)
