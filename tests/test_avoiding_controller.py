@@ -1,0 +1,70 @@
+"""The compiled controller with distance rows written in per step, against the numpy path."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lpik.collision import collision_avoidance, load_scene
+from lpik.control.avoiding_controller import AvoidingLp2Controller
+from lpik.methods.lp2 import lp2
+from lpik.paper.collision_runs import SHELF_TARGET, shelf_scene_path
+from lpik.paper.reach import reach_setup
+from lpik.paper.scenarios import get_scenario
+
+
+def active(problem, q, label) -> bool:  # type: ignore[no-untyped-def]
+    """Whether the row called ``label`` holds with equality at ``q`` (a tie is named either way)."""
+    k = list(problem.row_labels).index(label)
+    return abs(problem.G[k] @ q - problem.h[k]) <= 1e-9 * max(1.0, abs(problem.h[k]))
+
+
+@pytest.mark.parametrize("mechanism", ["rows", "both"])
+def test_the_compiled_steps_follow_the_numpy_run_of_the_obstacle_scenario(mechanism) -> None:  # type: ignore[no-untyped-def]
+    setup = get_scenario("obstacle").setup()
+    avoid = collision_avoidance(setup.model, setup.scene, setup.q0, mechanism=mechanism)
+    log = setup.run("lp2", scene=avoid)
+    controller = AvoidingLp2Controller(setup.model, avoid, dt=setup.dt)
+    q = setup.q0.copy()
+    for k in range(setup.steps):
+        np.testing.assert_allclose(q, log.q[k], atol=1e-9)
+        result = controller.step(q, setup.target)
+        assert result.path == "compiled" and result.p == pytest.approx(log.p[k], abs=1e-9)
+        if (result.binding or "") != log.binding[k]:  # two rows that tie (a shared joint)
+            problem = controller.problem(q, setup.target)
+            assert active(problem, result.q, result.binding)
+            assert active(problem, result.q, str(log.binding[k]))
+        q = result.q
+    np.testing.assert_allclose(q, log.q_end, atol=1e-9)
+
+
+def test_the_panda_in_its_shelf_matches_lp2_step_by_step() -> None:
+    setup = reach_setup("panda", SHELF_TARGET)
+    scene = load_scene(shelf_scene_path())
+    controller = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt)
+    q, bound = setup.q0.copy(), 0
+    for _ in range(120):
+        problem = controller.problem(q, setup.target)
+        reference = lp2(problem)
+        result = controller.step(q, setup.target)
+        np.testing.assert_allclose(result.q, reference.q, atol=1e-9)
+        assert result.p == pytest.approx(reference.p, abs=1e-9)
+        if result.binding != reference.binding:  # two rows that tie (links sharing a joint)
+            assert active(problem, result.q, result.binding)
+            assert active(problem, result.q, reference.binding)
+        bound += (result.binding or "").startswith("collision")
+        q = result.q
+    assert bound > 0  # the shelf's rows did stop the command on some steps
+    found = controller.avoidance.proximities.at(q)
+    assert min(p.distance for p in found) >= scene.safety_distance - 1e-3
+
+
+def test_the_rows_are_the_scenes() -> None:
+    setup = get_scenario("obstacle").setup()
+    with pytest.raises(ValueError, match="^G: the rows of an AvoidingLp2Controller"):
+        AvoidingLp2Controller(setup.model, setup.scene, dt=0.01, G=np.zeros((1, 4)))
+    with pytest.raises(ValueError, match="^scene: expected a Scene"):
+        AvoidingLp2Controller(setup.model, None, dt=0.01)
+    controller = AvoidingLp2Controller(setup.model, setup.scene, dt=0.01)
+    with pytest.raises(ValueError, match="^q0:"):
+        controller.step([0.0, np.nan, 0.0, 0.0], setup.target)
