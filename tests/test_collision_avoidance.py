@@ -146,3 +146,38 @@ def test_a_scene_for_the_plane_needs_a_planar_arm() -> None:
         collision_avoidance(arm(), ELBOW, None, mechanism="magic")
     with pytest.raises(ValueError, match="^approach_speed:"):
         collision_avoidance(arm(), ELBOW, None, approach_speed=float("nan"))
+
+
+@settings(deadline=None, max_examples=15)
+@given(
+    offset=st.lists(st.floats(-0.4, 0.4), min_size=7, max_size=7),
+    center=st.tuples(st.floats(-0.2, 0.8), st.floats(-0.5, 0.5), st.floats(0.0, 1.0)),
+    radius=st.floats(0.03, 0.2),
+    method=st.sampled_from(["lp1", "lp2"]),
+)
+def test_no_panda_step_brings_a_pair_below_the_safety_distance(
+    offset, center, radius, method
+) -> None:  # type: ignore[no-untyped-def]
+    from lpik.collision import scene_from_dict
+    from lpik.robots.registry import home_configuration, load_robot
+
+    model = load_robot("panda", task="position")
+    home = home_configuration("panda")
+    q = np.clip(home + np.array(offset), model.q_min, model.q_max)
+    scene = scene_from_dict({
+        "obstacles": [{"name": "ball", "type": "sphere", "center": list(center), "radius": radius}],
+        "safety_distance": 0.02, "influence_distance": 0.15,
+    })  # fmt: skip
+    avoid = collision_avoidance(model, scene, home)
+    P = step_problem(model, avoid, q, np.array(center))  # toward the ball's centre
+    result = solve(P, method, model=model)
+    assert 0.0 <= result.p <= 1.0
+    assert hard_violation(P, result.q) <= 1e-7
+    ref = {"lp1": lp1_reference, "lp2": lp2_reference}[method](P)
+    if result.status == "optimal":
+        assert ref.feasible and result.p == pytest.approx(ref.p, abs=1e-6)
+    step = float(np.abs(result.q - q).sum())
+    slack = 0.5 * step**2  # second-order term (|d2 d / dq2| <= 1 m: the arm spans about 1 m)
+    before = {p.label: p.distance for p in avoid.proximities.at(q)}
+    for p in avoid.proximities.at(result.q):
+        assert p.distance >= min(0.02, before[p.label]) - slack, p.label
