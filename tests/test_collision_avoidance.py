@@ -181,3 +181,28 @@ def test_no_panda_step_brings_a_pair_below_the_safety_distance(
     before = {p.label: p.distance for p in avoid.proximities.at(q)}
     for p in avoid.proximities.at(result.q):
         assert p.distance >= min(0.02, before[p.label]) - slack, p.label
+
+
+@pytest.mark.parametrize("method", ["weighted", "robust", "lp2"])
+def test_the_field_alone_steers_every_method_that_takes_f_around_the_obstacle(method) -> None:  # type: ignore[no-untyped-def]
+    model, log = run(method, "field", ELBOW, PULL_IN, 700)
+    assert log.min_distance.min() > 0.1  # the field keeps the elbow away by itself
+    if method != "robust":  # robust's damping lags behind the command, obstacle or not
+        assert np.linalg.norm(log.position_end - PULL_IN[:2]) < 1e-2
+    _, without = run(method, "field", circle_scene((9.0, 9.0), 0.1), PULL_IN, 700)
+    assert not np.allclose(log.q_end, without.q_end)  # it did act
+
+
+def test_on_the_panda_tools_path_the_tool_stops_at_d_s_and_the_binding_names_it() -> None:
+    from lpik.collision import scene_from_dict
+    from lpik.paper.reach import reach_setup
+
+    setup = reach_setup("panda", [0.6, 0.0, 0.3])
+    ball = {"name": "ball", "type": "sphere", "center": [0.5, 0.0, 0.35], "radius": 0.04}
+    scene = scene_from_dict({"obstacles": [ball], "safety_distance": 0.02,
+                             "influence_distance": 0.12})  # fmt: skip
+    log = setup.run("lp2", steps=150, scene=scene)
+    assert log.p[-1] < 1e-2
+    assert log.binding[-1].startswith("collision panda_link") and log.binding[-1].endswith("ball")
+    assert log.min_distance[-1] == pytest.approx(0.02, abs=2e-3)
+    assert log.min_distance.min() >= 0.02 - 1e-3
