@@ -84,3 +84,30 @@ def test_bad_reach_options_are_one_line(capsys, args, message) -> None:  # type:
     assert main(["simulate", *args]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
+
+
+def test_without_coal_a_scene_says_how_to_install_it(monkeypatch, capsys) -> None:  # type: ignore[no-untyped-def]
+    import sys
+
+    monkeypatch.setitem(sys.modules, "coal", None)
+    assert main(["simulate", "obstacle", "--steps", "3"]) != 0
+    err = capsys.readouterr().err
+    assert 'pip install "lpik[collision]"' in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"radii": -1.0}, "radii: the radius of link"),
+        ({"radii": {"link 1": float("nan")}}, "radii: the radius of link 'link 1'"),
+        ({"approach_speed": 0.0}, "approach_speed:"),
+        ({"field_gain": -1.0}, "field_gain:"),
+    ],
+)
+def test_bad_avoidance_parameters_name_themselves(kwargs, message) -> None:  # type: ignore[no-untyped-def]
+    from lpik.collision import collision_avoidance, scene_from_dict
+    from lpik.robots.planar import planar_arm
+
+    scene = scene_from_dict({**SCENE})
+    with pytest.raises(ValueError, match="^" + message.replace("(", r"\(")):
+        collision_avoidance(planar_arm([1.0] * 4), scene, None, **kwargs)
