@@ -31,7 +31,7 @@ def max_abs_lambda(log) -> np.ndarray:
 
 
 def test_names_and_unknown_name() -> None:
-    assert tuple(scenario_names()) == ("pull-in", "edge-singularity")
+    assert tuple(scenario_names()) == ("pull-in", "edge-singularity", "obstacle")
     with pytest.raises(ValueError) as info:
         get_scenario("pull-out")
     assert "pull-out" in str(info.value)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -161,12 +162,12 @@ class RobotBodies:
     capsules: tuple[LinkCapsule, ...]
     self_pairs: tuple[tuple[int, int], ...] = ()
 
-    @property
+    @cached_property
     def axes(self) -> FloatArray:
         """The joints' unit axes in their own frames, shape (n, 3)."""
         return np.array([j.axis for j in self.chain.joints])
 
-    @property
+    @cached_property
     def revolute(self) -> NDArray[np.bool_]:
         """Which joints are revolute, shape (n,)."""
         return np.array([j.kind == "revolute" for j in self.chain.joints])

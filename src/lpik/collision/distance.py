@@ -12,8 +12,9 @@ fixed obstacle). Tests hold ``grad`` to a finite difference of the distance.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cached_property, partial
 from typing import Any
 
 import numpy as np
@@ -35,7 +36,8 @@ class Proximity:
         point: Witness point on the robot's body, world frame, shape (3,) [m].
         other_point: Witness point on the other body, shape (3,) [m].
         normal: Unit normal from the robot's body toward the other, shape (3,).
-        gradient: ``d distance / d q`` at this configuration, shape (n,) [m/rad].
+        velocity: ``J_1 - J_2``, the Jacobian (3, n) of the witness points' relative
+            velocity, computed when first asked for (most pairs are far away).
     """
 
     body: str
@@ -44,7 +46,12 @@ class Proximity:
     point: FloatArray
     other_point: FloatArray
     normal: FloatArray
-    gradient: FloatArray
+    velocity: Callable[[], FloatArray]
+
+    @cached_property
+    def gradient(self) -> FloatArray:
+        """``d distance / d q = -n^T (J_1 - J_2)`` at this configuration, shape (n,) [m/rad]."""
+        return -self.normal @ self.velocity()
 
     @property
     def pair(self) -> str:
@@ -123,15 +130,24 @@ class Proximities:
                 continue  # the base does not move: its distances to the obstacles stay as they are
             for name, shape in self._obstacles:
                 d, p1, p2, n = signed_distance(placed[i], shape)
-                jac = point_jacobian(self.bodies, axes, origins, capsule.joint, p1)
-                found.append(Proximity(capsule.link, name, d, p1, p2, n, -n @ jac))
+                jac = partial(point_jacobian, self.bodies, axes, origins, capsule.joint, p1)
+                found.append(Proximity(capsule.link, name, d, p1, p2, n, jac))
         for i, j in self.bodies.self_pairs:
             d, p1, p2, n = signed_distance(placed[i], placed[j])
-            jac = point_jacobian(self.bodies, axes, origins, capsules[i].joint, p1)
-            jac -= point_jacobian(self.bodies, axes, origins, capsules[j].joint, p2)
-            found.append(Proximity(capsules[i].link, capsules[j].link, d, p1, p2, n, -n @ jac))
+            rel = partial(
+                self._relative, axes, origins, capsules[i].joint, p1, capsules[j].joint, p2
+            )
+            found.append(Proximity(capsules[i].link, capsules[j].link, d, p1, p2, n, rel))
         self._cache = (key, found)
         return found
+
+    def _relative(
+        self, axes: FloatArray, origins: FloatArray, j1: int, p1: FloatArray, j2: int,
+        p2: FloatArray,
+    ) -> FloatArray:  # fmt: skip
+        """``J_1 - J_2`` of two witness points on two links, (3, n)."""
+        jac = point_jacobian(self.bodies, axes, origins, j1, p1)
+        return jac - point_jacobian(self.bodies, axes, origins, j2, p2)
 
     def closest(self, q: Sequence[float] | FloatArray) -> tuple[float, str]:
         """The smallest signed distance at ``q`` [m] and its pair (``(inf, "")`` when none)."""
