@@ -206,3 +206,16 @@ def test_on_the_panda_tools_path_the_tool_stops_at_d_s_and_the_binding_names_it(
     assert log.binding[-1].startswith("collision panda_link") and log.binding[-1].endswith("ball")
     assert log.min_distance[-1] == pytest.approx(0.02, abs=2e-3)
     assert log.min_distance.min() >= 0.02 - 1e-3
+
+
+def test_self_collision_rows_keep_the_pandas_hand_off_its_own_base() -> None:
+    from lpik.collision import scene_from_dict
+    from lpik.paper.reach import reach_setup
+
+    setup = reach_setup("panda", [0.05, 0.0, 0.45])  # the hand moves in close to the base
+    empty = scene_from_dict({"obstacles": [], "safety_distance": 0.02, "influence_distance": 0.12})
+    log = setup.run("lp2", steps=250, scene=empty)
+    self_bound = {b for b in log.binding if b.startswith("collision panda_link0 - panda_link7")}
+    assert self_bound  # the hand's row against the base column stopped the command
+    assert log.min_distance.min() >= 0.02 - 1e-3
+    assert np.linalg.norm(log.position_end - [0.05, 0.0, 0.45]) < 1e-3
