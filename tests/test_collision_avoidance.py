@@ -17,6 +17,7 @@ from lpik.control.command import ClampedTarget
 from lpik.control.simulate import simulate
 from lpik.limits import build_problem, standard_limits
 from lpik.methods import solve
+from lpik.robots.planar import planar_arm
 
 DT = 0.01
 
@@ -43,16 +44,18 @@ def test_a_row_bounds_the_approach_as_faverjon_and_tournassoud_write_it() -> Non
 
 @settings(deadline=None, max_examples=40)
 @given(
-    q=st.lists(st.floats(-2.5, 2.5), min_size=4, max_size=4),
+    lengths=st.lists(st.floats(0.3, 1.5), min_size=3, max_size=6),
+    angles=st.lists(st.floats(-2.5, 2.5), min_size=6, max_size=6),
     center=st.tuples(st.floats(-3.5, 3.5), st.floats(-3.5, 3.5)),
     radius=st.floats(0.05, 0.5),
     target=st.tuples(st.floats(-3, 3), st.floats(-3, 3)),
     method=st.sampled_from(["lp1", "l1", "lp2"]),
 )
 def test_no_step_of_a_hard_row_method_brings_a_pair_below_the_safety_distance(
-    q, center, radius, target, method
+    lengths, angles, center, radius, target, method
 ) -> None:  # type: ignore[no-untyped-def]
-    model, q = arm(), np.array(q)
+    model = planar_arm(lengths, q_min=-np.pi, q_max=np.pi, qd_max=1.0)
+    q = np.array(angles[: len(lengths)])
     avoid = collision_avoidance(model, circle_scene(center, radius), None)
     P = step_problem(model, avoid, q, np.array([*target, 0.0]))
     result = solve(P, method, model=model)
@@ -65,13 +68,20 @@ def test_no_step_of_a_hard_row_method_brings_a_pair_below_the_safety_distance(
     if reference is not None and result.status == "optimal":
         ref = reference(P)
         assert ref.feasible and result.p == pytest.approx(ref.p, abs=1e-6)
-    # the true distance after the step: never below d_s (or, when already closer, no
-    # closer), up to the second-order term of the linearisation
-    step = float(np.abs(result.q - q).max())
-    slack = 4.0 * 4 * step**2  # |d2 d / dq2| <= (sum of link lengths)^2, |dq|_1 <= 4 |dq|_inf
-    before = {p.label: p.distance for p in avoid.proximities.at(q)}
+    before = avoid.proximities.at(q)
+    dq = result.q - q
+    # to first order (what the rows hold exactly): no pair within d_i ends below
+    # min(d_s, its distance now)
+    for p in before:
+        if p.distance < 0.3:
+            assert p.distance + p.gradient @ dq >= min(0.05, p.distance) - 1e-7, p.label
+    # the true distance after the step, with an allowance for the second-order term
+    # (at most |dq|^2 times the squared reach over the obstacle's radius)
+    reach = sum(lengths)
+    slack = (reach * np.abs(dq).sum()) ** 2 / radius
+    distance_before = {p.label: p.distance for p in before}
     for p in avoid.proximities.at(result.q):
-        assert p.distance >= min(0.05, before[p.label]) - slack, p.label
+        assert p.distance >= min(0.05, distance_before[p.label]) - slack, p.label
 
 
 def test_the_field_is_khatibs_force_along_the_distance_gradient() -> None:

@@ -40,6 +40,7 @@ import numpy as np
 
 from lpik.collision.distance import Proximities, Proximity
 from lpik.limits import Piece, StepContext
+from lpik.tolerances import FEASIBILITY_TOL
 from lpik.types import FloatArray
 
 #: Default largest approach speed ``xi`` of the velocity damper [m/s].
@@ -76,7 +77,13 @@ class DistanceRows:
         """``G (r, n)``, ``h (r,)`` and labels of the rows at ``q0`` for a step of ``dt`` [s]."""
         scene = self.proximities.scene
         d_s, d_i = scene.safety_distance, scene.influence_distance
-        near = [p for p in self.proximities.at(q0) if p.distance < d_i]
+        # A pair whose distance hardly depends on q (its witness point on a joint's
+        # axis) gets no row: one that cannot change by the feasibility tolerance
+        # constrains nothing but would tie the ratio test at p = 0.
+        near = [
+            p for p in self.proximities.at(q0)
+            if p.distance < d_i and np.abs(p.gradient).max() > FEASIBILITY_TOL
+        ]  # fmt: skip
         n = q0.size
         if not near:
             return np.zeros((0, n)), np.zeros(0), ()
