@@ -53,7 +53,8 @@ class LinkCapsule:
     radius: float
 
 
-def _chain_of(model: Any) -> SerialChain:
+def chain_of(model: Any) -> SerialChain:
+    """The serial chain of ``model`` (a chain, or a task on one); ValueError otherwise."""
     chain = getattr(model, "kinematics", model)
     if not isinstance(chain, SerialChain):
         raise ValueError(
@@ -98,7 +99,7 @@ def frame_capsules(
     Raises:
         ValueError: For a model that is not a chain or a radius that is not > 0.
     """
-    chain = _chain_of(model)
+    chain = chain_of(model)
     capsules = []
     for link, joint in _link_names(chain):
         if (joint < 0 and not base) or (isinstance(radii, Mapping) and link not in radii):
@@ -123,7 +124,7 @@ def urdf_capsules(model: Any, urdf_robot: Any) -> tuple[LinkCapsule, ...]:
     """
     from lpik.robots.rotations import transform
 
-    chain = _chain_of(model)
+    chain = chain_of(model)
     capsules = []
     for link in chain.link_names:
         element = urdf_robot.link_map.get(link)

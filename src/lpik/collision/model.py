@@ -26,7 +26,7 @@ from lpik.collision.avoidance import (
     DEFAULT_FIELD_GAIN,
     CollisionAvoidance,
 )
-from lpik.collision.bodies import LinkCapsule, _chain_of, frame_capsules
+from lpik.collision.bodies import LinkCapsule, chain_of, frame_capsules
 from lpik.collision.distance import Proximities, robot_bodies
 from lpik.collision.shapes import Scene
 
@@ -55,7 +55,7 @@ def default_capsules(
     Raises:
         ValueError: When no radii are known for the model (names it and says what to pass).
     """
-    chain = _chain_of(model)
+    chain = chain_of(model)
     if radii is None:
         if chain.name in BUNDLED_RADII:
             radii = BUNDLED_RADII[chain.name]
@@ -99,7 +99,7 @@ def collision_avoidance(
     Raises:
         ValueError: For a model or scene that do not fit, or a bad parameter.
     """
-    chain = _chain_of(model)
+    chain = chain_of(model)
     if scene.dims == 2 and not chain.planar:
         raise ValueError("scene: a 2-D scene needs a planar arm; this one moves in 3-D")
     bodies = robot_bodies(

@@ -153,8 +153,3 @@ class Scene:
     def names(self) -> tuple[str, ...]:
         """The obstacles' names, in order."""
         return tuple(o.name for o in self.obstacles)
-
-
-def empty_scene(safety_distance: float, influence_distance: float, dims: int = 3) -> Scene:
-    """A scene without obstacles (self-collision only)."""
-    return Scene((), float(safety_distance), float(influence_distance), dims)

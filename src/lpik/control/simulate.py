@@ -132,14 +132,14 @@ def simulate(
     weights.setdefault("joint_names", model.joint_names)
     m = model.task_dim
     rows: dict[str, list[Any]] = {k: [] for k in ("q", "pos", "p", "lam", "st", "bd", "pa", "cl")}
-    avoid, near = as_avoidance(model, scene, q), []
+    avoid, closest = as_avoidance(model, scene, q), []
     times = np.empty(steps)
     q_prev: FloatArray | None = None
     for k in range(steps):
         dw = command(model, q, float(dt))
         J, step_limits, step_weights = model.jacobian(q), limits, weights
         if avoid is not None:
-            near.append(avoid.closest(q))
+            closest.append(avoid.closest(q))
             step_limits = [*limits, *avoid.limits()]
             step_weights = avoid.weights(weights, q, float(dt), J)
         problem = build_problem(J, dw, q, step_limits, dt=dt, q_prev=q_prev, **step_weights)
@@ -176,8 +176,8 @@ def simulate(
         joint_names=tuple(model.joint_names),
         name=name,
         warm_start=warm_start,
-        min_distance=None if avoid is None else np.array([d for d, _ in near]),
-        closest=None if avoid is None else np.array([c for _, c in near], dtype=str),
+        min_distance=None if avoid is None else np.array([d for d, _ in closest]),
+        closest=None if avoid is None else np.array([c for _, c in closest], dtype=str),
     )
 
 
