@@ -86,11 +86,20 @@ def point_jacobian(
     return jac
 
 
-def signed_distance(shape_1: tuple[Any, Any], shape_2: tuple[Any, Any]):
-    """The signed distance (by coal) between two placed shapes: distance, witness points, normal."""
-    coal = coal_module()
-    request = coal.DistanceRequest()
+def distance_request() -> Any:
+    """A coal request for signed distances with witness points (reusable across calls)."""
+    request = coal_module().DistanceRequest()
     request.enable_signed_distance = True
+    return request
+
+
+def signed_distance(shape_1: tuple[Any, Any], shape_2: tuple[Any, Any], request: Any = None):
+    """The signed distance (by coal) between two placed shapes: distance, witness points, normal.
+
+    ``request``: a :func:`distance_request` to reuse; a new one when None.
+    """
+    coal = coal_module()
+    request = distance_request() if request is None else request
     result = coal.DistanceResult()
     distance = coal.distance(shape_1[0], shape_1[1], shape_2[0], shape_2[1], request, result)
     return (
@@ -112,6 +121,7 @@ class Proximities:
         self.bodies = bodies
         self.scene = scene
         self._obstacles = [(o.name, o.geometry()) for o in scene.obstacles]
+        self._request = distance_request()
         self._cache: tuple[bytes, list[Proximity]] | None = None
 
     def at(self, q: Sequence[float] | FloatArray) -> list[Proximity]:
@@ -129,11 +139,11 @@ class Proximities:
             if capsule.joint < 0:
                 continue  # the base does not move: its distances to the obstacles stay as they are
             for name, shape in self._obstacles:
-                d, p1, p2, n = signed_distance(placed[i], shape)
+                d, p1, p2, n = signed_distance(placed[i], shape, self._request)
                 jac = partial(point_jacobian, self.bodies, axes, origins, capsule.joint, p1)
                 found.append(Proximity(capsule.link, name, d, p1, p2, n, jac))
         for i, j in self.bodies.self_pairs:
-            d, p1, p2, n = signed_distance(placed[i], placed[j])
+            d, p1, p2, n = signed_distance(placed[i], placed[j], self._request)
             rel = partial(
                 self._relative, axes, origins, capsules[i].joint, p1, capsules[j].joint, p2
             )

@@ -14,6 +14,7 @@ half-space), so one distance library serves both.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -53,15 +54,19 @@ def _point3(point: FloatArray) -> FloatArray:
 
 def rotation_taking_z_to(direction: FloatArray) -> FloatArray:
     """A rotation matrix (3, 3) whose third column is the unit vector along ``direction``."""
-    z = np.asarray(direction, dtype=np.float64)
-    norm = float(np.linalg.norm(z))
+    z0, z1, z2 = (float(v) for v in direction)
+    norm = math.sqrt(z0 * z0 + z1 * z1 + z2 * z2)
     if norm < 1e-15:
         return np.eye(3)
-    z = z / norm
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = helper - (helper @ z) * z
-    x /= np.linalg.norm(x)
-    return np.column_stack((x, np.cross(z, x), z))
+    z0, z1, z2 = z0 / norm, z1 / norm, z2 / norm
+    # x: a helper axis made orthogonal to z; y = z x x (plain floats: this runs per capsule)
+    h0, h1 = (1.0, 0.0) if abs(z0) < 0.9 else (0.0, 1.0)
+    dot = h0 * z0 + h1 * z1
+    x0, x1, x2 = h0 - dot * z0, h1 - dot * z1, -dot * z2
+    length = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    x0, x1, x2 = x0 / length, x1 / length, x2 / length
+    y0, y1, y2 = z1 * x2 - z2 * x1, z2 * x0 - z0 * x2, z0 * x1 - z1 * x0
+    return np.array([[x0, y0, z0], [x1, y1, z1], [x2, y2, z2]])
 
 
 def capsule_geometry(a: FloatArray, b: FloatArray, radius: float) -> tuple[Any, Any]:
