@@ -111,3 +111,13 @@ def test_bad_avoidance_parameters_name_themselves(kwargs, message) -> None:  # t
     scene = scene_from_dict({**SCENE})
     with pytest.raises(ValueError, match="^" + message.replace("(", r"\(")):
         collision_avoidance(planar_arm([1.0] * 4), scene, None, **kwargs)
+
+
+def test_a_run_with_a_scene_draws_its_obstacles_and_reports_the_closest_pair(
+    tmp_path, capsys
+) -> None:  # type: ignore[no-untyped-def]
+    fig = tmp_path / "run.png"
+    assert main(["simulate", "obstacle", "--steps", "60", "--plot", str(fig)]) == 0
+    out = capsys.readouterr().out
+    assert "smallest distance" in out and "- obstacle)" in out
+    assert fig.stat().st_size > 10_000

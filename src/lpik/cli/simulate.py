@@ -13,7 +13,7 @@ import argparse
 import math
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from lpik.tolerances import MAX_MAGNITUDE
 
@@ -279,12 +279,11 @@ def run(args: argparse.Namespace) -> int:
         from lpik.paper.style import require_backend
 
         require_backend(animation=gif is not None)  # fail before the run, not after it
+    avoid = _avoidance(args, setup)
     with LazyProgress(f"{setup.name} {args.method}") as progress:
-        log = setup.run(
-            args.method, progress=progress, scene=_avoidance(args, setup), **run_options(args)
-        )
+        log = setup.run(args.method, progress=progress, scene=avoid, **run_options(args))
     written = [] if out is None else [log.to_csv(out)]
-    written += _draw(args, setup, log, fig, gif)
+    written += _draw(args, setup, log, fig, gif, avoid)
     m = log.metrics()
     position = ", ".join(f"{v:.4f}" for v in m.final_position)
     print(
@@ -292,21 +291,42 @@ def run(args: argparse.Namespace) -> int:
         f"(binding: {log.binding[-1] or 'none'}), end effector at ({position}) m, "
         f"jitter {m.jitter:.4g} rad/s, statuses "
         + ", ".join(f"{k} {v}" for k, v in m.statuses.items())
+        + _distance_summary(log)
     )
     for path in written:
         print(f"wrote {path}")
     return 0
 
 
+def _distance_summary(log: SimulationLog) -> str:
+    """``", smallest distance ... m (pair)"`` for a run with a scene, else ``""``."""
+    if log.min_distance is None or log.closest is None or not log.steps:
+        return ""
+    k = int(log.min_distance.argmin())
+    return f", smallest distance {log.min_distance[k]:.4g} m ({log.closest[k]})"
+
+
 def _draw(
-    args: argparse.Namespace, setup: Setup, log: SimulationLog, fig: Path | None, gif: Path | None
-) -> list[Path]:
-    """The figure and animation asked for: x-y overview (planar) or 3-D tool path."""
+    args: argparse.Namespace, setup: Setup, log: SimulationLog, fig: Path | None,
+    gif: Path | None, avoid: Any = None,
+) -> list[Path]:  # fmt: skip
+    """The figure and animation asked for: x-y overview (planar) or 3-D tool path.
+
+    With a scene, the figure is :func:`lpik.paper.collision_figures.avoidance_figure`
+    (the obstacles, the smallest distance and ``p`` with the binding limit).
+    """
     from lpik.paper import run_figures
 
     written = []
     target = setup.target
-    if fig is not None and setup.model.position_dims == 2:
+    if fig is not None and avoid is not None:
+        from lpik.paper.collision_figures import avoidance_figure
+
+        goal = target[:3, 3] if target.ndim == 2 else target
+        caption = f"{args.method}, {avoid.mechanism}"
+        written.append(avoidance_figure([(caption, log)], setup.model, avoid.scene, fig,
+                                        title=setup.name, target=goal))  # fmt: skip
+    elif fig is not None and setup.model.position_dims == 2:
         written.append(run_figures.run_overview(log, setup.model, fig, target=target))
     elif fig is not None:
         goal = target[:3, 3] if target.ndim == 2 else target

@@ -122,7 +122,7 @@ def avoidance_figure(
         ValueError: When a log has no distances or the file cannot be written.
     """
     planar = scene.dims == 2
-    fig = new_figure(5.0 * len(runs), 11.0)
+    fig = new_figure(max(7.0, 5.0 * len(runs)), 11.0)
     grid = fig.add_gridspec(3, len(runs), height_ratios=[3, 1.3, 1.3])
     share_d = None
     for col, (caption, log) in enumerate(runs):
