@@ -19,12 +19,16 @@ def active(problem, q, label) -> bool:  # type: ignore[no-untyped-def]
     return abs(problem.G[k] @ q - problem.h[k]) <= 1e-9 * max(1.0, abs(problem.h[k]))
 
 
-@pytest.mark.parametrize("mechanism", ["rows", "both"])
-def test_the_compiled_steps_follow_the_numpy_run_of_the_obstacle_scenario(mechanism) -> None:  # type: ignore[no-untyped-def]
+@pytest.mark.parametrize(
+    ("mechanism", "method"), [("rows", "lp2"), ("both", "lp2"), ("rows", "lp2s")]
+)
+def test_the_compiled_steps_follow_the_numpy_run_of_the_obstacle_scenario(
+    mechanism, method
+) -> None:  # type: ignore[no-untyped-def]
     setup = get_scenario("obstacle").setup()
     avoid = collision_avoidance(setup.model, setup.scene, setup.q0, mechanism=mechanism)
-    log = setup.run("lp2", scene=avoid)
-    controller = AvoidingLp2Controller(setup.model, avoid, dt=setup.dt)
+    log = setup.run(method, scene=avoid)
+    controller = AvoidingLp2Controller(setup.model, avoid, dt=setup.dt, saturate=method == "lp2s")
     q = setup.q0.copy()
     for k in range(setup.steps):
         np.testing.assert_allclose(q, log.q[k], atol=1e-9)
