@@ -146,8 +146,9 @@ def row_label(index: int, label: str, kind: str = "row") -> Binding:
 
     A label that is already a :class:`Binding` keeps its kind.
     """
-    kind = label.kind if isinstance(label, Binding) else kind
-    return Binding(str.__str__(label), kind, index, str.__str__(label), "upper")
+    if isinstance(label, Binding):
+        return Binding(label.label, label.kind, index, label.name or label.label, "upper")
+    return Binding(label, kind, index, label, "upper")
 
 
 def multiplier_labels(m: int) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -203,6 +204,11 @@ def pair_name(body: str, other: str) -> str:
     return f"{body} - {other}"
 
 
-def collision_label(body: str, other: str) -> str:
-    """The distance row of a pair of bodies, e.g. ``"collision panda_link5 - shelf"``."""
-    return f"{COLLISION} {pair_name(body, other)}"
+def collision_label(body: str, other: str) -> Binding:
+    """The distance row of a pair of bodies, e.g. ``"collision panda_link5 - shelf"``.
+
+    A :class:`Binding` of kind ``"collision"`` whose ``name`` is the pair
+    (:func:`row_label` keeps the kind and gives it its row's index).
+    """
+    pair = pair_name(body, other)
+    return Binding(f"{COLLISION} {pair}", "collision", None, pair, "upper")

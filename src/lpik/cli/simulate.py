@@ -50,12 +50,24 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         [
             "scenarios:",
             *(paragraph(s.describe()) for s in SCENARIOS.values()),
+            paragraph(
+                "reach: from a bundled 3-D arm's home configuration (--robot NAME), the tool "
+                "point moves straight to --target X,Y,Z [m] at v_max, its orientation held "
+                "(pose task); the URDF's end-stops and velocity limits."
+            ),
+            paragraph(
+                "obstacles: --scene SCENE.json (a 2-D scene for the planar arm) avoids them "
+                "by distance rows (--avoid rows), the paper's potential field (--avoid field) "
+                "or both."
+            ),
             paragraph(f"robots: {PLANAR} (default), {', '.join(robot_names())}."),
             paragraph(
                 "CSV columns, one row per step: t, q1..qn [rad], x, y (planar) or x, y, z [m], "
                 "p, lam1..lamm (the state before the step, the step's dexterity and "
                 "multipliers; nan for methods without them), then status, binding (the limit "
-                "that keeps p below 1, empty when none), path, clamped, solve_time_us."
+                "that keeps p below 1, empty when none), path, clamped, solve_time_us; with "
+                "--scene also min_distance [m] (the smallest signed distance before the step, "
+                "self-collision included) and closest (its pair)."
             ),
             paragraph(
                 f"refused combinations (exit 2, one line): --lambda-bound with a method that "

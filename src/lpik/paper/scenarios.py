@@ -272,19 +272,27 @@ class Scenario:
         stops = ", ".join(f"{np.rad2deg(lo):g}..{np.rad2deg(hi):g}"
                           for lo, hi in zip(paper.q_min, paper.q_max))  # fmt: skip
         start = ", ".join(f"{np.rad2deg(v):g}" for v in paper.q0)
+        planar = (
+            f"{self.name}: {self.description}. Planar (--robot {PLANAR}): "
+            f"{len(paper.link_lengths)} links of {paper.link_lengths[0]:g} m from q0 = ({start}) "
+            f"deg to x, y = ({paper.target[0]:g}, {paper.target[1]:g}) m at "
+            f"{paper.v_max:g} m/s; end-stops ({stops}) deg, velocity limits "
+            f"{paper.qd_max:g} rad/s."
+        )
+        if paper.obstacle is not None:
+            x, y, radius = paper.obstacle
+            planar += f" A circle of radius {radius:g} m at ({x:g}, {y:g}) m is the obstacle."
+        defaults = f" Default {self.steps} steps at dt = {self.dt:g} s."
+        if arm is None:
+            return planar + " The planar arm only." + defaults
         if arm.through_axis is not None:
             goal = f"{arm.through_axis:g} m past the base's vertical axis"
         else:
             goal = f"{arm.reach:g} m further out along the horizontal radial direction"
         held = "orientation held (pose task)" if arm.task == "pose" else "position task"
         return (
-            f"{self.name}: {self.description}. Planar (--robot {PLANAR}): "
-            f"{len(paper.link_lengths)} links of {paper.link_lengths[0]:g} m from q0 = ({start}) "
-            f"deg to x, y = ({paper.target[0]:g}, {paper.target[1]:g}) m at "
-            f"{paper.v_max:g} m/s; end-stops ({stops}) deg, velocity limits "
-            f"{paper.qd_max:g} rad/s. 3-D (--robot NAME): from the arm's home configuration "
-            f"to a point {goal} at {arm.v_max:g} m/s, {held}; the URDF's end-stops and "
-            f"velocity limits. Default {self.steps} steps at dt = {self.dt:g} s."
+            f"{planar} 3-D (--robot NAME): from the arm's home configuration to a point {goal} "
+            f"at {arm.v_max:g} m/s, {held}; the URDF's end-stops and velocity limits.{defaults}"
         )
 
     def setup(self, robot: str = PLANAR) -> Setup:
