@@ -26,10 +26,15 @@ def test_every_scenario_is_described_on_both_kinds_of_arm_with_its_defaults() ->
         described = " ".join(scenario.describe().split())
         assert described in text
         assert f"Default {scenario.steps} steps at dt = {scenario.dt:g} s" in described
-        assert "Planar (--robot planar)" in described and "3-D (--robot NAME)" in described
+        assert "Planar (--robot planar)" in described
+        # a scenario without a 3-D run says so
+        assert ("3-D (--robot NAME)" in described) == (scenario.arm is not None)
+        assert ("The planar arm only." in described) == (scenario.arm is None)
     for name in robot_names():
         assert name in text
     assert "empty when none" in text and "x, y, z [m]" in text
+    assert "reach: " in text and "--target X,Y,Z" in text and "--scene SCENE.json" in text
+    assert "min_distance" in text and "closest" in text
 
 
 def test_each_refused_combination_is_explained_and_refused_in_one_line() -> None:
