@@ -225,7 +225,9 @@ def test_self_collision_rows_keep_the_pandas_hand_off_its_own_base() -> None:
     setup = reach_setup("panda", [0.05, 0.0, 0.45])  # the hand moves in close to the base
     empty = scene_from_dict({"obstacles": [], "safety_distance": 0.02, "influence_distance": 0.12})
     log = setup.run("lp2", steps=250, scene=empty)
-    self_bound = {b for b in log.binding if b.startswith("collision panda_link0 - panda_link7")}
+    self_bound = {
+        b for b in log.binding if b and b.startswith("collision panda_link0 - panda_link7")
+    }
     assert self_bound  # the hand's row against the base column stopped the command
     assert log.min_distance.min() >= 0.02 - 1e-3
     assert np.linalg.norm(log.position_end - [0.05, 0.0, 0.45]) < 1e-3

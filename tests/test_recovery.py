@@ -185,7 +185,8 @@ def test_every_step_from_any_state_keeps_the_contract(state) -> None:
     problem = controller.problem(q0, goal, q_prev)
     fast = controller.step(q0, goal, q_prev)
     reference = solve(problem, "lp2")
-    if fast.path == "compiled" and reference.path == "ratio-test":  # (else near a singularity)
+    regular = np.linalg.svd(problem.J, compute_uv=False)[-1] > 1e-6  # far from a singularity
+    if fast.path == "compiled" and reference.path == "ratio-test" and regular:
         assert fast.status == reference.status
         if fast.status != INFEASIBLE:  # an infeasible step's conflict may be a tie
             assert fast.binding == reference.binding

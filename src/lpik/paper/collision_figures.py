@@ -155,7 +155,7 @@ def avoidance_figure(
         ax_p.set_ylim(-0.05, 1.1)
         ax_p.set_ylabel("p [-]")
         ax_p.set_xlabel("t [s]")
-        if (log.binding != "").any():
+        if any(b is not None for b in log.binding):
             ax_p.legend(loc="lower left", fontsize=7)
         for a in (ax_d, ax_p):
             a.grid(True, alpha=0.3)

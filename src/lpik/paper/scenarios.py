@@ -32,22 +32,21 @@ velocity limits, ``dt = 0.01`` s and ``v_max = 0.25`` m/s.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from lpik.control.command import DEFAULT_W_MAX, ClampedTarget
-from lpik.limits import AccelerationLimits, Limit, standard_limits
+from lpik.control.command import DEFAULT_W_MAX
 from lpik.naming import lookup
+from lpik.paper.setup import Setup
 from lpik.robots.base import TaskModel
 from lpik.robots.planar import planar_arm
 from lpik.robots.registry import home_configuration, load_robot, robot_names
 from lpik.types import FloatArray
 
 if TYPE_CHECKING:
-    from lpik.control.controller import Lp2Controller
     from lpik.control.log import SimulationLog
     from lpik.control.simulate import Progress
 
@@ -134,114 +133,6 @@ class ArmRun:
             return goal
         pose[:3, 3] = goal
         return pose
-
-
-@dataclass(frozen=True, eq=False)
-class Setup:
-    """One scenario on one robot: everything a run needs.
-
-    Attributes:
-        name: Name of the run (scenario, and robot when not planar).
-        robot: The robot's name.
-        model: The task model.
-        q0: Start configuration [rad].
-        target: Task value to move to (xyz point or 4 x 4 pose).
-        v_max: Largest commanded linear speed [m/s].
-        w_max: Largest commanded angular speed [rad/s].
-        dt: Control period [s].
-        steps: Number of control steps.
-        weights: ``M``, ``f``, ``Lambda`` of the criterion (eq. 3, sec. 3.1).
-        scene: The obstacles of the run (:class:`lpik.collision.Scene`), or None.
-    """
-
-    name: str
-    robot: str
-    model: TaskModel
-    q0: FloatArray
-    target: FloatArray
-    v_max: float
-    w_max: float
-    dt: float
-    steps: int
-    weights: Mapping[str, Any] = field(default_factory=dict)
-    scene: Any = None
-
-    def command(self) -> ClampedTarget:
-        """The command law: toward ``target`` at most ``v_max`` and ``w_max`` fast."""
-        return ClampedTarget(self.target, self.v_max, self.w_max)
-
-    def limits(
-        self, lambda_bound: float | None = None, qdd_max: float | None = None
-    ) -> list[Limit]:
-        """End-stops, velocity limits and, when given, multiplier and acceleration limits.
-
-        ``|lam_i| <= lambda_bound`` (sec. 3.2), ``|qdd_i| <= qdd_max`` [rad/s^2].
-        """
-        limits = standard_limits(self.model, lambda_bound=lambda_bound)
-        return limits if qdd_max is None else [*limits, AccelerationLimits(qdd_max)]
-
-    def run(
-        self,
-        method: str = "lp2",
-        *,
-        lambda_bound: float | None = None,
-        steps: int | None = None,
-        dt: float | None = None,
-        warm_start: bool = True,
-        progress: Progress | None = None,
-        on_stall: int | None = None,
-        qdd_max: float | None = None,
-        scene: Any = None,
-    ) -> SimulationLog:
-        """Simulate this setup with one method (:func:`lpik.control.simulate.simulate`).
-
-        Args:
-            method: A name from :data:`lpik.methods.METHODS`.
-            lambda_bound: Symmetric bound on every multiplier (sec. 3.2); ``None``: unbounded.
-            qdd_max: Acceleration limit of every joint [rad/s^2]; ``None``: none.
-            steps: Number of steps; default the scenario's.
-            dt: Control period [s]; default the scenario's.
-            warm_start: Reuse one HiGHS instance across steps.
-            progress: Called after every step with ``(done, steps)``.
-            on_stall: Opt-in progress step after this many steps with ``p = 0``.
-            scene: Obstacles to avoid (a :class:`~lpik.collision.Scene` or
-                :class:`~lpik.collision.CollisionAvoidance`); default the setup's.
-
-        Raises:
-            ValueError: For a bad method, step count, period or bound.
-        """
-        from lpik.control.simulate import simulate
-
-        label = self.name if lambda_bound is None else f"{self.name} |lam|<={lambda_bound:g}"
-        return simulate(
-            self.model,
-            self.command(),
-            self.q0,
-            self.steps if steps is None else steps,
-            method=method,
-            dt=self.dt if dt is None else dt,
-            limits=self.limits(lambda_bound, qdd_max),
-            weights=self.weights,
-            name=label,
-            warm_start=warm_start,
-            progress=progress,
-            on_stall=on_stall,
-            scene=self.scene if scene is None else scene,
-        )
-
-    def controller(
-        self, lambda_bound: float | None = None, *, saturate: bool = False
-    ) -> Lp2Controller:
-        """The compiled LP2 controller with this setup's limits, command law and weights.
-
-        ``saturate``: LP2 with saturation in the null space (``lp2s``).
-        """
-        from lpik.control.controller import Lp2Controller
-
-        return Lp2Controller(
-            self.model, dt=self.dt, v_max=self.v_max, w_max=self.w_max,
-            lambda_bound=lambda_bound, saturate=saturate, **dict(self.weights),
-        )  # fmt: skip
 
 
 @dataclass(frozen=True, eq=False)
