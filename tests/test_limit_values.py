@@ -12,6 +12,7 @@ import pytest
 
 from lpik.cli.main import main
 from lpik.control.command import ClampedTarget
+from lpik.control.inputs import rate_limits
 from lpik.control.simulate import simulate
 from lpik.limits import (
     AccelerationLimits,
@@ -22,7 +23,6 @@ from lpik.limits import (
     StepContext,
     VelocityLimits,
     build_problem,
-    rate_limits,
     standard_limits,
 )
 from lpik.methods.lp2 import lp2

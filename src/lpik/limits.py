@@ -167,6 +167,45 @@ class MultiplierBounds:
 
 
 @dataclass(frozen=True, eq=False)
+class AutomaticMultiplierBounds:
+    """Multiplier bounds (sec. 3.2) chosen per step where they help (:mod:`lpik.control.autobound`).
+
+    A problem alone carries no bound from it (:meth:`apply` adds nothing): the
+    closed loop (:func:`lpik.control.simulate.simulate`) and
+    :class:`~lpik.control.controller.Lp2Controller` solve LP2 unbounded and, where
+    that step would race towards a singularity, again with the bounds it chooses.
+
+    Attributes:
+        approach_time: Time constant [s] of the approach to a singular
+            configuration the command pushes towards.
+        activation: Below this ``sigma_min / sigma_max`` of ``J`` the rule acts.
+        floor: The bound is 0 at ``sigma_min = floor sigma_max``: the arm stops there.
+        probe: Length [rad] of the step along ``dq`` that tells whether it leaves
+            the singularity.
+    """
+
+    approach_time: float = 0.05
+    activation: float = 0.05
+    floor: float = 1e-3
+    probe: float = 1e-7
+
+    def __post_init__(self) -> None:
+        for name in ("approach_time", "activation", "floor", "probe"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):
+                raise ValueError(f"{name}: must be a finite number > 0, got {value!r}")
+        if not self.floor < self.activation < 1:
+            raise ValueError(
+                f"floor, activation: need floor < activation < 1, got {self.floor}, "
+                f"{self.activation}"
+            )
+
+    def apply(self, context: StepContext) -> Piece:
+        """Nothing on a problem alone: the loop applies the bound (class docstring)."""
+        return Piece()
+
+
+@dataclass(frozen=True, eq=False)
 class LinearRows:
     """Extra rows ``G q <= h`` with one label each (e.g. obstacle half-spaces).
 
@@ -189,59 +228,24 @@ class LinearRows:
 
 
 def standard_limits(
-    model: Any, *, velocity: bool = True, lambda_bound: float | None = None
+    model: Any, *, velocity: bool = True, lambda_bound: float | str | None = None
 ) -> list[Limit]:
     """A robot model's end-stops, velocity limits and, when given, ``|lam_i| <= lambda_bound``.
 
     Args:
         model: Anything with ``q_min``, ``q_max`` and ``qd_max`` (e.g. a task model).
         velocity: Whether the model's ``qd_max`` bounds each step (eq. 14).
-        lambda_bound: Symmetric bound on every multiplier (sec. 3.2); none when None.
+        lambda_bound: Symmetric bound on every multiplier (sec. 3.2); ``"auto"``:
+            :class:`AutomaticMultiplierBounds`; none when None.
     """
     limits: list[Limit] = [EndStops(model.q_min, model.q_max, tuple(model.joint_names))]
     if velocity and np.isfinite(model.qd_max).any():
         limits.append(VelocityLimits(model.qd_max))
-    if lambda_bound is not None:
+    if lambda_bound == "auto":
+        limits.append(AutomaticMultiplierBounds())
+    elif lambda_bound is not None:
         limits.append(MultiplierBounds.symmetric(lambda_bound))
     return limits
-
-
-#: The limits whose bounds do not depend on the state: what a compiled step can hold.
-STATE_FREE_LIMITS = (EndStops, VelocityLimits, AccelerationLimits, MultiplierBounds, LinearRows)
-
-
-def rate_limits(limits: Sequence[Limit], n: int) -> FloatArray:
-    """The joints' velocity and acceleration limits the ``limits`` set, per second.
-
-    Read from the same pieces :func:`build_problem` stacks (a velocity limit's
-    step bound at ``dt = 1`` s is the limit itself), so that the compiled step
-    (:class:`~lpik.control.controller.Lp2Controller`) and the numpy layers
-    derive each step's bounds (eq. 14, :mod:`lpik.bands`) from the same values.
-
-    Returns:
-        (4, n): ``qd_min, qd_max`` [rad/s], ``qdd_min, qdd_max`` [rad/s^2];
-        ``-inf``/``inf`` where none.
-
-    Raises:
-        ValueError: For a limit whose bounds depend on the state (not one of
-            :data:`STATE_FREE_LIMITS`): the compiled step cannot hold it.
-    """
-    out = np.vstack([np.full(n, -np.inf), np.full(n, np.inf)] * 2)
-    context = StepContext(q0=np.zeros(n), dt=1.0)
-    for limit in limits:
-        if not isinstance(limit, STATE_FREE_LIMITS):
-            names = ", ".join(cls.__name__ for cls in STATE_FREE_LIMITS)
-            raise ValueError(
-                f"limits: the compiled step holds {names}; {type(limit).__name__} depends on "
-                "the state: run it with simulate(..., method='lp2') or build_problem"
-            )
-        piece = limit.apply(context)
-        values = (piece.dq_min, piece.dq_max, piece.qdd_min, piece.qdd_max)
-        for row, value in enumerate(values):
-            if value is not None:
-                tighter = np.maximum if row % 2 == 0 else np.minimum  # lower rows: the largest
-                out[row] = tighter(out[row], np.broadcast_to(value, (n,)))
-    return out
 
 
 def build_problem(

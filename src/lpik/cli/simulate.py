@@ -34,6 +34,16 @@ MAX_DT = 1.0
 MAX_FRAMES = 1000
 
 
+def _bound_value(text: str) -> float | str:
+    """``--lambda-bound``'s value: a number, or ``auto``."""
+    if text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number or 'auto', got {text!r}") from None
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Register ``lpik simulate`` (light: the methods are imported only when it runs)."""
     import textwrap
@@ -112,9 +122,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     parser.add_argument("--out", metavar="RUN.csv", help="write the log as CSV")
     parser.add_argument(
         "--lambda-bound",
-        type=float,
+        type=_bound_value,
         metavar="B",
-        help="bound every Lagrange multiplier: -B <= lam_i <= B (lp2, sec. 3.2)",
+        help="bound every Lagrange multiplier: -B <= lam_i <= B (lp2, sec. 3.2); 'auto': "
+        "bounds chosen per step where the arm would race towards a singularity",
     )
     parser.add_argument(
         "--qdd-max",
@@ -211,7 +222,9 @@ def _check_options(args: argparse.Namespace) -> None:
     if args.dt is not None and not (math.isfinite(args.dt) and 0 < args.dt <= MAX_DT):
         raise ValueError(f"--dt: must be a number in (0, {MAX_DT:g}] [s], got {args.dt}")
     if args.lambda_bound is not None:
-        if not (math.isfinite(args.lambda_bound) and 0 < args.lambda_bound <= MAX_MAGNITUDE):
+        if args.lambda_bound != "auto" and not (
+            math.isfinite(args.lambda_bound) and 0 < args.lambda_bound <= MAX_MAGNITUDE
+        ):
             raise ValueError(
                 f"--lambda-bound: must be a number in (0, {MAX_MAGNITUDE:g}], "
                 f"got {args.lambda_bound}"

@@ -17,19 +17,19 @@ from functools import partial
 from time import perf_counter
 from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
+from lpik.control.autobound import bound_for_step
 from lpik.control.backend_step import step_functions
+from lpik.control.batch_steps import batch_steps
 from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, clamp_command, task_rows
 from lpik.control.inputs import (
-    TARGET_SHAPES,
     chain_arrays,
     controller_limits,
     joint_vector,
     positive_number,
-    stacked_rows,
+    rate_limits,
     target_array,
     task_value,
 )
@@ -39,7 +39,7 @@ from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.step import BAD_INPUT
 from lpik.labels import step_label_table
-from lpik.limits import Limit, MultiplierBounds, build_problem, rate_limits
+from lpik.limits import AutomaticMultiplierBounds, Limit, MultiplierBounds, build_problem
 from lpik.methods.assembly import is_diagonal
 from lpik.methods.lp2 import lp2
 from lpik.methods.lp2s import lp2s
@@ -48,6 +48,7 @@ from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
 from lpik.robots.base import TaskModel
 from lpik.robots.tasks import as_task_model
+from lpik.tolerances import FULL_P
 from lpik.types import FloatArray
 
 
@@ -69,8 +70,10 @@ class Lp2Controller:
             model's end-stops and velocity limits. The keywords below add to them.
         qdd_max: Symmetric joint acceleration limits [rad/s^2] (scalar or (n,)); none when None.
         velocity_limits: Without ``limits``: whether the model's ``qd_max`` bounds each step.
-        lambda_bound: A bound ``B`` on every multiplier (``|lam_i| <= B``) or a
-            :class:`~lpik.limits.MultiplierBounds` (sec. 3.2); none when None.
+        lambda_bound: A bound ``B`` on every multiplier (``|lam_i| <= B``), a
+            :class:`~lpik.limits.MultiplierBounds` (sec. 3.2), or ``"auto"``:
+            bounds chosen per step where they help (:mod:`lpik.control.autobound`);
+            none when None.
         M: Weight matrix of the criterion (eq. 3), as in :class:`~lpik.problem.Problem`.
         f: Weight vector of the criterion (eq. 3).
         Lambda: Smoothing weight (sec. 3.1).
@@ -98,7 +101,7 @@ class Lp2Controller:
         limits: Sequence[Limit] | None = None,
         qdd_max: ArrayLike | None = None,
         velocity_limits: bool = True,
-        lambda_bound: float | MultiplierBounds | None = None,
+        lambda_bound: float | str | MultiplierBounds | None = None,
         M: Any = None,
         f: Any = None,
         Lambda: Any = None,
@@ -118,6 +121,7 @@ class Lp2Controller:
             raise ValueError(f"saturate: must be True or False, got {saturate!r}")
         self.method = "lp2s" if saturate else "lp2"
         self._stall = StallWatch(on_stall)
+        self._bound: FloatArray | None = None  # the automatic bound of a step under it
         self._fallback = lp2s if saturate else partial(lp2, path="highs")
         origins, axes, revolute, tip = chain_arrays(model)
         self._row_index = task_rows(model)
@@ -166,6 +170,10 @@ class Lp2Controller:
         self._vector_shape = (n,)
         self._last: Result | None = None  # step_into's last outcome when not optimal
         self._last_code: int | None = None  # step_into's last kernel outcome
+        #: The automatic multiplier bound in force (lpik.control.autobound), or None.
+        self.automatic_bound = next(
+            (lim for lim in self.limits if isinstance(lim, AutomaticMultiplierBounds)), None
+        )
 
     def step(
         self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, watch: bool = True
@@ -211,6 +219,8 @@ class Lp2Controller:
             result = Result.trusted(fields)
         else:
             result = self._not_optimal(code, q0, target, q_prev, start)
+        if self.automatic_bound is not None and self._bound is None and result.p < FULL_P:
+            result = self._bounded(q0, target, q_prev, result)
         if self._stall.after is None or not watch:
             return result
         return self._stall.check(result, lambda: self.problem(q0, target, q_prev))
@@ -243,7 +253,7 @@ class Lp2Controller:
                 f"out: must be a float64 array of shape ({self._n},), got "
                 f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
             )
-        if self._stall.after is not None:  # the stall watch needs the step's Result
+        if self._stall.after is not None or self.automatic_bound is not None:  # a Result
             self._last, self._last_code = self.step(q0, target, q_prev), -1
             out[...] = self._last.q
             return self._last.p
@@ -288,7 +298,7 @@ class Lp2Controller:
         (tests hold them equal): for sweeps over configurations (how much of a
         command the arm can follow across its workspace), many robots, or
         sampled starts. Rows the ratio test cannot take go to the HiGHS path
-        one by one, as in :meth:`step`.
+        one by one, as in :meth:`step` (:func:`lpik.control.batch_steps.batch_steps`).
 
         Args:
             q0: Joint coordinates, (B, n).
@@ -306,32 +316,7 @@ class Lp2Controller:
             ValueError: For arrays of the wrong shape, rows that disagree in
                 number, or values that are not finite (naming the row).
         """
-        n = self._n
-        Q0 = stacked_rows("q0", q0, ((n,),))
-        B = Q0.shape[0]
-        Qp = Q0 if q_prev is None else stacked_rows("q_prev", q_prev, ((n,),), B)
-        T = stacked_rows("targets", targets, TARGET_SHAPES, B)
-        outs = np.empty((B, self._out.shape[0]))
-        codes = np.empty(B, dtype=np.int64)
-        self._batch(self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads())
-        if (codes == BAD_INPUT).any():  # every row was checked: a bug if it happens
-            raise ValueError(f"row {int(np.argmax(codes == BAD_INPUT))}: rejected by the step")
-        q, dq = outs[:, self._q].copy(), outs[:, self._dq].copy()
-        lam, p = outs[:, self._lam].copy(), outs[:, self._p].copy()
-        labels = outs[:, self._label_at].astype(np.int64)
-        infeasible = codes == KERNEL_INFEASIBLE
-        p[infeasible], lam[infeasible] = 0, np.nan  # q, dq: the kernel's safe step
-        fallback: dict[int, Result] = {}
-        outside = outs[:, self._outside] >= 0
-        # rows from outside the limits, and those the HiGHS path takes: one by one
-        for b in np.nonzero((codes != OK) & ~infeasible | outside)[0].tolist():
-            res = self.step(Q0[b], T[b], None if q_prev is None else Qp[b], watch=False)
-            fallback[b] = res
-            q[b], dq[b], p[b] = res.q, res.dq, res.p
-            lam[b] = np.nan if res.lam is None else res.lam
-        table = self._labels
-        return BatchResult(q=q, dq=dq, p=p, lam=lam, codes=codes, binding_codes=labels,
-                           _labels=lambda b: table, _fallback=fallback)  # fmt: skip
+        return batch_steps(self, q0, targets, q_prev)
 
     def _not_optimal(self, code: int, q0: Any, target: Any, q_prev: Any, start: float) -> Result:
         """The Result of a kernel outcome other than OK: infeasible, bad input or the HiGHS path."""
@@ -359,6 +344,23 @@ class Lp2Controller:
             self._converted(q0, target, q_prev, check_finite=True)  # raises, naming the input
         return self._fallback(self.problem(q0, target, q_prev))
 
+    def _bounded(self, q0: Any, target: Any, q_prev: Any, unbounded: Result) -> Result:
+        """The step again with the automatic multiplier bound, where it applies."""
+        q = np.asarray(q0, dtype=np.float64)
+        J = self.model.jacobian(q)
+        bound = bound_for_step(self.automatic_bound, self.model.jacobian, q, J,
+                               self._row_index, self.dt, unbounded)  # fmt: skip
+        if bound is None:
+            return unbounded
+        block = layout.matrix_at(self._state, layout.LAM_BOUNDS, 2, self._m)
+        saved = block.copy()
+        block[0], block[1] = np.maximum(saved[0], -bound), np.minimum(saved[1], bound)
+        self._bound = bound
+        try:
+            return self.step(q0, target, q_prev, watch=False)
+        finally:
+            block[...], self._bound = saved, None
+
     def _converted(
         self, q0: Any, target: Any, q_prev: Any, check_finite: bool = False
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -370,7 +372,11 @@ class Lp2Controller:
     def _problem(
         self, J: FloatArray, dw: FloatArray, q0: FloatArray, q_prev: FloatArray | None
     ) -> Problem:
-        return build_problem(J, dw, q0, self.limits, dt=self.dt, q_prev=q_prev, **self._weights)
+        P = build_problem(J, dw, q0, self.limits, dt=self.dt, q_prev=q_prev, **self._weights)
+        if self._bound is None:  # (else a step under the automatic bound: lpik.control.autobound)
+            return P
+        return P.replace(lam_min=np.maximum(P.lam_min, -self._bound),
+                         lam_max=np.minimum(P.lam_max, self._bound))  # fmt: skip
 
     def problem(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Problem:
         """The step's :class:`~lpik.problem.Problem`, built by the pure-numpy layers.

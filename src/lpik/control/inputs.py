@@ -17,10 +17,13 @@ import numpy as np
 from lpik.control.backend_step import placeholder_chain
 from lpik.limits import (
     AccelerationLimits,
+    AutomaticMultiplierBounds,
+    EndStops,
     Limit,
     LinearRows,
     MultiplierBounds,
-    rate_limits,
+    StepContext,
+    VelocityLimits,
     standard_limits,
 )
 from lpik.robots.base import TaskModel
@@ -102,13 +105,52 @@ def row_names(value: Any) -> tuple[str, ...]:
     return tuple(value)
 
 
+#: The limits whose bounds do not depend on the state: what a compiled step can hold.
+STATE_FREE_LIMITS = (EndStops, VelocityLimits, AccelerationLimits, MultiplierBounds, LinearRows,
+                     AutomaticMultiplierBounds)  # fmt: skip
+
+
+def rate_limits(limits: Sequence[Limit], n: int) -> FloatArray:
+    """The joints' velocity and acceleration limits the ``limits`` set, per second.
+
+    Read from the same pieces :func:`build_problem` stacks (a velocity limit's
+    step bound at ``dt = 1`` s is the limit itself), so that the compiled step
+    (:class:`~lpik.control.controller.Lp2Controller`) and the numpy layers
+    derive each step's bounds (eq. 14, :mod:`lpik.bands`) from the same values.
+
+    Returns:
+        (4, n): ``qd_min, qd_max`` [rad/s], ``qdd_min, qdd_max`` [rad/s^2];
+        ``-inf``/``inf`` where none.
+
+    Raises:
+        ValueError: For a limit whose bounds depend on the state (not one of
+            :data:`STATE_FREE_LIMITS`): the compiled step cannot hold it.
+    """
+    out = np.vstack([np.full(n, -np.inf), np.full(n, np.inf)] * 2)
+    context = StepContext(q0=np.zeros(n), dt=1.0)
+    for limit in limits:
+        if not isinstance(limit, STATE_FREE_LIMITS):
+            names = ", ".join(cls.__name__ for cls in STATE_FREE_LIMITS)
+            raise ValueError(
+                f"limits: the compiled step holds {names}; {type(limit).__name__} depends on "
+                "the state: run it with simulate(..., method='lp2') or build_problem"
+            )
+        piece = limit.apply(context)
+        values = (piece.dq_min, piece.dq_max, piece.qdd_min, piece.qdd_max)
+        for row, value in enumerate(values):
+            if value is not None:
+                tighter = np.maximum if row % 2 == 0 else np.minimum  # lower rows: the largest
+                out[row] = tighter(out[row], np.broadcast_to(value, (n,)))
+    return out
+
+
 def controller_limits(
     model: TaskModel,
     limits: Sequence[Limit] | None,
     *,
     velocity_limits: bool,
     qdd_max: Any,
-    lambda_bound: float | MultiplierBounds | None,
+    lambda_bound: float | str | MultiplierBounds | None,
     rows: tuple[Any, Any, Any],
 ) -> tuple[Limit, ...]:
     """The limits a controller holds: ``limits`` as given, else the model's, plus the keywords.
@@ -117,8 +159,9 @@ def controller_limits(
     them, the model's end-stops and (``velocity_limits``) velocity limits
     (:func:`lpik.limits.standard_limits`). The keywords add to either:
     ``qdd_max`` [rad/s^2] an :class:`~lpik.limits.AccelerationLimits`,
-    ``lambda_bound`` a number ``B`` (``|lam_i| <= B``) or a
-    :class:`~lpik.limits.MultiplierBounds` (sec. 3.2), ``rows`` ``(G, h,
+    ``lambda_bound`` a number ``B`` (``|lam_i| <= B``), a
+    :class:`~lpik.limits.MultiplierBounds` (sec. 3.2) or ``"auto"`` (an
+    :class:`~lpik.limits.AutomaticMultiplierBounds`), ``rows`` ``(G, h,
     row_labels)`` a :class:`~lpik.limits.LinearRows`.
 
     Raises:
@@ -134,8 +177,10 @@ def controller_limits(
             "limits: must be a list of limits (EndStops, VelocityLimits, AccelerationLimits, "
             f"MultiplierBounds, LinearRows), got {type(limits).__name__}"
         )
-    if isinstance(lambda_bound, MultiplierBounds):  # (the order of earlier releases)
-        held.append(lambda_bound)
+    if isinstance(lambda_bound, MultiplierBounds | AutomaticMultiplierBounds):
+        held.append(lambda_bound)  # (the order of earlier releases)
+    elif lambda_bound == "auto":
+        held.append(AutomaticMultiplierBounds())
     elif lambda_bound is not None:
         held.append(MultiplierBounds.symmetric(positive_number("lambda_bound", lambda_bound)))
     if qdd_max is not None:

@@ -34,10 +34,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lpik.collision.model import as_avoidance
-from lpik.control.command import CommandLaw
+from lpik.control.autobound import bound_for_step
+from lpik.control.command import CommandLaw, task_rows
 from lpik.control.log import SimulationLog
 from lpik.highs import HighsSolver
-from lpik.limits import Limit, build_problem, standard_limits
+from lpik.limits import AutomaticMultiplierBounds, Limit, build_problem, standard_limits
 from lpik.methods.progress import StallWatch
 from lpik.methods.registry import get_method
 from lpik.problem import Problem
@@ -128,6 +129,9 @@ def simulate(
     step_fn = _method_function(method, model, HighsSolver() if warm_start else None)
     stall = StallWatch(on_stall)
     limits = list(standard_limits(model) if limits is None else limits)
+    auto = next((lim for lim in limits if isinstance(lim, AutomaticMultiplierBounds)), None)
+    auto = auto if get_method(method).bounds_multipliers else None
+    task = task_rows(model) if auto is not None else None
     weights = dict(weights or {})
     weights.setdefault("joint_names", model.joint_names)
     m = model.task_dim
@@ -144,7 +148,14 @@ def simulate(
             step_weights = avoid.weights(weights, q, float(dt), J)
         problem = build_problem(J, dw, q, step_limits, dt=dt, q_prev=q_prev, **step_weights)
         start = time.perf_counter()
-        result = stall.check(step_fn(problem), lambda problem=problem: problem)
+        result = step_fn(problem)
+        if auto is not None:  # the automatic multiplier bound (lpik.control.autobound)
+            bound = bound_for_step(auto, model.jacobian, q, J, task, float(dt), result)
+            if bound is not None:
+                problem = problem.replace(lam_min=np.maximum(problem.lam_min, -bound),
+                                          lam_max=np.minimum(problem.lam_max, bound))  # fmt: skip
+                result = step_fn(problem)
+        result = stall.check(result, lambda problem=problem: problem)
         times[k] = time.perf_counter() - start
         q_next, clamped = _applied(problem, result)
         rows["q"].append(q)

@@ -1,0 +1,131 @@
+"""The automatic multiplier bound (lpik.control.autobound): no chatter, no trap, exact elsewhere."""
+
+from __future__ import annotations
+
+import subprocess
+
+import numpy as np
+import pytest
+
+from cli_documents import LPIK
+from lpik.control.autobound import bound_for_step, bounds
+from lpik.control.command import ClampedTarget, task_rows
+from lpik.control.simulate import simulate
+from lpik.limits import AutomaticMultiplierBounds, standard_limits
+from lpik.paper.scenarios import get_scenario
+from lpik.result import Result
+
+
+def jitter(log) -> float:  # type: ignore[no-untyped-def]
+    return log.metrics().jitter
+
+
+class TwoTargets:
+    """Toward ``first`` for ``switch`` steps, then toward ``second`` (a command law)."""
+
+    def __init__(self, first, second, switch: int) -> None:  # type: ignore[no-untyped-def]
+        self.laws, self.switch, self.k = (ClampedTarget(first), ClampedTarget(second)), switch, 0
+
+    def __call__(self, model, q, dt):  # type: ignore[no-untyped-def]
+        law = self.laws[self.k >= self.switch]
+        self.k += 1
+        return law(model, q, dt)
+
+
+def test_the_edge_singularity_without_chatter_as_the_papers_bound() -> None:
+    """The paper's Figs. 8-9 run: unbounded LP2 chatters; the automatic bound, derived from
+    dt and the arm alone, is as smooth as the bound the paper derived from the run."""
+    setup = get_scenario("edge-singularity").setup()
+    free, auto, paper = (
+        setup.run("lp2"),
+        setup.run("lp2", lambda_bound="auto"),
+        setup.run("lp2", lambda_bound=0.1),
+    )
+    assert jitter(auto) < 0.01 * jitter(free)
+    assert jitter(auto) < 1.5 * jitter(paper)
+    assert auto.p[-1] < 1e-3 and auto.binding[-1].kind == "multiplier"
+    # it stops a step short of the singularity, as far out as the paper's bound does
+    np.testing.assert_allclose(auto.position_end, paper.position_end, atol=5e-3)
+
+
+@pytest.mark.parametrize("robot", ["planar", "panda"])
+def test_pushed_beyond_reach_for_long_it_comes_back(robot: str) -> None:
+    """A target held far out of reach, then back inside: recovered, without chatter."""
+    setup = get_scenario("edge-singularity").setup(robot)
+    model, q0 = setup.model, setup.q0
+    home = np.asarray(model.pose(q0), dtype=float)  # a position task: x, y, z
+    outside = home + home * [2.0, 2.0, 0.0]  # three times as far out, horizontally
+    hold, back = (600, 400) if robot == "planar" else (1500, 1500)
+    limits = [*standard_limits(model), AutomaticMultiplierBounds()]
+    log = simulate(model, TwoTargets(outside, home, hold), q0, hold + back, dt=setup.dt,
+                   limits=limits)  # fmt: skip
+    error = np.linalg.norm(model.difference(model.pose(log.q_end), home))
+    assert error < 1e-3, error
+    assert log.metrics().jitter < 50.0
+    assert (log.p[hold:] > 0).any() and (log.status == "optimal").all()
+
+
+def test_the_controller_follows_simulate_step_by_step() -> None:
+    pytest.importorskip("numba")
+    setup = get_scenario("edge-singularity").setup()
+    log = setup.run("lp2", lambda_bound="auto")
+    controller = setup.controller(lambda_bound="auto")
+    assert isinstance(controller.automatic_bound, AutomaticMultiplierBounds)
+    q, prev = setup.q0.copy(), None
+    for k in range(setup.steps):
+        np.testing.assert_allclose(q, log.q[k], rtol=0, atol=1e-9)
+        res = controller.step(q, setup.target, prev)
+        assert abs(res.p - log.p[k]) <= 1e-9 and res.binding == log.binding[k]
+        prev, q = q, res.q
+    # a batch of those states: each row as step() answers it
+    targets = np.tile(np.asarray(setup.target, dtype=float), (setup.steps - 1, 1))
+    batch = controller.step_batch(log.q[:-1], targets, np.vstack([log.q[:1], log.q[:-2]]))
+    for b in range(0, setup.steps - 1, 37):
+        res = controller.step(log.q[b], setup.target, log.q[max(b - 1, 0)])
+        assert abs(batch.p[b] - res.p) <= 1e-12
+
+
+def test_it_stays_out_of_the_way_where_the_command_is_followed() -> None:
+    """p = 1, or far from a singularity: the unbounded step is kept (None)."""
+    setup = get_scenario("pull-in").setup()
+    model, limit = setup.model, AutomaticMultiplierBounds()
+    q = setup.q0
+    J = model.jacobian(q)
+    full = Result(q=q, dq=np.zeros(q.size), p=1.0, lam=np.zeros(2), status="optimal",
+                  binding=None, method="lp2")  # fmt: skip
+    part = Result(q=q, dq=np.full(q.size, 1e-3), p=0.5, lam=np.zeros(2), status="optimal",
+                  binding=None, method="lp2")  # fmt: skip
+    rows = task_rows(model)
+    assert bound_for_step(limit, model.jacobian, q, J, rows, 0.01, full) is None
+    assert bound_for_step(limit, model.jacobian, q, J, rows, 0.01, part) is None  # regular J
+
+
+def test_the_bound_follows_its_formula_and_vanishes_at_the_floor() -> None:
+    limit = AutomaticMultiplierBounds()
+    J = np.array([[2.0, 0.0, 1.0], [0.0, 1e-2, 0.0]])
+    s = np.linalg.svd(J, compute_uv=False)
+    B = bounds(limit, J, np.array([0, 1]), 0.01, s)
+    lever = np.linalg.svd(J, compute_uv=False)[0]
+    shrink = 1 - (limit.floor * s[0] / s[-1]) ** 2
+    np.testing.assert_allclose(B, 0.01 / (limit.approach_time * lever) * shrink)
+    at_floor = np.array([[2.0, 0.0], [0.0, 2e-3]])
+    assert (bounds(limit, at_floor, np.array([0, 3]), 0.01, np.array([2.0, 2e-3])) == 0).all()
+
+
+@pytest.mark.parametrize(
+    ("field", "value"), [("approach_time", 0.0), ("floor", np.nan), ("activation", 2.0)]
+)
+def test_bad_parameters_are_named(field: str, value: float) -> None:
+    with pytest.raises(ValueError, match=field):
+        AutomaticMultiplierBounds(**{field: value})
+
+
+def test_the_command_line_takes_auto_and_refuses_other_words(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    args = ["simulate", "edge-singularity", "--steps", "50", "--lambda-bound", "auto"]
+    ok = subprocess.run([str(LPIK), *args, "--out", str(tmp_path / "run.csv")],
+                        capture_output=True, text=True)  # fmt: skip
+    assert ok.returncode == 0 and "automatic bound" in ok.stdout
+    bad = subprocess.run([str(LPIK), "simulate", "edge-singularity", "--lambda-bound", "often"],
+                         capture_output=True, text=True)  # fmt: skip
+    assert bad.returncode == 2 and bad.stdout == ""
+    assert bad.stderr.count("\n") == 1 and "--lambda-bound" in bad.stderr
