@@ -19,6 +19,7 @@ RUN_LABELS = {
     "pull-in-lp2s": ("LP2 with saturation in the null space", "unbounded"),
     "edge-singularity-lp2-unbounded": ("LP2", "unbounded"),
     "edge-singularity-lp2-bounded": ("LP2", "bounded"),
+    "edge-singularity-lp2-auto": ("LP2", "automatic bound"),
 }
 
 

@@ -1,8 +1,10 @@
 """Reproduce the paper's section 4: the runs, figures 3-9, their CSV logs and a summary.
 
-Six runs of the two scenarios (:mod:`lpik.paper.scenarios`), the sixth beyond
-the paper (and, beyond it too, the 3-D runs of :func:`reproduce_3d` and the
-collision-avoidance runs and Figs. 11-12 of :mod:`lpik.paper.collision_runs`):
+Seven runs of the two scenarios (:mod:`lpik.paper.scenarios`), two of them
+beyond the paper (saturation in the null space; the automatic multiplier
+bound of :mod:`lpik.control.autobound`, which needs no run to derive it), and,
+beyond it too, the 3-D runs of :func:`reproduce_3d` and the
+collision-avoidance runs and Figs. 11-12 of :mod:`lpik.paper.collision_runs`:
 
 ==================================  =====================================  =========
 run                                 method, multipliers                    figures
@@ -13,6 +15,7 @@ run                                 method, multipliers                    figur
 ``pull-in-lp2s``                    LP2 with saturation in the null space  10
 ``edge-singularity-lp2-unbounded``  LP2, unbounded                         7, 8
 ``edge-singularity-lp2-bounded``    LP2, ``|lam_i| <= B``                  9
+``edge-singularity-lp2-auto``       LP2, the automatic bound               -
 ==================================  =====================================  =========
 
 LP1's optimum is not unique (any vertex with the largest p is optimal), so
@@ -160,7 +163,7 @@ class Reproduction:
 def run_all(
     progress: Progress | None = None, sweep: Sequence[float] = SWEEP_BOUNDS
 ) -> tuple[dict[str, SimulationLog], BoundChoice, dict[float, RunMetrics]]:
-    """Run the six simulations (and the bound sweep); no files are written."""
+    """Run the seven simulations (and the bound sweep); no files are written."""
     say = progress or (lambda _: None)
     pull, edge = get_scenario("pull-in"), get_scenario("edge-singularity")
     say("pull-in, lp1")
@@ -176,6 +179,8 @@ def run_all(
     choice = choose_lambda_bound(logs["edge-singularity-lp2-unbounded"])
     say(f"edge-singularity, lp2, |lambda| <= {choice.bound:g}")
     logs["edge-singularity-lp2-bounded"] = edge.run("lp2", lambda_bound=choice.bound)
+    say("edge-singularity, lp2, the automatic bound")
+    logs["edge-singularity-lp2-auto"] = edge.run("lp2", lambda_bound="auto")
     metrics = {choice.bound: logs["edge-singularity-lp2-bounded"].metrics()}
     for bound in sweep:
         if bound not in metrics:
