@@ -347,7 +347,8 @@ class Lp2Controller:
     def _bounded(self, q0: Any, target: Any, q_prev: Any, unbounded: Result) -> Result:
         """The step again with the automatic multiplier bound, where it applies."""
         q = np.asarray(q0, dtype=np.float64)
-        J = self.model.jacobian(q)
+        start = int(self._state[layout.JACOBIAN])  # the step's J, as the kernel left it
+        J = self._state[start : start + self._m * self._n].reshape(self._m, self._n).copy()
         bound = bound_for_step(self.automatic_bound, self.model.jacobian, q, J,
                                self._row_index, self.dt, unbounded)  # fmt: skip
         if bound is None:
