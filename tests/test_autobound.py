@@ -36,9 +36,9 @@ def test_the_edge_singularity_without_chatter_as_the_papers_bound() -> None:
     """The paper's Figs. 8-9 run: unbounded LP2 chatters; the automatic bound, derived from
     dt and the arm alone, is as smooth as the bound the paper derived from the run."""
     setup = get_scenario("edge-singularity").setup()
-    free, auto, paper = (
+    free, auto, paper = (  # the automatic bound is the default
+        setup.run("lp2", lambda_bound=None),
         setup.run("lp2"),
-        setup.run("lp2", lambda_bound="auto"),
         setup.run("lp2", lambda_bound=0.1),
     )
     assert jitter(auto) < 0.01 * jitter(free)
@@ -124,7 +124,7 @@ def test_the_command_line_takes_auto_and_refuses_other_words(tmp_path) -> None: 
     args = ["simulate", "edge-singularity", "--steps", "50", "--lambda-bound", "auto"]
     ok = subprocess.run([str(LPIK), *args, "--out", str(tmp_path / "run.csv")],
                         capture_output=True, text=True)  # fmt: skip
-    assert ok.returncode == 0 and "automatic bound" in ok.stdout
+    assert ok.returncode == 0 and "edge-singularity, lp2" in ok.stdout
     bad = subprocess.run([str(LPIK), "simulate", "edge-singularity", "--lambda-bound", "often"],
                          capture_output=True, text=True)  # fmt: skip
     assert bad.returncode == 2 and bad.stdout == ""

@@ -7,6 +7,7 @@ import pytest
 
 from lpik.limits import (
     AccelerationLimits,
+    AutomaticMultiplierBounds,
     EndStops,
     LinearRows,
     MultiplierBounds,
@@ -118,8 +119,13 @@ def test_standard_limits_of_a_model() -> None:
     np.testing.assert_array_equal(P.q_min, [-1.0, -1.0])
     np.testing.assert_allclose(P.dq_max, [0.2, 0.2])
     unlimited = planar_arm([1.0, 1.0])
-    assert len(standard_limits(unlimited)) == 1
-    assert len(standard_limits(arm, velocity=False)) == 1
+    # end-stops, and LP2's automatic multiplier bound (a default that adds no bound here)
+    assert [type(lim) for lim in standard_limits(unlimited)] == [
+        EndStops,
+        AutomaticMultiplierBounds,
+    ]
+    assert len(standard_limits(arm, velocity=False, lambda_bound=None)) == 1
+    assert isinstance(standard_limits(arm, lambda_bound=0.5)[-1], MultiplierBounds)
 
 
 @pytest.mark.parametrize("dt", [0.0, -0.01, float("nan"), float("inf"), "0.01"])

@@ -49,7 +49,8 @@ def test_lp2s_is_exact_never_below_lp2_and_keeps_every_limit(case: Case) -> None
         return
     assert res.p >= plain.p - 1e-12  # each pass starts from the last one's answer
     assert hard_violation(P, res.q, res.lam) <= 1e-7
-    np.testing.assert_allclose(P.J @ res.dq, res.p * P.dw, atol=1e-9)
+    # (1e-8: a pass over a nearly rank-deficient set of free joints takes the singular path)
+    np.testing.assert_allclose(P.J @ res.dq, res.p * P.dw, atol=1e-8)
     if plain.p >= 1.0:
         np.testing.assert_array_equal(res.q, plain.q)  # nothing to saturate: LP2 itself
     # exact: the LP stated directly over the saturated problem (linprog, absolute q)

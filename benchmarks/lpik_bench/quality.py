@@ -48,8 +48,8 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "lp2 +acc": {"qdd_max": QDD_MAX},
     "lp2s": {"saturate": True},
     "lp2s +acc": {"saturate": True, "qdd_max": QDD_MAX},
-    "lp2 auto": {"lambda_bound": "auto"},
-    "lp2s auto": {"saturate": True, "lambda_bound": "auto"},
+    "lp2 unbounded": {"lambda_bound": None},
+    "lp2s unbounded": {"saturate": True, "lambda_bound": None},
 }
 #: The variant the goal names ("lpik's default controller").
 DEFAULT_VARIANT = "lp2"

@@ -228,15 +228,16 @@ class LinearRows:
 
 
 def standard_limits(
-    model: Any, *, velocity: bool = True, lambda_bound: float | str | None = None
+    model: Any, *, velocity: bool = True, lambda_bound: float | str | None = "auto"
 ) -> list[Limit]:
-    """A robot model's end-stops, velocity limits and, when given, ``|lam_i| <= lambda_bound``.
+    """A robot model's end-stops, velocity limits and multiplier bounds (automatic by default).
 
     Args:
         model: Anything with ``q_min``, ``q_max`` and ``qd_max`` (e.g. a task model).
         velocity: Whether the model's ``qd_max`` bounds each step (eq. 14).
-        lambda_bound: Symmetric bound on every multiplier (sec. 3.2); ``"auto"``:
-            :class:`AutomaticMultiplierBounds`; none when None.
+        lambda_bound: ``"auto"`` (the default): :class:`AutomaticMultiplierBounds`,
+            LP2's default; a number: symmetric bound on every multiplier (sec. 3.2);
+            ``None``: unbounded multipliers (the paper's LP2 as stated).
     """
     limits: list[Limit] = [EndStops(model.q_min, model.q_max, tuple(model.joint_names))]
     if velocity and np.isfinite(model.qd_max).any():

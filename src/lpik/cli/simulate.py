@@ -35,13 +35,15 @@ MAX_FRAMES = 1000
 
 
 def _bound_value(text: str) -> float | str:
-    """``--lambda-bound``'s value: a number, or ``auto``."""
-    if text == "auto":
+    """``--lambda-bound``'s value: a number, ``auto`` or ``none``."""
+    if text in ("auto", "none"):
         return text
     try:
         return float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number or 'auto', got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"expected a number, 'auto' or 'none', got {text!r}"
+        ) from None
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -124,8 +126,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "--lambda-bound",
         type=_bound_value,
         metavar="B",
-        help="bound every Lagrange multiplier: -B <= lam_i <= B (lp2, sec. 3.2); 'auto': "
-        "bounds chosen per step where the arm would race towards a singularity",
+        help="bound every Lagrange multiplier: -B <= lam_i <= B (lp2, lp2s; sec. 3.2); "
+        "'auto' (the default): bounds chosen per step where the arm would race towards a "
+        "singularity; 'none': unbounded (the paper's LP2 as stated)",
     )
     parser.add_argument(
         "--qdd-max",
@@ -222,7 +225,7 @@ def _check_options(args: argparse.Namespace) -> None:
     if args.dt is not None and not (math.isfinite(args.dt) and 0 < args.dt <= MAX_DT):
         raise ValueError(f"--dt: must be a number in (0, {MAX_DT:g}] [s], got {args.dt}")
     if args.lambda_bound is not None:
-        if args.lambda_bound != "auto" and not (
+        if args.lambda_bound not in ("auto", "none") and not (
             math.isfinite(args.lambda_bound) and 0 < args.lambda_bound <= MAX_MAGNITUDE
         ):
             raise ValueError(
@@ -250,7 +253,7 @@ def _check_options(args: argparse.Namespace) -> None:
 def run_options(args: argparse.Namespace) -> dict[str, object]:
     """The keyword arguments every scenario's ``run`` takes from the command line."""
     return {
-        "lambda_bound": args.lambda_bound,
+        "lambda_bound": {None: "auto", "none": None}.get(args.lambda_bound, args.lambda_bound),
         "steps": args.steps,
         "dt": args.dt,
         "warm_start": not args.cold_start,

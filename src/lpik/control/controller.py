@@ -70,10 +70,10 @@ class Lp2Controller:
             model's end-stops and velocity limits. The keywords below add to them.
         qdd_max: Symmetric joint acceleration limits [rad/s^2] (scalar or (n,)); none when None.
         velocity_limits: Without ``limits``: whether the model's ``qd_max`` bounds each step.
-        lambda_bound: A bound ``B`` on every multiplier (``|lam_i| <= B``), a
-            :class:`~lpik.limits.MultiplierBounds` (sec. 3.2), or ``"auto"``:
-            bounds chosen per step where they help (:mod:`lpik.control.autobound`);
-            none when None.
+        lambda_bound: ``"auto"`` (default): bounds chosen per step where they
+            help (:mod:`lpik.control.autobound`); a bound ``B`` on every
+            multiplier (``|lam_i| <= B``) or a :class:`~lpik.limits.MultiplierBounds`
+            (sec. 3.2); ``None``: unbounded (the paper's LP2 as stated).
         M: Weight matrix of the criterion (eq. 3), as in :class:`~lpik.problem.Problem`.
         f: Weight vector of the criterion (eq. 3).
         Lambda: Smoothing weight (sec. 3.1).
@@ -101,7 +101,7 @@ class Lp2Controller:
         limits: Sequence[Limit] | None = None,
         qdd_max: ArrayLike | None = None,
         velocity_limits: bool = True,
-        lambda_bound: float | str | MultiplierBounds | None = None,
+        lambda_bound: float | str | MultiplierBounds | None = "auto",
         M: Any = None,
         f: Any = None,
         Lambda: Any = None,

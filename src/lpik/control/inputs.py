@@ -160,8 +160,9 @@ def controller_limits(
     (:func:`lpik.limits.standard_limits`). The keywords add to either:
     ``qdd_max`` [rad/s^2] an :class:`~lpik.limits.AccelerationLimits`,
     ``lambda_bound`` a number ``B`` (``|lam_i| <= B``), a
-    :class:`~lpik.limits.MultiplierBounds` (sec. 3.2) or ``"auto"`` (an
-    :class:`~lpik.limits.AutomaticMultiplierBounds`), ``rows`` ``(G, h,
+    :class:`~lpik.limits.MultiplierBounds` (sec. 3.2), ``"auto"`` (the default:
+    an :class:`~lpik.limits.AutomaticMultiplierBounds` unless ``limits`` bound
+    the multipliers) or ``None`` (unbounded), ``rows`` ``(G, h,
     row_labels)`` a :class:`~lpik.limits.LinearRows`.
 
     Raises:
@@ -169,7 +170,7 @@ def controller_limits(
     """
     n = model.n_joints
     if limits is None:
-        held: list[Limit] = standard_limits(model, velocity=velocity_limits)
+        held: list[Limit] = standard_limits(model, velocity=velocity_limits, lambda_bound=None)
     elif isinstance(limits, Sequence) and all(hasattr(v, "apply") for v in limits):
         held = list(limits)
     else:
@@ -177,10 +178,12 @@ def controller_limits(
             "limits: must be a list of limits (EndStops, VelocityLimits, AccelerationLimits, "
             f"MultiplierBounds, LinearRows), got {type(limits).__name__}"
         )
-    if isinstance(lambda_bound, MultiplierBounds | AutomaticMultiplierBounds):
+    multipliers = (MultiplierBounds, AutomaticMultiplierBounds)
+    if isinstance(lambda_bound, multipliers):
         held.append(lambda_bound)  # (the order of earlier releases)
-    elif lambda_bound == "auto":
-        held.append(AutomaticMultiplierBounds())
+    elif lambda_bound == "auto":  # the default: unless the limits bound the multipliers
+        if not any(isinstance(limit, multipliers) for limit in held):
+            held.append(AutomaticMultiplierBounds())
     elif lambda_bound is not None:
         held.append(MultiplierBounds.symmetric(positive_number("lambda_bound", lambda_bound)))
     if qdd_max is not None:

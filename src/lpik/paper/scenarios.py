@@ -225,7 +225,7 @@ class Scenario:
         method: str = "lp2",
         *,
         robot: str = PLANAR,
-        lambda_bound: float | str | None = None,
+        lambda_bound: float | str | None = "auto",
         steps: int | None = None,
         dt: float | None = None,
         warm_start: bool = True,

@@ -56,7 +56,7 @@ class Setup:
         return ClampedTarget(self.target, self.v_max, self.w_max)
 
     def limits(
-        self, lambda_bound: float | str | None = None, qdd_max: float | None = None
+        self, lambda_bound: float | str | None = "auto", qdd_max: float | None = None
     ) -> list[Limit]:
         """End-stops, velocity limits and, when given, multiplier and acceleration limits.
 
@@ -69,7 +69,7 @@ class Setup:
         self,
         method: str = "lp2",
         *,
-        lambda_bound: float | str | None = None,
+        lambda_bound: float | str | None = "auto",
         steps: int | None = None,
         dt: float | None = None,
         warm_start: bool = True,
@@ -82,8 +82,9 @@ class Setup:
 
         Args:
             method: A name from :data:`lpik.methods.METHODS`.
-            lambda_bound: Symmetric bound on every multiplier (sec. 3.2); ``"auto"``: the
-                automatic bound (:mod:`lpik.control.autobound`); ``None``: unbounded.
+            lambda_bound: ``"auto"`` (default): the automatic bound
+                (:mod:`lpik.control.autobound`); a number: symmetric bound on every
+                multiplier (sec. 3.2); ``None``: unbounded (the paper's runs).
             qdd_max: Acceleration limit of every joint [rad/s^2]; ``None``: none.
             steps: Number of steps; default the scenario's.
             dt: Control period [s]; default the scenario's.
@@ -98,9 +99,8 @@ class Setup:
         """
         from lpik.control.simulate import simulate
 
-        label = self.name if lambda_bound is None else (
-            f"{self.name} automatic bound" if lambda_bound == "auto"
-            else f"{self.name} |lam|<={lambda_bound:g}")  # fmt: skip
+        label = self.name if lambda_bound in (None, "auto") else (
+            f"{self.name} |lam|<={lambda_bound:g}")  # fmt: skip
         return simulate(
             self.model,
             self.command(),
@@ -118,7 +118,7 @@ class Setup:
         )
 
     def controller(
-        self, lambda_bound: float | str | None = None, *, saturate: bool = False
+        self, lambda_bound: float | str | None = "auto", *, saturate: bool = False
     ) -> Lp2Controller:
         """The compiled LP2 controller with this setup's limits, command law and weights.
 
