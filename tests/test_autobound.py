@@ -104,12 +104,12 @@ def test_the_bound_follows_its_formula_and_vanishes_at_the_floor() -> None:
     limit = AutomaticMultiplierBounds()
     J = np.array([[2.0, 0.0, 1.0], [0.0, 1e-2, 0.0]])
     s = np.linalg.svd(J, compute_uv=False)
-    B = bounds(limit, J, np.array([0, 1]), 0.01, s)
+    B = bounds(limit, J, np.array([0, 1]), 0.01, s[0], s[-1])
     lever = np.linalg.svd(J, compute_uv=False)[0]
     shrink = 1 - (limit.floor * s[0] / s[-1]) ** 2
     np.testing.assert_allclose(B, 0.01 / (limit.approach_time * lever) * shrink)
     at_floor = np.array([[2.0, 0.0], [0.0, 2e-3]])
-    assert (bounds(limit, at_floor, np.array([0, 3]), 0.01, np.array([2.0, 2e-3])) == 0).all()
+    assert (bounds(limit, at_floor, np.array([0, 3]), 0.01, 2.0, 2e-3) == 0).all()
 
 
 @pytest.mark.parametrize(

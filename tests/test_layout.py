@@ -28,7 +28,7 @@ LAYERS = (
     ("lpik.control",),
     ("lpik.fast",),
     ("lpik.control.controller", "lpik.control.inputs", "lpik.control.backend_step",
-     "lpik.control.avoiding_controller", "lpik.control.batch_steps"),
+     "lpik.control.avoiding_controller", "lpik.control.controller_steps"),
     ("lpik.paper",),
     ("lpik.cli",),
     ("lpik",),

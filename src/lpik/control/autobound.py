@@ -45,11 +45,16 @@ from lpik.result import Result
 from lpik.tolerances import FULL_P
 from lpik.types import FloatArray
 
-__all__ = ["bound_for_step", "bounds"]
+__all__ = ["bound_for_step", "bounds", "decide"]
 
 
 def bounds(
-    limit: AutomaticMultiplierBounds, J: FloatArray, rows: FloatArray, dt: float, s: FloatArray
+    limit: AutomaticMultiplierBounds,
+    J: FloatArray,
+    rows: FloatArray,
+    dt: float,
+    s_max: float,
+    s_min: float,
 ) -> FloatArray:
     """``B_k`` of step 3 (module docstring), shrunk towards the floor.
 
@@ -58,7 +63,8 @@ def bounds(
         J: The task Jacobian, (m, n).
         rows: Each task row's index in x, y, z, rx, ry, rz, (m,).
         dt: Control period [s].
-        s: ``J``'s singular values, largest first.
+        s_max: ``J``'s largest singular value.
+        s_min: ``J``'s smallest singular value.
 
     Returns:
         The bound of each multiplier, (m,).
@@ -66,8 +72,29 @@ def bounds(
     position = rows < 3
     lever = np.linalg.svd(J[position], compute_uv=False)[0] if position.any() else 1.0
     scale = np.where(position, max(float(lever), 1e-12), 1.0)
-    shrink = max(0.0, 1.0 - (limit.floor * s[0] / s[-1]) ** 2) if s[-1] > 0 else 0.0
+    shrink = max(0.0, 1.0 - (limit.floor * s_max / s_min) ** 2) if s_min > 0 else 0.0
     return dt / (limit.approach_time * scale) * shrink
+
+
+def decide(
+    limit: AutomaticMultiplierBounds,
+    J: FloatArray,
+    rows: FloatArray,
+    dt: float,
+    singular_values: tuple[float, float, float],
+) -> FloatArray | None:
+    """Steps 1-3 (module docstring) from ``(sigma_max, sigma_min, sigma_min at the probe)``.
+
+    The probe's value is NaN where none was taken (``dq = 0``, or far from a
+    singularity). Returns the bounds, or ``None`` to keep the unbounded step.
+    The one rule of both paths: :func:`bound_for_step` (numpy) and
+    :class:`~lpik.control.controller.Lp2Controller` (its compiled
+    :func:`lpik.fast.singular_values.probe_singular_values`) feed it.
+    """
+    s_max, s_min, s_probe = singular_values
+    if s_min > limit.activation * s_max or s_probe >= s_min:
+        return None  # far from a singularity, or the step leaves it
+    return bounds(limit, J, rows, dt, s_max, s_min)
 
 
 def bound_for_step(
@@ -93,11 +120,9 @@ def bound_for_step(
     if not unbounded.moved or unbounded.p >= FULL_P or not J.size:
         return None
     s = np.linalg.svd(J, compute_uv=False)
-    if s[-1] > limit.activation * s[0]:
-        return None
+    probe = np.nan
     size = float(np.linalg.norm(unbounded.dq))
-    if size > 0.0:
-        probe = q0 + limit.probe * unbounded.dq / size
-        if np.linalg.svd(jacobian(probe), compute_uv=False)[-1] >= s[-1]:
-            return None  # the step leaves the singularity
-    return bounds(limit, J, rows, dt, s)
+    if s[-1] <= limit.activation * s[0] and size > 0.0:
+        q = q0 + limit.probe * unbounded.dq / size
+        probe = float(np.linalg.svd(jacobian(q), compute_uv=False)[-1])
+    return decide(limit, J, rows, dt, (float(s[0]), float(s[-1]), probe))

@@ -20,10 +20,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.control.autobound import bound_for_step
 from lpik.control.backend_step import step_functions
-from lpik.control.batch_steps import batch_steps
 from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, clamp_command, task_rows
+from lpik.control.controller_steps import batch_steps, bounded_step
 from lpik.control.inputs import (
     chain_arrays,
     controller_limits,
@@ -298,7 +297,7 @@ class Lp2Controller:
         (tests hold them equal): for sweeps over configurations (how much of a
         command the arm can follow across its workspace), many robots, or
         sampled starts. Rows the ratio test cannot take go to the HiGHS path
-        one by one, as in :meth:`step` (:func:`lpik.control.batch_steps.batch_steps`).
+        one by one, as in :meth:`step` (:func:`lpik.control.controller_steps.batch_steps`).
 
         Args:
             q0: Joint coordinates, (B, n).
@@ -346,21 +345,7 @@ class Lp2Controller:
 
     def _bounded(self, q0: Any, target: Any, q_prev: Any, unbounded: Result) -> Result:
         """The step again with the automatic multiplier bound, where it applies."""
-        q = np.asarray(q0, dtype=np.float64)
-        start = int(self._state[layout.JACOBIAN])  # the step's J, as the kernel left it
-        J = self._state[start : start + self._m * self._n].reshape(self._m, self._n).copy()
-        bound = bound_for_step(self.automatic_bound, self.model.jacobian, q, J,
-                               self._row_index, self.dt, unbounded)  # fmt: skip
-        if bound is None:
-            return unbounded
-        block = layout.matrix_at(self._state, layout.LAM_BOUNDS, 2, self._m)
-        saved = block.copy()
-        block[0], block[1] = np.maximum(saved[0], -bound), np.minimum(saved[1], bound)
-        self._bound = bound
-        try:
-            return self.step(q0, target, q_prev, watch=False)
-        finally:
-            block[...], self._bound = saved, None
+        return bounded_step(self, q0, target, q_prev, unbounded)
 
     def _converted(
         self, q0: Any, target: Any, q_prev: Any, check_finite: bool = False
