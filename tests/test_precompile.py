@@ -15,6 +15,7 @@ NAMES = [
     "fused step, serial chain",
     "fused step, a backend's kinematics",
     "fused step batch, serial chain",
+    "the automatic multiplier bound's singular values",
     'LP2 ratio test (lp2, path="compiled")',
     "LP2 batch (lp2_batch)",
 ]

@@ -50,6 +50,7 @@ def compile_kernels() -> list[KernelLoad]:
     from lpik.control.controller import Lp2Controller
     from lpik.fast import lp2_kernel, step
     from lpik.fast.batch import lp2_batch
+    from lpik.fast.singular_values import probe_singular_values
     from lpik.methods.lp2 import lp2
     from lpik.problem import Problem
     from lpik.robots.registry import home_configuration, load_robot
@@ -86,6 +87,12 @@ def compile_kernels() -> list[KernelLoad]:
         "fused step batch, serial chain",
         lambda: controller.step_batch(q[None], pose[None], q[None]),
         step.chain_step_batch,
+    )
+    ready(
+        "the automatic multiplier bound's singular values",
+        lambda: probe_singular_values(controller._state, q, np.ones(q.size), 0.05, 1e-7,
+                                      np.empty(3)),  # fmt: skip
+        probe_singular_values,
     )
     ready(
         'LP2 ratio test (lp2, path="compiled")',
