@@ -16,9 +16,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "reproduce",
         help="rerun the paper's section 4 and write figures 3-9, CSV logs and summary.md",
         description="Run the pull-in scenario under LP1 and LP2 and the edge-singularity "
-        "scenario under LP2 with unbounded and bounded multipliers; write figures 3-9 as PNG, "
-        "the CSV log behind every figure and summary.md with the runs' numbers. Needs "
-        'matplotlib: pip install "lpik[plot]".',
+        "scenario under LP2 with unbounded, bounded and automatically bounded multipliers; "
+        "write figures 3-9 as PNG, the CSV log behind every figure and summary.md with the "
+        "runs' numbers; beyond the paper, the saturating LP2 (Fig. 10), the 3-D arms and "
+        "collision avoidance (Figs. 11-12). Needs matplotlib and coal: "
+        'pip install "lpik[reproduce]".',
     )
     parser.add_argument(
         "--out",
