@@ -90,8 +90,9 @@ def compile_kernels() -> list[KernelLoad]:
     )
     ready(
         "the automatic multiplier bound's singular values",
-        lambda: probe_singular_values(controller._state, q, np.ones(q.size), 0.05, 1e-7,
-                                      np.empty(3)),  # fmt: skip
+        lambda: probe_singular_values(
+            controller._state, q, np.ones(q.size), 0.05, 1e-7, np.empty(3)
+        ),  # fmt: skip
         probe_singular_values,
     )
     ready(
