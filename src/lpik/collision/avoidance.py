@@ -8,7 +8,7 @@ Two mechanisms, usable alone or together:
   influence distance ``d_i``, one labelled row bounds the approach along the
   normal in this step::
 
-      -grad . (q - q0) <= xi dt max(d - d_s, 0) / (d_i - d_s)
+          -grad . (q - q0) <= xi dt max(d - d_s, 0) / (d_i - d_s)
 
   ``grad = d d / d q`` (:mod:`lpik.collision.distance`), ``xi`` the largest
   approach speed [m/s]. To first order the distance after the step is then
@@ -32,6 +32,7 @@ Two mechanisms, usable alone or together:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -54,6 +55,36 @@ DISTANCE_FLOOR = 1e-3
 FIELD_SHARE = 0.5
 #: The mechanisms ``mechanism=`` accepts.
 MECHANISMS = ("rows", "field", "both")
+#: Right-hand side of a reserved row whose pair has no row this step: ``0 q <= 1e9`` never binds.
+INACTIVE_RHS = 1e9
+
+
+def damper_share(approach_speed: float, dt: float, safety: float, influence: float) -> float:
+    """``r = xi dt / (d_i - d_s)``, capped at 1: the share of ``d - d_s`` one step may close."""
+    return min(1.0, approach_speed * dt / (influence - safety))
+
+
+def damper_row(distance, gradient, q0, share, safety, row):  # type: ignore[no-untyped-def]
+    """The velocity damper's row of one pair within ``d_i``: ``row = -grad`` and its ``h``.
+
+    ``row . q <= h`` bounds the approach in this step (the rule of
+    :class:`DistanceRows`); plain loops, so that :mod:`lpik.fast.avoiding_step`
+    compiles this very function (:func:`lpik.fast.twins.compiled_twin`). Returns
+    NaN, leaving ``row`` as it is, for a pair whose distance hardly depends on
+    ``q`` (its witness point on a joint's axis): a row that cannot change by the
+    feasibility tolerance constrains nothing but would tie the ratio test at ``p = 0``.
+    """
+    n = gradient.shape[0]
+    steepest = 0.0
+    for i in range(n):
+        steepest = max(steepest, abs(gradient[i]))
+    if steepest <= FEASIBILITY_TOL:
+        return math.nan
+    h = share * max(distance - safety, 0.0)
+    for i in range(n):
+        row[i] = -gradient[i]
+        h += row[i] * q0[i]
+    return h
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,24 +104,34 @@ class DistanceRows:
         if not (isinstance(xi, int | float) and np.isfinite(xi) and xi > 0):
             raise ValueError(f"approach_speed: must be a finite number > 0, got {xi!r}")
 
-    def rows(self, q0: FloatArray, dt: float) -> tuple[FloatArray, FloatArray, tuple[str, ...]]:
-        """``G (r, n)``, ``h (r,)`` and labels of the rows at ``q0`` for a step of ``dt`` [s]."""
+    def pair_rows(self, q0: FloatArray, dt: float) -> tuple[list[int], FloatArray, FloatArray]:
+        """The rows at ``q0`` for a step of ``dt`` [s] and which pairs they belong to.
+
+        Returns:
+            The indices of the pairs with a row in ``proximities.at(q0)``, ``G (r, n)``
+            and ``h (r,)`` (:func:`damper_row`).
+        """
         scene = self.proximities.scene
         d_s, d_i = scene.safety_distance, scene.influence_distance
-        # A pair whose distance hardly depends on q (its witness point on a joint's
-        # axis) gets no row: one that cannot change by the feasibility tolerance
-        # constrains nothing but would tie the ratio test at p = 0.
-        near = [
-            p for p in self.proximities.at(q0)
-            if p.distance < d_i and np.abs(p.gradient).max() > FEASIBILITY_TOL
-        ]  # fmt: skip
+        share = damper_share(self.approach_speed, dt, d_s, d_i)
         n = q0.size
-        if not near:
-            return np.zeros((0, n)), np.zeros(0), ()
-        share = min(1.0, self.approach_speed * dt / (d_i - d_s))
-        G = np.array([-p.gradient for p in near]).reshape(-1, n)
-        allowed = np.array([share * max(p.distance - d_s, 0.0) for p in near])
-        return G, allowed + G @ q0, tuple(p.label for p in near)
+        pairs, G, h = [], [], []
+        for k, p in enumerate(self.proximities.at(q0)):
+            if p.distance >= d_i:
+                continue
+            row = np.zeros(n)
+            rhs = damper_row(p.distance, p.gradient, q0, share, d_s, row)
+            if not math.isnan(rhs):
+                pairs.append(k)
+                G.append(row)
+                h.append(rhs)
+        return pairs, np.array(G).reshape(-1, n), np.array(h)
+
+    def rows(self, q0: FloatArray, dt: float) -> tuple[FloatArray, FloatArray, tuple[str, ...]]:
+        """``G (r, n)``, ``h (r,)`` and labels of the rows at ``q0`` for a step of ``dt`` [s]."""
+        pairs, G, h = self.pair_rows(q0, dt)
+        found = self.proximities.at(q0)
+        return G, h, tuple(found[k].label for k in pairs)
 
     def apply(self, context: StepContext) -> Piece:
         """Labelled rows ``G q <= h`` for this step (none when no pair is within ``d_i``)."""

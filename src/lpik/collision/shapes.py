@@ -105,25 +105,44 @@ class Obstacle:
     rpy: FloatArray | None = None
     normal: FloatArray | None = None
 
-    def geometry(self) -> tuple[Any, Any]:
-        """The coal shape and its placement in the world frame."""
-        coal = coal_module()
+    def placed(self) -> dict[str, Any]:
+        """The obstacle in the world frame, in 3-D, as plain numbers.
+
+        A sphere: ``center``, ``radius``; a capsule: ``a``, ``b``, ``radius``; a box:
+        ``center``, ``rotation`` (3, 3, its axes as columns), ``size`` (3,); a plane:
+        the unit ``normal`` and ``offset`` of the solid ``normal . x <= offset``
+        (the free side is ``normal . x > offset``).
+        """
         if self.kind == "sphere":
-            return coal.Sphere(float(self.radius)), coal.Transform3s(
-                np.eye(3), _point3(_given(self.center))
-            )
+            return {"center": _point3(_given(self.center)), "radius": float(self.radius)}
         if self.kind == "capsule":
-            return capsule_geometry(_point3(_given(self.a)), _point3(_given(self.b)), self.radius)
+            return {
+                "a": _point3(_given(self.a)),
+                "b": _point3(_given(self.b)),
+                "radius": float(self.radius),
+            }
         if self.kind == "box":
             size = _given(self.size)
             size = size if size.size == 3 else np.append(size, PLANAR_BOX_HEIGHT)
             pose = transform(_point3(_given(self.center)), _given(self.rpy))
-            return coal.Box(*map(float, size)), coal.Transform3s(pose[:3, :3], pose[:3, 3])
+            return {"center": pose[:3, 3], "rotation": pose[:3, :3], "size": size}
         normal = _point3(_given(self.normal))
-        # coal's half-space n.x <= d is the solid: the free side is n.x > d.
-        return coal.Halfspace(
-            normal, float(normal @ _point3(_given(self.center)))
-        ), coal.Transform3s()
+        normal = normal / np.linalg.norm(normal)
+        return {"normal": normal, "offset": float(normal @ _point3(_given(self.center)))}
+
+    def geometry(self) -> tuple[Any, Any]:
+        """The coal shape and its placement in the world frame."""
+        coal = coal_module()
+        placed = self.placed()
+        if self.kind == "sphere":
+            return coal.Sphere(placed["radius"]), coal.Transform3s(np.eye(3), placed["center"])
+        if self.kind == "capsule":
+            return capsule_geometry(placed["a"], placed["b"], placed["radius"])
+        if self.kind == "box":
+            return coal.Box(*map(float, placed["size"])), coal.Transform3s(
+                placed["rotation"], placed["center"]
+            )
+        return coal.Halfspace(placed["normal"], placed["offset"]), coal.Transform3s()
 
 
 @dataclass(frozen=True, eq=False)
