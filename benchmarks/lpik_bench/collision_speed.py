@@ -1,0 +1,126 @@
+"""The time of one fused Panda step with self-collision and 10 obstacles.
+
+    python -m lpik_bench.collision_speed [--runs N] [--steps N] [--json]
+
+The Panda reaches from its home configuration into a shelf among 10
+obstacles (``benchmarks/scenes/panda-shelf-10.json``: the shelf scene of
+``lpik/data/scenes/panda-shelf.json`` with a sphere, a capsule and a turned box
+added; ``d_s`` 0.02 m, ``d_i`` 0.15 m), with self-collision between
+non-neighbouring links: 7 moving capsules against 10 obstacles and 16
+self-collision pairs, 86 rows. Each variant runs the same reach ``--runs``
+times from home for ``--steps`` steps of 10 ms and times every step; the first
+run only warms up. Variants:
+
+* ``Lp2Controller.step, no obstacles``: the fused step alone, the reference;
+* ``AvoidingLp2Controller.step``: distances, rows and LP2 in one compiled call
+  (:mod:`lpik.fast.avoiding_step`), and its ``step_into`` (no Result);
+* ``AvoidingLp2Controller.step, coal``: ``compiled_distances=False``, the
+  distances through coal in Python and the rows written in before the
+  compiled step (the path before the compiled distance kernels).
+
+Every variant reaches the target; the compiled and coal paths give the same
+steps (tests hold them equal to 1e-9).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lpik.collision import load_scene
+from lpik.control.avoiding_controller import AvoidingLp2Controller
+from lpik.control.controller import Lp2Controller
+from lpik.paper.collision_runs import SHELF_TARGET
+from lpik.paper.reach import reach_setup
+
+SCENE = Path(__file__).resolve().parents[1] / "scenes" / "panda-shelf-10.json"
+
+
+def timed(step: Any, q0: np.ndarray, target: np.ndarray, runs: int, steps: int) -> dict:
+    """Per-step times [us] of ``runs`` reaches (the first a warm-up) and the last end point."""
+    times, q = [], q0
+    for run in range(runs + 1):
+        q = q0.copy()
+        for _ in range(steps):
+            start = time.perf_counter()
+            q = step(q, target)
+            if run:
+                times.append(time.perf_counter() - start)
+    us = np.array(times) * 1e6
+    return {
+        "median_us": float(np.median(us)),
+        "p99_us": float(np.percentile(us, 99)),
+        "max_us": float(us.max()),
+        "steps": int(us.size),
+        "q_end": q,
+    }
+
+
+def run(runs: int, steps: int) -> dict:
+    """Every variant, with the machine's load before and after."""
+    setup = reach_setup("panda", SHELF_TARGET)
+    scene = load_scene(SCENE)
+    target = np.asarray(setup.target, dtype=np.float64)
+    plain = Lp2Controller(setup.model, dt=setup.dt)
+    fused = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt)
+    coal = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt,
+                                 compiled_distances=False)  # fmt: skip
+    out = np.zeros(setup.model.n_joints)
+
+    def into(q: np.ndarray, target: np.ndarray) -> np.ndarray:
+        fused.step_into(q, target, out=out)
+        return out.copy()
+
+    load_before = os.getloadavg()
+    variants = {
+        "Lp2Controller.step, no obstacles": lambda q, t: plain.step(q, t).q,
+        "AvoidingLp2Controller.step": lambda q, t: fused.step(q, t).q,
+        "AvoidingLp2Controller.step_into": into,
+        "AvoidingLp2Controller.step, coal": lambda q, t: coal.step(q, t).q,
+    }
+    rows = []
+    for name, step in variants.items():
+        result = timed(step, setup.q0, target, runs if "coal" not in name else 1, steps)
+        tool = setup.model.kinematics.fk(result.pop("q_end"))[:3, 3]
+        result["tool_error_m"] = float(np.linalg.norm(tool - np.asarray(SHELF_TARGET)))
+        rows.append({"variant": name, **result})
+    return {
+        "pairs": len(fused.pair_labels),
+        "obstacles": len(scene.obstacles),
+        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+        "loadavg_before": [round(v, 2) for v in load_before],
+        "loadavg_after": [round(v, 2) for v in os.getloadavg()],
+        "rows": rows,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the table (markdown) or JSON."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=20)
+    parser.add_argument("--steps", type=int, default=200)
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args(argv)
+    report = run(args.runs, args.steps)
+    if args.json:
+        print(json.dumps(report, indent=1))
+        return 0
+    print(f"{report['obstacles']} obstacles, {report['pairs']} pairs; load average before "
+          f"{report['loadavg_before']}, after {report['loadavg_after']}\n")  # fmt: skip
+    print("| variant | median [us] | p99 [us] | max [us] | steps | tool error at the end [m] |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for r in report["rows"]:
+        print(f"| {r['variant']} | {r['median_us']:.2f} | {r['p99_us']:.2f} | "
+              f"{r['max_us']:.1f} | {r['steps']} | {r['tool_error_m']:.1e} |")  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
