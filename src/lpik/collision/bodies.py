@@ -64,7 +64,7 @@ def chain_of(model: Any) -> SerialChain:
     return chain
 
 
-def _link_names(chain: SerialChain) -> list[tuple[str, int]]:
+def link_names(chain: SerialChain) -> list[tuple[str, int]]:
     """One name per link of the chain with its joint index: the base, then each joint's child."""
     named: dict[int, str] = {}
     for link in chain.link_names:
@@ -101,7 +101,7 @@ def frame_capsules(
     """
     chain = chain_of(model)
     capsules = []
-    for link, joint in _link_names(chain):
+    for link, joint in link_names(chain):
         if (joint < 0 and not base) or (isinstance(radii, Mapping) and link not in radii):
             continue
         if joint + 1 < chain.n_joints:

@@ -8,8 +8,11 @@ Radii of the bundled arms' links (link-frame capsules,
   ``collision_capsule`` radius without its ``safety_distance``): 0.06 m for
   links 0-5, 0.05 m for link 6, 0.04 m for link 7 (which here also carries the hand).
 
-``ur5e`` and ``iiwa14`` ship no radii yet: pass ``radii=`` (one per link or
-one for all). The paper's planar arm gets :data:`PLANAR_LINK_RADIUS` per link.
+``ur5e`` and ``iiwa14`` ship capsules placed per link rather than radii
+(:data:`lpik.collision.bundled.BUNDLED_CAPSULES`, from MuJoCo Menagerie's
+collision geoms): the UR5e's upper arm runs 0.138 m off the segment between
+its joints. ``radii=`` replaces them by link-frame capsules. The paper's
+planar arm gets :data:`PLANAR_LINK_RADIUS` per link.
 A URDF's ``<collision>`` cylinders and spheres are used where a chain's URDF
 has them (:func:`lpik.collision.bodies.urdf_capsules`).
 """
@@ -26,7 +29,8 @@ from lpik.collision.avoidance import (
     DEFAULT_FIELD_GAIN,
     CollisionAvoidance,
 )
-from lpik.collision.bodies import LinkCapsule, chain_of, frame_capsules
+from lpik.collision.bodies import LinkCapsule, chain_of, frame_capsules, link_names
+from lpik.collision.bundled import BUNDLED_CAPSULES
 from lpik.collision.distance import Proximities, robot_bodies
 from lpik.collision.shapes import Scene
 
@@ -56,6 +60,12 @@ def default_capsules(
         ValueError: When no radii are known for the model (names it and says what to pass).
     """
     chain = chain_of(model)
+    if radii is None and chain.name in BUNDLED_CAPSULES:
+        names = dict((joint, link) for link, joint in link_names(chain))
+        return tuple(
+            LinkCapsule(names[joint], joint, np.array(a), np.array(b), radius)
+            for joint, a, b, radius in BUNDLED_CAPSULES[chain.name]
+        )
     if radii is None:
         if chain.name in BUNDLED_RADII:
             radii = BUNDLED_RADII[chain.name]
@@ -64,7 +74,7 @@ def default_capsules(
         else:
             raise ValueError(
                 f"radii: no collision radii are known for '{chain.name}' (known: "
-                + ", ".join(BUNDLED_RADII)
+                + ", ".join([*BUNDLED_RADII, *BUNDLED_CAPSULES])
                 + "); pass radii= (one per link or one for all)"
             )
     return frame_capsules(chain, radii, base=not chain.planar)
