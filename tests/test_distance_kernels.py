@@ -19,6 +19,10 @@ from lpik.fast.distances import capsule_capsule  # noqa: E402
 
 #: How far the kernels may be from coal: distance [m], witness points [m], normal.
 TOL = 1e-9
+#: ... but for the normal of a capsule through a box, which coal's EPA gives to about
+#: 1e-9 only, and not the same for the same pair after other calls: one capsule - box
+#: call before moved it by 1.1e-9 (while the distance moved by 2e-11), measured.
+EPA_NORMAL_TOL = 2e-9
 #: Random pairs per obstacle kind (four kinds, and capsule - capsule for self-collision).
 PAIRS = 8000
 KINDS = ("sphere", "capsule", "box", "plane")
@@ -76,8 +80,11 @@ def coal_distance(a, b, r, other) -> np.ndarray:  # type: ignore[no-untyped-def]
     return np.concatenate([[d], p1, p2, n])
 
 
-def gap(mine: np.ndarray, theirs: np.ndarray) -> float:
-    return float(np.abs(mine - theirs).max())
+def gap(mine: np.ndarray, theirs: np.ndarray, epa: bool = False) -> float:
+    """The largest difference, the normal's scaled to :data:`TOL` for an EPA normal."""
+    scale = TOL / EPA_NORMAL_TOL if epa and theirs[0] < 0 else 1.0
+    return max(float(np.abs(mine[:7] - theirs[:7]).max()),
+               scale * float(np.abs(mine[7:] - theirs[7:]).max()))  # fmt: skip
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -88,7 +95,7 @@ def test_each_obstacle_kind_agrees_with_coal_on_random_pairs(kind) -> None:  # t
         a, b, r = random_capsule(rng)
         obstacle = random_obstacle(kind, rng)
         theirs = coal_distance(a, b, r, obstacle.geometry())
-        worst = max(worst, gap(kernel_distance(a, b, r, obstacle), theirs))
+        worst = max(worst, gap(kernel_distance(a, b, r, obstacle), theirs, kind == "box"))
         overlapping += theirs[0] < 0
     assert worst <= TOL
     assert overlapping > PAIRS // 40  # penetrating pairs are well represented
@@ -152,7 +159,10 @@ def test_any_capsule_and_obstacle_agree_with_coal(a, b, r, obstacle) -> None:  #
         assume(theirs[0] + r + obstacle.radius > 1e-9)
     mine = kernel_distance(a, b, r, obstacle)
     assert abs(mine[0] - theirs[0]) <= TOL
-    if gap(mine, theirs) > TOL:  # a tie (hypothesis finds them: a point at a box's centre)
+    if (
+        gap(mine, theirs, obstacle.kind == "box") > TOL
+    ):  # a tie (hypothesis finds them: a point at a box's centre)
         for answer in (mine, theirs):  # each a valid answer: p2 - p1 = d n, n a unit vector
             d, p1, p2, n = answer[0], answer[1:4], answer[4:7], answer[7:]
-            assert abs(np.linalg.norm(n) - 1) <= TOL and gap(p2 - p1, d * n) <= TOL
+            assert abs(np.linalg.norm(n) - 1) <= TOL
+            assert np.abs(p2 - p1 - d * n).max() <= TOL

@@ -26,7 +26,9 @@ toward the second (10 floats). Each follows coal's own rule:
   holds with the tolerance lpik asks of GJK and EPA
   (:data:`lpik.collision.distance.GJK_TOLERANCE`); with coal's default (1e-6)
   GJK may stop up to a micrometre short, and within that tolerance of
-  touching it would take the segment as touching the box.
+  touching it would take the segment as touching the box. EPA's normal
+  itself is good to about 1e-9 (it moved by 1.1e-9 for the same pair after
+  an unrelated capsule - box call): tests hold it to 2e-9.
 
 Where the closest points are not unique (a segment parallel to a face, or
 to the boundary of a half-space), coal's choice and these kernels' may differ
