@@ -174,10 +174,6 @@ class Lp2Controller:
             (lim for lim in self.limits if isinstance(lim, AutomaticMultiplierBounds)), None
         )
 
-    def use_kernel(self, kernel: Any) -> None:
-        """Step with ``kernel(state, q0, q_prev, target)``: codes, TypeError as ``chain_step``."""
-        self._kernel = kernel
-
     def step(
         self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, watch: bool = True
     ) -> Result:
