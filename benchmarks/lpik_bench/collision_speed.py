@@ -14,6 +14,9 @@ run only warms up. Variants:
 * ``Lp2Controller.step, no obstacles``: the fused step alone, the reference;
 * ``AvoidingLp2Controller.step``: distances, rows and LP2 in one compiled call
   (:mod:`lpik.fast.avoiding_step`), and its ``step_into`` (no Result);
+* ``AvoidingLp2Controller.step, lambda_bound=None``: without the automatic
+  multiplier bound (:mod:`lpik.control.autobound`), which on a step with
+  ``p < 1`` looks for a bound in Python and may take the step again;
 * ``AvoidingLp2Controller.step, coal``: ``compiled_distances=False``, the
   distances through coal in Python and the rows written in before the
   compiled step (the path before the compiled distance kernels).
@@ -70,6 +73,8 @@ def run(runs: int, steps: int) -> dict:
     target = np.asarray(setup.target, dtype=np.float64)
     plain = Lp2Controller(setup.model, dt=setup.dt)
     fused = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt)
+    unbounded = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt,
+                                      lambda_bound=None)  # fmt: skip
     coal = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt,
                                  compiled_distances=False)  # fmt: skip
     out = np.zeros(setup.model.n_joints)
@@ -83,6 +88,7 @@ def run(runs: int, steps: int) -> dict:
         "Lp2Controller.step, no obstacles": lambda q, t: plain.step(q, t).q,
         "AvoidingLp2Controller.step": lambda q, t: fused.step(q, t).q,
         "AvoidingLp2Controller.step_into": into,
+        "AvoidingLp2Controller.step, lambda_bound=None": lambda q, t: unbounded.step(q, t).q,
         "AvoidingLp2Controller.step, coal": lambda q, t: coal.step(q, t).q,
     }
     rows = []
