@@ -14,6 +14,7 @@ from lpik.fast.precompile import compile_kernels  # noqa: E402
 NAMES = [
     "fused step, serial chain",
     "fused step, a backend's kinematics",
+    "fused step with distance rows (AvoidingLp2Controller)",
     "fused step batch, serial chain",
     "the automatic multiplier bound's singular values",
     'LP2 ratio test (lp2, path="compiled")',

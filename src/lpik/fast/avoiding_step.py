@@ -268,6 +268,11 @@ def avoiding_kernel() -> Any:
     return _compiled[0]
 
 
+def loaded_avoiding_kernel() -> Any:
+    """The compiled step if :func:`avoiding_kernel` has readied it in this process, else None."""
+    return _compiled[0] if _compiled else None
+
+
 def pack_bodies(proximities: Any, dt: float, approach_speed: float) -> tuple[np.ndarray, ...]:
     """The arrays :func:`avoiding_step` takes before the state, for a scene's pairs.
 

@@ -49,6 +49,7 @@ def compile_kernels() -> list[KernelLoad]:
     """
     from lpik.control.controller import Lp2Controller
     from lpik.fast import lp2_kernel, step
+    from lpik.fast.avoiding_step import avoiding_kernel, loaded_avoiding_kernel
     from lpik.fast.batch import lp2_batch
     from lpik.fast.singular_values import probe_singular_values
     from lpik.methods.lp2 import lp2
@@ -77,6 +78,8 @@ def compile_kernels() -> list[KernelLoad]:
     ready("fused step, serial chain", step.step_kernel, step.loaded_step_kernel())
     ready("fused step, a backend's kinematics", step.task_step_kernel,
           step.loaded_task_step_kernel())  # fmt: skip
+    ready("fused step with distance rows (AvoidingLp2Controller)", avoiding_kernel,
+          loaded_avoiding_kernel())  # fmt: skip
     panda = load_robot("panda", task="pose")
     q = home_configuration("panda")
     pose = panda.pose(q)
