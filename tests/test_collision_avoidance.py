@@ -78,7 +78,7 @@ def test_no_step_of_a_hard_row_method_brings_a_pair_below_the_safety_distance(
     # the true distance after the step, with an allowance for the second-order term
     # (at most |dq|^2 times the squared reach over the obstacle's radius)
     reach = sum(lengths)
-    slack = (reach * np.abs(dq).sum()) ** 2 / radius
+    slack = (reach * np.abs(dq).sum()) ** 2 / radius + 1e-12  # (and the distances' rounding)
     distance_before = {p.label: p.distance for p in before}
     for p in avoid.proximities.at(result.q):
         assert p.distance >= min(0.05, distance_before[p.label]) - slack, p.label
@@ -187,7 +187,7 @@ def test_no_panda_step_brings_a_pair_below_the_safety_distance(
     if result.status == "optimal":
         assert ref.feasible and result.p == pytest.approx(ref.p, abs=1e-6)
     step = float(np.abs(result.q - q).sum())
-    slack = 0.5 * step**2  # second-order term (|d2 d / dq2| <= 1 m: the arm spans about 1 m)
+    slack = 0.5 * step**2 + 1e-12  # second order (|d2 d / dq2| <= 1 m: the arm spans 1 m)
     before = {p.label: p.distance for p in avoid.proximities.at(q)}
     for p in avoid.proximities.at(result.q):
         assert p.distance >= min(0.02, before[p.label]) - slack, p.label

@@ -56,6 +56,10 @@ INTERVAL_TOL = 1e-12
 #: At most this share of the room between LP2's step at p = 0 and a joint's bounds goes
 #: to sec. 3.1's pull towards q_ref; the rest is left for the command.
 SMOOTHING_SHARE = 0.5
+#: A joint's share of that pull at or below this (relative to the largest, at least 1) counts
+#: as none: it is the rounding of a zero (a pinned joint's coupling), which must not decide
+#: how much of the pull the step takes.
+PULL_TOL = 1e-10
 
 # ----------------------------------------------------- binding from the duals
 #: A limit within this (relative to its size) of its bound is active.

@@ -9,7 +9,7 @@ from __future__ import annotations
 from numba import njit
 
 from lpik.fast.linalg import cho_solve
-from lpik.tolerances import RATE_TOL, SMOOTHING_SHARE
+from lpik.tolerances import PULL_TOL, SMOOTHING_SHARE
 
 
 @njit(cache=True)
@@ -45,7 +45,7 @@ def add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, a_q, a_l, n
             s -= HinvJt[i, k] * e_l[k]
         e_q[i] = s
         emax = max(emax, abs(s))
-    eps, scale = RATE_TOL * max(1.0, emax), 1.0
+    eps, scale = PULL_TOL * max(1.0, emax), 1.0
     for i in range(n):
         s = e_q[i]
         if s > eps:

@@ -20,7 +20,7 @@ import scipy.linalg as sla
 
 from lpik.methods.assembly import criterion, reference_pull
 from lpik.problem import Problem
-from lpik.tolerances import MAX_SCHUR_CONDITION, RATE_TOL, SMOOTHING_SHARE
+from lpik.tolerances import MAX_SCHUR_CONDITION, PULL_TOL, SMOOTHING_SHARE
 from lpik.types import FloatArray
 
 
@@ -121,7 +121,7 @@ def smoothing_scale(
     paper's term; a smaller ``s`` a weaker pull this step. Continuous in the state.
     """
     s = 1.0
-    eps = RATE_TOL * max(1.0, float(np.abs(e_q).max(initial=0.0)))  # a rate of 0, to rounding
+    eps = PULL_TOL * max(1.0, float(np.abs(e_q).max(initial=0.0)))  # a pull of 0, to rounding
     for a, e, lo, hi in zip(a_q, e_q, lower, upper):
         if e > eps:
             s = min(s, max(0.0, SMOOTHING_SHARE * (hi - a)) / e)

@@ -52,6 +52,7 @@ from lpik.tolerances import (
     FEASIBILITY_TOL,
     FULL_P,
     INTERVAL_TOL,
+    PULL_TOL,
     RATE_TOL,
     SINGULAR_RTOL,
     SLACK_TOL,
@@ -254,7 +255,7 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     emax = 0.0
     for i in range(n):
         emax = max(emax, abs(e_q[i]))
-    eps, scale = RATE_TOL * max(1.0, emax), 1.0
+    eps, scale = PULL_TOL * max(1.0, emax), 1.0
     for i in range(n):
         if e_q[i] > eps:
             scale = min(scale, max(0.0, SMOOTHING_SHARE * (upper[i] - a_q[i])) / e_q[i])
