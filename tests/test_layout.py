@@ -30,6 +30,7 @@ LAYERS = (
     ("lpik.control.controller", "lpik.control.inputs", "lpik.control.backend_step",
      "lpik.control.avoiding_controller", "lpik.control.controller_steps"),
     ("lpik.paper",),
+    ("lpik.console",),
     ("lpik.cli",),
     ("lpik",),
 )  # fmt: skip
