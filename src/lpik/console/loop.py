@@ -30,6 +30,8 @@ from lpik.types import FloatArray
 
 #: Seconds behind schedule after which the loop stops catching up and restarts its clock.
 RESYNC_AFTER = 0.05
+#: Weight of the latest step in the step time's moving average (about the last 100 steps).
+STEP_TIME_WEIGHT = 0.01
 #: Steps between two distance read-outs when not recording (every step while recording).
 DISTANCE_EVERY = 30
 
@@ -45,7 +47,7 @@ class Snapshot:
         p: The last step's affine dexterity.
         binding: The limit that held it (a :class:`~lpik.labels.Binding`), or None.
         status: The last step's status.
-        step_time: Wall time of the last control step [s].
+        step_time: Wall time of a control step, averaged over about the last 100 steps [s].
         rate: Real-time factor: steps per second over the control rate (1: real time).
         target: The commanded task value.
         paused: Whether the loop is paused.
@@ -109,6 +111,7 @@ class ControlLoop:
         self._target = self.robot.home_target()
         self._replay, self._replay_at = None, 0
         self._paused, self._error = False, None
+        self._mean_time = getattr(self, "_mean_time", 0.0)
         self._closest = self._distance(self._q)
         self._snap = self._make_snapshot(0, np.zeros(n), 1.0, None, "optimal", 0.0, 1.0)
 
@@ -172,6 +175,7 @@ class ControlLoop:
                 return self._snap
         elapsed = time.perf_counter() - start
         step = self._snap.step + 1
+        self._mean_time += STEP_TIME_WEIGHT * (elapsed - self._mean_time)
         if self._avoid is not None and (recorder is not None or step % DISTANCE_EVERY == 0):
             self._closest = self._distance(q)
         if recorder is not None:
@@ -184,7 +188,7 @@ class ControlLoop:
                 return self._snap
             self._q_prev, self._q = q, np.array(result.q, dtype=float)
             self._snap = self._make_snapshot(
-                step, qd, p, result.binding, result.status, elapsed, rate
+                step, qd, p, result.binding, result.status, self._mean_time, rate
             )
             return self._snap
 
@@ -275,6 +279,11 @@ class ControlLoop:
                 value[2] = 0.0
         with self._lock:
             self._target = value
+
+    def target(self) -> FloatArray:
+        """The commanded target now (as :meth:`set_target` stored it)."""
+        with self._lock:
+            return np.array(self._target)
 
     def settings(self) -> Settings:
         """The settings in force."""

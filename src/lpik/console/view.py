@@ -114,9 +114,11 @@ class ConsoleView:
             position=tuple(position),
             wxyz=geo.wxyz(pose[:3, :3]) if pose is not None else (1.0, 0.0, 0.0, 0.0),
             disable_rotations=not orientation,
+            depth_test=False,
             active_axes=(True, True, not planar),
         )
         self.gizmo.on_update(self._on_gizmo)
+        self._shown_target = np.array(target)
         self._tool = scene.add_frame(
             "/tool", axes_length=0.3 if planar else 0.08, axes_radius=0.01 if planar else 0.004
         )
@@ -200,6 +202,7 @@ class ConsoleView:
         pose[:3, 3] = handle.position
         try:
             self.loop.set_target(pose)
+            self._shown_target = self.loop.target()
         except ValueError as exc:
             self._say(f"**target refused:** {exc}")
 
@@ -207,7 +210,12 @@ class ConsoleView:
         self.loop.reset()
         self._trail.clear()
         self._path.clear()
-        target = np.asarray(self.loop.snapshot().target)
+
+    def _follow_target(self, target: np.ndarray) -> None:
+        """Move the gizmo to a target set elsewhere (reset, replay, the Python API)."""
+        if self._shown_target.shape == target.shape and np.allclose(self._shown_target, target):
+            return
+        self._shown_target = target
         self.gizmo.position = tuple(target[:3, 3] if target.shape == (4, 4) else target)
         if target.shape == (4, 4):
             self.gizmo.wxyz = geo.wxyz(target[:3, :3])
@@ -276,6 +284,7 @@ class ConsoleView:
             self._path.append(np.array(goal, dtype=float))
         self._frames += 1
         with self.server.atomic():
+            self._follow_target(self.loop.target())
             for k, (cyl, ends) in enumerate(self._links):
                 seg = geo.segment(a[k], b[k])
                 cyl.position, cyl.wxyz = seg.center, seg.wxyz
