@@ -246,3 +246,19 @@ def test_ctrl_c_stops_the_console_cleanly() -> None:
         proc.kill()
     err = proc.stderr.read()
     assert "Traceback" not in err and "stopped" in err
+
+
+def test_pause_holds_a_replay_and_resume_goes_on(planar, tmp_path) -> None:
+    loop = ControlLoop(planar, record_dir=tmp_path)
+    loop.set_target([0.2, 0.866, 0.0])
+    loop.start_recording()
+    for _ in range(10):
+        loop.tick()
+    loop.stop_recording("r.csv")
+    loop.replay("r.csv")
+    loop.tick()
+    loop.pause()
+    held = loop.tick()
+    assert held.replaying and held.paused and loop.tick().step == held.step
+    loop.pause(False)
+    assert loop.tick().step == held.step + 1

@@ -41,7 +41,8 @@ def install_gate(server: Any, token: str | None) -> None:
     message. Viser offers no public hook that sees the handshake, so this reads
     its websocket server's table of live connections; when that table is not
     where it is expected (another viser version), the console refuses to start
-    rather than run without the gate.
+    rather than run without the gate. The gate is in place before the URL (and
+    its token) is printed.
 
     Raises:
         RuntimeError: When this viser version cannot be gated.

@@ -139,7 +139,10 @@ class ControlLoop:
         clock = time.perf_counter()
         window_start, window_steps, rate = clock, 0, 1.0
         while not self._stop.is_set():
-            self.tick(rate)
+            try:
+                self.tick(rate)
+            except Exception as exc:  # e.g. a distance query: the thread goes on, paused
+                self._fail(exc, rate)
             window_steps += 1
             now = time.perf_counter()
             if now - window_start >= 1.0:
@@ -155,10 +158,10 @@ class ControlLoop:
     def tick(self, rate: float = 1.0) -> Snapshot:
         """One control period: a step toward the target (or a replayed row), then publish it."""
         with self._lock:
-            if self._replay is not None:
-                return self._replay_tick(rate)
             if self._paused:
                 return self._snap
+            if self._replay is not None:
+                return self._replay_tick(rate)
             q, q_prev, target, stepper = self._q, self._q_prev, self._target, self._stepper
             recorder = self._recorder
         start = time.perf_counter()
@@ -167,12 +170,7 @@ class ControlLoop:
             if not np.isfinite(result.q).all():
                 raise ValueError("the step returned coordinates that are not finite")
         except Exception as exc:  # the loop must not die: pause and show why
-            with self._lock:
-                self._paused, self._error = True, f"{type(exc).__name__}: {exc}"
-                self._snap = self._make_snapshot(
-                    self._snap.step, self._snap.qd, 0.0, None, "error", 0.0, rate
-                )
-                return self._snap
+            return self._fail(exc, rate)
         elapsed = time.perf_counter() - start
         step = self._snap.step + 1
         self._mean_time += STEP_TIME_WEIGHT * (elapsed - self._mean_time)
@@ -189,6 +187,15 @@ class ControlLoop:
             self._q_prev, self._q = q, np.array(result.q, dtype=float)
             self._snap = self._make_snapshot(
                 step, qd, p, result.binding, result.status, self._mean_time, rate
+            )
+            return self._snap
+
+    def _fail(self, exc: Exception, rate: float) -> Snapshot:
+        """Pause, holding the robot where it is, and publish why."""
+        with self._lock:
+            self._paused, self._error = True, f"{type(exc).__name__}: {exc}"
+            self._snap = self._make_snapshot(
+                self._snap.step, np.zeros_like(self._snap.qd), 0.0, None, "error", 0.0, rate
             )
             return self._snap
 
@@ -302,14 +309,11 @@ class ControlLoop:
         return settings
 
     def pause(self, paused: bool = True) -> None:
-        """Pause (or resume) stepping; resuming clears a step's error and ends a replay."""
+        """Pause (or resume) stepping or a replay; resuming clears a step's error."""
         with self._lock:
             self._paused = paused
             if not paused:
                 self._error = None
-                if self._replay is not None:
-                    self._replay, self._q_prev = None, None
-                    self._target = self._task_value(self._q)
             self._snap = self._make_snapshot(
                 self._snap.step,
                 self._snap.qd,

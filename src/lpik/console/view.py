@@ -259,9 +259,18 @@ class ConsoleView:
         if self._thread is not None:
             self._thread.join(2.0)
 
+    @property
+    def frame_rate(self) -> float:
+        """Refreshes per second since the page was built [Hz]."""
+        return self._frames / max(time.perf_counter() - self._t0, 1e-9)
+
     def _run(self) -> None:
         period = 1.0 / REFRESH_HZ
-        while not self._stop.wait(period):
+        clock = time.perf_counter()
+        while True:
+            clock = max(clock + period, time.perf_counter() - period)  # never rush to catch up
+            if self._stop.wait(max(0.0, clock - time.perf_counter())):
+                return
             try:
                 self.refresh()
             except Exception as exc:  # a page error must not end the refresh
