@@ -18,7 +18,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 
-from console_browser import browser_problem, console_page  # noqa: E402
+from console_browser import browser_problem, chromium, open_console  # noqa: E402
 
 PROBLEM = browser_problem()
 pytestmark = pytest.mark.skipif(PROBLEM is not None, reason=f"no browser test: {PROBLEM}")
@@ -40,7 +40,8 @@ def _shown(page) -> tuple[str, str]:
 def test_the_page_renders_follows_the_target_and_shows_the_controllers_p(console) -> None:
     from PIL import Image
 
-    with console_page(console.url) as page:
+    with chromium() as browser:
+        page = open_console(browser, console.url)
         picture = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("L"), float)
         assert picture.std() > 10, "the page looks blank"
         q_before = console.loop.snapshot().q.copy()
@@ -49,8 +50,12 @@ def test_the_page_renders_follows_the_target_and_shows_the_controllers_p(console
         deadline = time.time() + 30
         while time.time() < deadline and console.loop.snapshot().p > 0.5:
             time.sleep(0.1)
-        console.loop.pause()
+        page.get_by_role("button", name="Pause / resume").click()  # a control of the page
+        deadline = time.time() + 10
+        while time.time() < deadline and not console.loop.snapshot().paused:
+            time.sleep(0.1)
         snap = console.loop.snapshot()
+        assert snap.paused
         assert np.abs(snap.q - q_before).max() > 0.05, "the robot did not move"
         assert snap.p < 0.5 and snap.binding is not None
         want = (f"{snap.p:.3f}", str(snap.binding))
@@ -59,16 +64,17 @@ def test_the_page_renders_follows_the_target_and_shows_the_controllers_p(console
             time.sleep(0.1)
         assert _shown(page) == want
         assert page.errors == []
+        assert console.view.frame_rate > 20  # 30 Hz, less what a loaded machine takes
         console.loop.reset()
 
 
-def test_a_page_without_the_token_gets_nothing(tmp_path) -> None:
+def test_a_page_without_the_token_gets_nothing() -> None:
+    from playwright.sync_api import TimeoutError as PageTimeout
+
     from lpik.console import console_robot
     from lpik.console.app import Console
 
-    with Console(console_robot("planar"), port=0, token="s3cret") as console:
-        with console_page(console.url) as page:  # the printed URL carries the token
-            assert page.inner_text("#lpik-p")
-        bare = f"http://127.0.0.1:{console.port}/"
-        with pytest.raises(Exception, match="Timeout"), console_page(bare, timeout=3.0):
-            pass
+    with Console(console_robot("planar"), port=0, token="s3cret") as console, chromium() as browser:
+        assert open_console(browser, console.url).inner_text("#lpik-p")  # the printed URL
+        with pytest.raises(PageTimeout):
+            open_console(browser, f"http://127.0.0.1:{console.port}/", timeout=3.0)

@@ -41,28 +41,43 @@ def browser_problem() -> str | None:
 
 
 @contextlib.contextmanager
-def console_page(
-    url: str, width: int = 1280, height: int = 800, timeout: float = LOAD_TIMEOUT
-) -> Iterator[Any]:
-    """A Playwright page that has opened ``url`` and shows the console's instruments.
-
-    The page's ``errors`` attribute lists its console errors and uncaught exceptions.
-    """
+def chromium() -> Iterator[Any]:
+    """A headless Chromium (a Playwright ``Browser``), closed on exit."""
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=chromium_path(), args=list(CHROMIUM_ARGS))
         try:
-            page = browser.new_page(viewport={"width": width, "height": height})
-            errors: list[str] = []
-            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            page.errors = errors
-            page.goto(url)
-            page.wait_for_selector("#lpik-p", timeout=timeout * 1000)
-            yield page
+            yield browser
         finally:
             browser.close()
+
+
+def open_console(
+    browser: Any, url: str, width: int = 1280, height: int = 800, timeout: float = LOAD_TIMEOUT
+) -> Any:
+    """A new page of ``browser`` that has opened ``url`` and shows the console's instruments.
+
+    The page's ``errors`` attribute lists its console errors and uncaught exceptions.
+
+    Raises:
+        playwright.sync_api.TimeoutError: When the instruments do not show within ``timeout`` s.
+    """
+    page = browser.new_page(viewport={"width": width, "height": height})
+    errors: list[str] = []
+    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.errors = errors
+    page.goto(url)
+    page.wait_for_selector("#lpik-p", timeout=timeout * 1000)
+    return page
+
+
+@contextlib.contextmanager
+def console_page(url: str, width: int = 1280, height: int = 800) -> Iterator[Any]:
+    """A page of a fresh headless Chromium showing the console at ``url``."""
+    with chromium() as browser:
+        yield open_console(browser, url, width, height)
 
 
 def dismiss_notifications(page: Any) -> None:
