@@ -262,3 +262,20 @@ def test_pause_holds_a_replay_and_resume_goes_on(planar, tmp_path) -> None:
     assert held.replaying and held.paused and loop.tick().step == held.step
     loop.pause(False)
     assert loop.tick().step == held.step + 1
+
+
+def test_a_3d_scene_is_avoided_and_recorded_with_its_distances(tmp_path) -> None:
+    from importlib.resources import files
+
+    scene = files("lpik") / "data" / "scenes" / "panda-shelf.json"
+    loop = ControlLoop(console_robot("panda", str(scene)), record_dir=tmp_path)
+    target = loop.target()
+    target[:3, 3] = [0.62, 0.0, 0.52]
+    loop.set_target(target)
+    loop.start_recording()
+    for _ in range(5):
+        snap = loop.tick()
+    assert snap.error is None and snap.closest is not None
+    header = loop.stop_recording("shelf.csv").read_text().splitlines()[0].split(",")
+    assert header[-2:] == ["min_distance", "closest"]
+    assert "box" in [s.kind for s in geo.obstacle_shapes(loop.robot.scene)]
