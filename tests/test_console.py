@@ -69,6 +69,7 @@ def test_bad_targets_and_settings_are_refused_and_nothing_changes(planar) -> Non
         ({"v_max": 0.0}, "v_max"),
         ({"method": "pinv", "lambda_bound": 1.0}, "lambda_bound"),
         ({"qdd_max": float("inf")}, "qdd_max"),
+        ({"lambda_bound": "x"}, "auto"),
     ):
         with pytest.raises(ValueError, match=word):
             loop.change(**values)
@@ -79,7 +80,7 @@ def test_every_method_and_option_steps(planar) -> None:
     loop = ControlLoop(planar)
     loop.set_target([0.2, 0.866, 0.0])
     for method in ("lp2s", "lp1", "l1", "pinv", "weighted", "robust"):
-        loop.change(method=method, lambda_bound=None, qdd_max=5.0)
+        loop.change(method=method, lambda_bound="auto", qdd_max=5.0)  # "auto": LP2's only
         snap = loop.tick()
         assert snap.error is None and 0 <= snap.p <= 1, method
     loop.change(method="lp2", lambda_bound=2.0, qdd_max=None)

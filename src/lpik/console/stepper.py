@@ -51,22 +51,30 @@ class Settings:
         method: A name of :data:`lpik.methods.registry.METHODS`.
         v_max: Largest commanded linear speed [m/s].
         w_max: Largest commanded angular speed [rad/s].
-        lambda_bound: Bound ``B`` on every multiplier (``|lam_i| <= B``, sec. 3.2), or
-            None; only for methods that bound their multipliers.
+        lambda_bound: ``"auto"`` (LP2's default: bounds chosen per step where the arm
+            would race towards a singularity), a bound ``B`` on every multiplier
+            (``|lam_i| <= B``, sec. 3.2, only for methods that bound their
+            multipliers) or None (unbounded, the paper's LP2). Methods without
+            multipliers ignore ``"auto"``.
         qdd_max: Acceleration limit of every joint [rad/s^2], or None (off).
     """
 
     method: str = "lp2"
     v_max: float = 0.5
     w_max: float = 1.0
-    lambda_bound: float | None = None
+    lambda_bound: float | str | None = "auto"
     qdd_max: float | None = None
 
     def __post_init__(self) -> None:
         spec = get_method(self.method)
         for key, (low, high) in (("v_max", V_RANGE), ("w_max", W_RANGE)):
             _in_range(key, getattr(self, key), low, high)
-        if self.lambda_bound is not None:
+        if isinstance(self.lambda_bound, str):
+            if self.lambda_bound != "auto":
+                raise ValueError(
+                    f"lambda_bound: 'auto', None or a number, got {self.lambda_bound!r}"
+                )
+        elif self.lambda_bound is not None:
             _in_range("lambda_bound", self.lambda_bound, *LAMBDA_RANGE)
             if not spec.bounds_multipliers:
                 bounded = ", ".join(n for n, s in METHODS.items() if s.bounds_multipliers)
@@ -122,7 +130,10 @@ def _numpy(robot: ConsoleRobot, settings: Settings) -> Stepper:
         solve = partial(spec.function, model=model)
     elif spec.takes_solver:
         solve = partial(spec.function, solver=HighsSolver())
-    limits: list[Limit] = list(standard_limits(model, lambda_bound=settings.lambda_bound))
+    bound = settings.lambda_bound
+    if bound == "auto" or not spec.bounds_multipliers:  # the closed loop applies "auto"
+        bound = None
+    limits: list[Limit] = list(standard_limits(model, lambda_bound=bound))
     if settings.qdd_max is not None:
         limits.append(AccelerationLimits(settings.qdd_max))
     avoid = as_avoidance(model, robot.scene, robot.q0)

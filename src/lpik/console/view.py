@@ -21,6 +21,8 @@ from lpik.console.record import recordings
 from lpik.console.stepper import LAMBDA_RANGE, QDD_RANGE, V_RANGE, W_RANGE
 from lpik.methods.registry import METHODS
 
+#: The multiplier-bound choice that uses the number ``B``.
+BOUNDED = "|lam| <= B"
 #: How often the page is refreshed [Hz].
 REFRESH_HZ = 30.0
 #: Seconds of p the scrolling plot shows, and the points of the tool's trail.
@@ -145,10 +147,12 @@ class ConsoleView:
             self.method = gui.add_dropdown("method", tuple(METHODS), initial_value=s.method)
             self.v_max = gui.add_slider("v_max [m/s]", *V_RANGE, 0.01, s.v_max)
             self.w_max = gui.add_slider("w_max [rad/s]", *W_RANGE, 0.05, s.w_max)
-            self.bound_on = gui.add_checkbox("multiplier bound", s.lambda_bound is not None)
-            self.bound = gui.add_number(
-                "|lam| <=", s.lambda_bound or 1.0, min=LAMBDA_RANGE[0], max=LAMBDA_RANGE[1]
+            kind = {None: "none", "auto": "auto"}.get(s.lambda_bound, BOUNDED)  # type: ignore[arg-type]
+            self.bound_kind = gui.add_dropdown(
+                "multiplier bound", ("auto", "none", BOUNDED), initial_value=kind
             )
+            number = s.lambda_bound if isinstance(s.lambda_bound, float | int) else 1.0
+            self.bound = gui.add_number("B", number, min=LAMBDA_RANGE[0], max=LAMBDA_RANGE[1])
             self.accel_on = gui.add_checkbox("acceleration limits", s.qdd_max is not None)
             self.accel = gui.add_number(
                 "qdd_max [rad/s²]", s.qdd_max or 20.0, min=QDD_RANGE[0], max=QDD_RANGE[1]
@@ -160,7 +164,7 @@ class ConsoleView:
             self.method,
             self.v_max,
             self.w_max,
-            self.bound_on,
+            self.bound_kind,
             self.bound,
             self.accel_on,
             self.accel,
@@ -189,7 +193,9 @@ class ConsoleView:
                 method=self.method.value,
                 v_max=float(self.v_max.value),
                 w_max=float(self.w_max.value),
-                lambda_bound=float(self.bound.value) if self.bound_on.value else None,
+                lambda_bound={"auto": "auto", "none": None}.get(
+                    self.bound_kind.value, float(self.bound.value)
+                ),
                 qdd_max=float(self.accel.value) if self.accel_on.value else None,
             )
             self._say("")
