@@ -124,8 +124,6 @@ class ConsoleView:
         self._tool = scene.add_frame(
             "/tool", axes_length=0.3 if planar else 0.08, axes_radius=0.01 if planar else 0.004
         )
-        self._trail_handle = None
-        self._path_handle = None
 
     def _build_gui(self) -> None:
         gui, loop, robot = self.server.gui, self.loop, self.robot
@@ -133,8 +131,6 @@ class ConsoleView:
         gui.add_markdown(f"**lpik console** · {title} · {1 / robot.dt:.0f} Hz")
         self.gauge = gui.add_progress_bar(100.0, color="green")
         self.panel = gui.add_html(self._instruments())
-        from viser import uplot  # noqa: F401  (the plot's types live there)
-
         self.plot = gui.add_uplot(
             data=(np.zeros(1), np.ones(1)),
             series=({"label": "t [s]"}, {"label": "p", "stroke": "#1971c2", "width": 2}),
