@@ -172,6 +172,15 @@ def test_steady_and_cold_report_the_worst_step() -> None:
     assert stats["cold_max_us"] == 25.0
 
 
+def test_steady_and_cold_report_the_p999() -> None:
+    samples = np.full((10, 1001), 1000)
+    samples[4, 1:21] = 90_000  # 20 slow steady-state steps in 10,000: above the p99.9
+    samples[5, 3] = 200_000  # the worst
+    stats = R.steady_and_cold(samples)
+    assert stats["p99_us"] == 1.0 and stats["max_us"] == 200.0
+    assert stats["p999_us"] == 90.0
+
+
 def test_time_cases_gives_every_case_the_same_items() -> None:
     seen: dict[str, list[int]] = {"a": [], "b": []}
     cases = [

@@ -8,9 +8,9 @@ round, at least two); round ``r`` starts at item ``r * max_calls`` for every
 case, so that all libraries see the same configurations and targets, and
 slow drifts of the machine (load, frequency) spread over every case alike.
 The garbage collector is off while a round runs and collects between rounds.
-Each case reports the median and the 99th percentile [us] (per step for
-batches) of its steady-state calls (the second and later calls of each round)
-and, apart, of the first call of each round, which runs right after other
+Each case reports the median, the 99th and 99.9th percentiles and the worst
+[us] (per step for batches) of its steady-state calls (the second and later
+calls of each round) and, apart, of the first call of each round, which runs right after other
 libraries and finds the caches cold (``cold_median_us``, ``cold_p99_us``); and
 the ratio of its median to the fastest peer's median full step.
 
@@ -58,8 +58,11 @@ VERSIONED = (
 )
 
 #: Settings of a run by ``quick`` (a smoke test) and full (the published table).
-QUICK = {"trajectories": 2, "steps": 25, "rounds": 3, "batch": 256, "planar_steps": 50}
-FULL = {"trajectories": 8, "steps": 500, "rounds": 200, "batch": 10_000, "planar_steps": 400}
+#: ``calls``: most calls per case and round (200 x 39 steady ones: enough for a p99.9).
+QUICK = {"trajectories": 2, "steps": 25, "rounds": 3, "batch": 256, "planar_steps": 50,
+         "calls": 20, "singular_bases": 1}  # fmt: skip
+FULL = {"trajectories": 8, "steps": 500, "rounds": 200, "batch": 10_000, "planar_steps": 400,
+        "calls": 40, "singular_bases": 16}  # fmt: skip
 
 
 # ---------------------------------------------------------------- statistics and timing
@@ -72,14 +75,17 @@ def summarize(samples_ns: ArrayLike, per_call: int = 1) -> tuple[float, float]:
 
 
 def steady_and_cold(samples_ns: ArrayLike, per_call: int = 1) -> dict[str, float]:
-    """Median, p99 and worst [us per step] of the steady state, and of the first calls of a round.
+    """Median, p99, p99.9 and worst [us per step] of the steady state, and of the first calls
+    of a round.
 
     Args:
         samples_ns: (rounds, calls) from :func:`time_cases`, at least 2 calls a round.
         per_call: Steps per call.
 
     Returns:
-        ``median_us``, ``p99_us``, ``max_us`` over columns 1.. (the steady state)
+        ``median_us``, ``p99_us``, ``p999_us`` (the 99.9th percentile: about the
+        worst of every thousand steps, so read it with ``samples``), ``max_us``
+        over columns 1.. (the steady state)
         and ``cold_median_us``, ``cold_p99_us``, ``cold_max_us`` over column 0 (the
         first call of each round, after the other libraries ran).
     """
@@ -89,6 +95,7 @@ def steady_and_cold(samples_ns: ArrayLike, per_call: int = 1) -> dict[str, float
     return {
         "median_us": median,
         "p99_us": p99,
+        "p999_us": float(np.percentile(t[:, 1:], 99.9)) / (1e3 * per_call),
         "max_us": float(t[:, 1:].max()) / (1e3 * per_call),
         "cold_median_us": cold_median,
         "cold_p99_us": cold_p99,
@@ -354,7 +361,7 @@ def run_benchmark(
     _say(f"lpik bench: agreement checks ({len(peer_set.steps)} peer steps) ...", quiet)
     checks = agreement_checks(workload, problems, peer_set, C.batch_arrays(problems, len(problems)))
     _say(f"lpik bench: timing {len(cases)} cases, {settings['rounds']} rounds ...", quiet)
-    samples = time_cases(cases, settings["rounds"])
+    samples = time_cases(cases, settings["rounds"], max_calls=settings["calls"])
     _say("lpik bench: first calls in fresh processes ...", quiet)
     loaded = sorted({p.library for p in peer_set.steps}, key=names.index)
     firsts = first_call_records(robot, loaded, cold)

@@ -30,8 +30,8 @@ def _us(value: float | None) -> str:
 
 
 def timing_rows(records: Sequence[Rec]) -> list[list[str]]:
-    """Cells of the timing table: library, method, what, median, p99, max, vs fastest peer, cold
-    median and max, n."""
+    """Cells of the timing table: library, method, what, median, p99, p99.9, max, vs fastest
+    peer, cold median and max, n."""
     return [
         [
             r["library"],
@@ -39,6 +39,7 @@ def timing_rows(records: Sequence[Rec]) -> list[list[str]]:
             r["what"],
             _us(r["median_us"]),
             _us(r["p99_us"]),
+            _us(r.get("p999_us")),
             _us(r.get("max_us")),
             speedup(r.get("ratio_to_fastest_peer")),
             _us(r.get("cold_median_us")),
@@ -96,6 +97,7 @@ TIMING_HEAD = [
     "what",
     "median [us]",
     "p99 [us]",
+    "p99.9 [us]",
     "max [us]",
     "vs fastest peer",
     "cold median [us]",
