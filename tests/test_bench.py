@@ -72,6 +72,12 @@ def test_quick_run_covers_every_lpik_case(quick_records: list[dict]) -> None:
                for m, w in lpik)  # fmt: skip
     for method in ("lp1", "l1", "lp2 highs"):
         assert (method, "solve, HiGHS reused") in lpik
+    singular = [r for r in quick_records if "singular configurations" in r["what"]]
+    assert {r["method"] for r in singular} == {"lp2 fused (compiled)", "lp2 (numpy layers)"}
+    for r in singular:
+        assert r["p999_us"] >= r["p99_us"] and r["ratio_to_fastest_peer"] is None
+        if r["method"] == "lp2 fused (compiled)":
+            assert r["fused_highs"] == 0 and sum(r["paths"].values()) == r["path_steps"]
     firsts = [r for r in quick_records if r["kind"] == "first call"]
     assert any(r["library"] == "lpik" and r["median_us"] > 0 for r in firsts)
 

@@ -4,6 +4,8 @@
   shared by every library;
 - :mod:`lpik_bench.cases`: lpik's timed cases (every method, the fused compiled
   step, batches, FK + Jacobian alone);
+- :mod:`lpik_bench.singular`: the fused step at and near the Panda's singular
+  configurations, and which path (ratio test, singular path, HiGHS) its steps take;
 - :mod:`lpik_bench.peers`: one adapter per peer (Drake, pink, mink, the
   Robotics Toolbox), imported only when installed (``pip install "lpik[bench]"``);
 - :mod:`lpik_bench.agreement`: the checks that hold answers together where they

@@ -22,7 +22,7 @@ call solves (the batch size), so that times can be reported per step.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -77,6 +77,7 @@ class Case:
         per_call: Steps solved by one call (the batch size; 1 otherwise).
         peer: True for the other libraries' full steps (the ratios' reference).
         note: How it is set up.
+        extra: Further keys of the case's timing record (e.g. the paths its steps take).
     """
 
     library: str
@@ -86,6 +87,7 @@ class Case:
     per_call: int = 1
     peer: bool = False
     note: str = ""
+    extra: dict[str, object] = field(default_factory=dict)
 
     @property
     def label(self) -> str:

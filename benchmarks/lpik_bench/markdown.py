@@ -57,21 +57,47 @@ METHOD = """## How it is measured
   run. The reference row shows the speed of the run published here.
 - **Timing.** Interleaved: each of {rounds} rounds visits every case once in
   a seeded random order and times each call with `time.perf_counter_ns`
-  (up to 20 calls per case and round, at least 2, fewer than 20 for slow
-  cases); garbage collection is off inside a round. `median`, `p99` and
-  `max` (the worst step) are per step over the steady-state calls (the 2nd
+  (up to {calls} calls per case and round, at least 2, fewer for slow
+  cases); garbage collection is off inside a round. `median`, `p99`, `p99.9`
+  and `max` (the worst step) are per step over the steady-state calls (the 2nd
   and later of each round); `cold median` and `cold max` are over each round's
   first call, made right after the other libraries ran (cold caches, as in a
-  control loop that does other work between steps). A single `max` on a shared
-  2-core machine includes the operating system's interruptions: read it with
-  the p99. `vs fastest peer` divides the fastest peer's median
-  full step by the case's median; `n` counts the steady-state calls.
+  control loop that does other work between steps). `vs fastest peer` divides
+  the fastest peer's median full step by the case's median; `n` counts the
+  steady-state calls: a `p99.9` is about the worst of every thousand steps, so
+  it means something only where `n` is several thousand (the fast cases), and
+  is close to `max` below that.
+- **Worst case on a shared machine.** `max` and `p99.9` (and, less, `p99`)
+  include the operating system's preemption: this 2-core machine is shared
+  with other work (the load average above), and a step that is interrupted
+  counts the interruption. They bound what the step costs from above; on an
+  isolated core with nothing else to run they are lower.
+- **Singular configurations.** {singular}
 - **First calls** are timed in fresh processes (OS file cache warm): lpik
   loading its compiled kernels from the disk cache, and compiling them from an
   empty `NUMBA_CACHE_DIR` (cold). The fused step's kernel compiles (or loads)
   when the first controller is built, so it counts in `setup`; the batch
   kernels at their first call.
 """
+
+
+SINGULAR = """The Panda's elbow singularity (joint 5 at 0, joint 4 at the stretched angle,
+  found numerically for each start: `sigma_min(J)` about 1e-10) and joint 4
+  within 1e-9 to 1e-3 rad of it; the same with joint 6 at 0 or pi (joints 5
+  and 7 parallel); and joint 6 at 0 or pi alone (aligned but of full rank).
+  Targets along the direction `J` can hardly produce (the left singular vector
+  `u` of the smallest singular value: `1e-4 u` away, inside the command clamp,
+  and 0.5 m / 0.5 rad along it, out of reach), in a random direction 1 cm
+  away, or 0.5 m away (out of reach); 1 ms, URDF end-stops and velocity
+  limits, the command clamped as in every case. Each item is one step from its
+  start (the arm arriving at the speed of the step it is about to take, for
+  the acceleration case); see `benchmarks/lpik_bench/singular.py`. The notes
+  count which path the numpy LP2 takes on the same steps (ratio test, singular
+  path, HiGHS: the compiled step tries them in the same order) and how many
+  fused steps fell back to HiGHS. Cases: the fused step without multiplier
+  bounds, with a symmetric multiplier bound (sec. 3.2; the `|lambda|` rows) and
+  with acceleration limits; the numpy layers on the same steps for comparison
+  (their singular path runs the compiled kernel's plain loops in Python)."""
 
 
 def _env(records: list[dict[str, Any]]) -> dict[str, Any]:
@@ -106,6 +132,9 @@ def render(records: list[dict[str, Any]], source: str) -> str:
         "",
         tables["timing"],
         "",
+        f"- `max` and `p99.9` include the preemption of a shared {env.get('cores', '?')}-core "
+        f"machine (load average {env.get('loadavg_before')} before, {env.get('loadavg_after')} "
+        "after): an upper bound of the step's own worst case (see How it is measured).",
         *(f"- {note}" for note in timing_notes(records)),
         "",
         "## First call (import, compile, setup)",
@@ -128,6 +157,8 @@ def render(records: list[dict[str, Any]], source: str) -> str:
             range_pct=round(100 * RANGE_FRACTION),
             qdd=QDD_MAX,
             rounds=settings.get("rounds", "?"),
+            calls=settings.get("calls", 20),
+            singular=SINGULAR,
         )
     )
     return "\n".join(lines)

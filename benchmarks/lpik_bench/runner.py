@@ -40,6 +40,7 @@ from lpik_bench import cases as C
 from lpik_bench.agreement import agreement_checks
 from lpik_bench.peers import ADAPTERS, PEER_PACKAGES, load_peers
 from lpik_bench.records import Record
+from lpik_bench.singular import singular_cases, singular_workload
 from lpik_bench.workload import Workload, make_workload
 
 #: Packages whose versions the environment record lists (PyPI names).
@@ -350,8 +351,10 @@ def run_benchmark(
     planar = C.planar_workload(settings["planar_steps"])
     problems = C.workload_problems(workload)
     peer_set = load_peers(workload, names)
+    singular = singular_workload(settings["singular_bases"]) if robot == "panda" else None
     cases = [
         *C.step_cases(workload, planar),
+        *(singular_cases(singular) if singular is not None else []),
         *C.peer_cases(peer_set.steps, workload),
         *C.fk_cases(workload),
         *C.solve_cases(workload, problems),
@@ -378,6 +381,7 @@ def run_benchmark(
             "robot": "planar-4" if case.what == C.PLANAR_STEP else robot,
             "steps_per_s": 1e6 / median if median > 0 else None,
             "note": case.note,
+            **case.extra,
         }
         timing.append(
             (case, Record(case.library, case.method, case.what, median, p99, extra=extra))
@@ -385,7 +389,7 @@ def run_benchmark(
     ratios = ratios_to_fastest_peer(medians, [c.label for c in cases if c.peer])
     records = [environment(command, workload, settings, (load_before, load_after))]
     for case, record in timing:
-        record.extra["ratio_to_fastest_peer"] = ratios.get(case.label)
+        record.extra.setdefault("ratio_to_fastest_peer", ratios.get(case.label))
         records.append(record)
     records += firsts
     records += [a.record() for a in checks]

@@ -167,6 +167,10 @@ TARGET_MEDIAN_US = 10.0
 TARGET_P99_US = 30.0
 TARGET_RATIO = 0.1
 TARGET_BATCH_PER_S = 1e6
+#: Worst-case target of the fused step, regular and at singular configurations.
+TARGET_P999_US = 50.0
+#: The ``what`` of the singular cases contains this (:mod:`lpik_bench.singular`).
+SINGULAR = "singular configurations"
 #: Peers whose step solves a QP with the limits as constraints (the Robotics Toolbox clips).
 QP_PEERS = ("drake", "pink", "mink")
 
@@ -240,6 +244,7 @@ def targets(records: Sequence[Rec]) -> list[list[str]]:
                 f"{planar['median_us']:.2f} us vs {med:.2f} us",
                 planar["median_us"] < med,
             )
+    rows += worst_case_targets(records)
     batch = _find(records, "lp2_batch (compiled)", "batch of", prefix=True)
     if batch is not None:
         rate = batch.get("steps_per_s") or 0.0
@@ -277,3 +282,36 @@ def targets(records: Sequence[Rec]) -> list[list[str]]:
 
 
 TARGET_HEAD = ["target", "measured", "met"]
+
+
+def worst_case_targets(records: Sequence[Rec]) -> list[list[str]]:
+    """p99.9 of the fused steps (regular and singular) and the singular steps' HiGHS fallbacks."""
+    rows = []
+    for r in _of(records, "timing"):
+        regular = r["what"] in ("full step", "full step +acc")
+        if r["library"] != "lpik" or r["method"] != "lp2 fused (compiled)":
+            continue
+        if not regular and SINGULAR not in r["what"]:
+            continue
+        p999 = r.get("p999_us")
+        if p999 is None:
+            continue
+        rows.append(
+            [
+                f"fused {r['what'].removeprefix('full ')}: p99.9 <= {TARGET_P999_US:g} us",
+                f"{p999:.2f} us (max {_us(r.get('max_us'))} us, n {r.get('samples', '?')})",
+                "yes" if p999 <= TARGET_P999_US else "no",
+            ]
+        )
+        if "fused_highs" in r:
+            paths, steps = r.get("paths", {}), max(r.get("path_steps", 0), 1)
+            rows.append(
+                [
+                    f"fused {r['what'].removeprefix('full ')}: no step falls back to HiGHS",
+                    f"{r['fused_highs']} of {r.get('path_steps')} steps (numpy LP2's paths: "
+                    f"singular {100 * paths.get('singular', 0) / steps:.0f}%, ratio test "
+                    f"{100 * paths.get('ratio-test', 0) / steps:.0f}%)",
+                    "yes" if r["fused_highs"] == 0 else "no",
+                ]
+            )
+    return rows
