@@ -286,3 +286,15 @@ def test_unknown_peer_and_bad_rounds_are_input_errors(capsys: pytest.CaptureFixt
     assert main(["bench", "--quick", "--peers", "nope"]) == 2
     assert "peers: unknown nope" in capsys.readouterr().err
     assert main(["bench", "--quick", "--rounds", "0"]) == 2
+
+
+def test_regenerating_the_page_keeps_the_sections_other_tools_wrote() -> None:
+    from lpik_bench.markdown import keep_sections
+
+    old = "# B\n\n## Targets\n\nold\n\n## Collision\n\nkept\n\n## How it is measured\n\nold\n"
+    new = "# B\n\n## Targets\n\nnew\n\n## How it is measured\n\nnew\n"
+    page = keep_sections(old, new)
+    assert (
+        page == "# B\n\n## Targets\n\nnew\n\n## Collision\n\nkept\n\n## How it is measured\n\nnew\n"
+    )
+    assert keep_sections(new, new) == new

@@ -4,13 +4,17 @@ The markdown is generated, never typed by hand::
 
     python -m lpik_bench.markdown benchmarks/results.json docs/benchmarks.md
 
-(``benchmarks/run_all.py`` runs the benchmark and then this.)
+(``benchmarks/run_all.py`` runs the benchmark and then this.) A ``## ``
+section of the page it replaces that this module does not write (e.g. the
+collision benchmark of :mod:`lpik_bench.collision_peer`) is kept, before
+"How it is measured": :func:`keep_sections`.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -164,15 +168,34 @@ def render(records: list[dict[str, Any]], source: str) -> str:
     return "\n".join(lines)
 
 
+def _sections(page: str) -> list[tuple[str, str]]:
+    """``(heading, text)`` of every ``## `` section of ``page``, in order."""
+    parts = re.split(r"^(?=## )", page, flags=re.MULTILINE)
+    return [(p.splitlines()[0], p) for p in parts if p.startswith("## ")]
+
+
+def keep_sections(old: str, new: str, before: str = "## How it is measured") -> str:
+    """``new`` with the ``## `` sections of ``old`` that it lacks, inserted before ``before``."""
+    have = {heading for heading, _ in _sections(new)}
+    kept = "".join(text for heading, text in _sections(old) if heading not in have)
+    if not kept or before not in new:
+        return new
+    at = new.index(before)
+    return new[:at] + kept.rstrip("\n") + "\n\n" + new[at:]
+
+
 def main() -> None:
-    """Read the records, write the page."""
+    """Read the records, write the page (keeping the sections other tools wrote)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("records", type=Path, help="JSON output of lpik bench --json")
     parser.add_argument("out", type=Path, help="markdown file to write")
     args = parser.parse_args()
     records = json.loads(args.records.read_text())
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(render(records, args.records.as_posix()))
+    page = render(records, args.records.as_posix())
+    if args.out.exists():
+        page = keep_sections(args.out.read_text(), page)
+    args.out.write_text(page)
     print(f"wrote {args.out}")
 
 
