@@ -69,7 +69,11 @@ def test_singular_cases_run_and_carry_their_paths(work: S.SingularWorkload) -> N
         assert case.extra["robot"] == "panda" and case.extra["ratio_to_fastest_peer"] is None
         if case.method == "lp2 fused (compiled)":
             assert case.extra["fused_highs"] == 0 and "paths (numpy LP2)" in case.note
-    assert cases[0].extra["after_gc_collect_us"] > 0 and cases[0].extra["back_to_back_us"] > 0
+    plain = cases[0].extra
+    assert plain["after_gc_collect_us"] > 0 and plain["back_to_back_us"] > 0
+    assert plain["loop_steps"] == 16 * len(work)
+    assert plain["loop_median_us"] <= plain["loop_p99_us"] <= plain["loop_p999_us"]
+    assert plain["loop_p999_us"] <= plain["loop_max_us"]
     samples = R.time_cases(cases[:1], rounds=2, max_calls=4)
     assert samples[cases[0].label].shape == (2, 4)
 
@@ -84,7 +88,16 @@ def test_worst_case_targets_on_synthetic_records() -> None:
     records = [
         timing("full step", 12.0),
         timing("full step +acc", 60.0),
-        timing(S.SINGULAR_STEP, 20.0, **paths),
+        timing(
+            S.SINGULAR_STEP,
+            20.0,
+            **paths,
+            loop_median_us=9.0,
+            loop_p99_us=10.0,
+            loop_p999_us=70.0,
+            loop_max_us=900.0,
+            loop_steps=11264,
+        ),  # fmt: skip
         timing(S.SINGULAR_STEP_ACC, 30.0, **{**paths, "fused_highs": 1}),
     ]
     rows = {r[0]: r for r in T.worst_case_targets(records)}
@@ -94,6 +107,8 @@ def test_worst_case_targets_on_synthetic_records() -> None:
     highs = rows[f"fused step, {T.SINGULAR}: no step falls back to HiGHS"]
     assert highs[2] == "yes" and "singular 75%" in highs[1]
     assert rows[f"fused step +acc, {T.SINGULAR}: no step falls back to HiGHS"][2] == "no"
+    loop = [row for name, row in rows.items() if "back to back" in name]
+    assert len(loop) == 1 and loop[0][2] == "no" and "n 11264" in loop[0][1]
     assert "p99.9 [us]" in T.TIMING_HEAD
     assert T.timing_rows(records)[0][T.TIMING_HEAD.index("p99.9 [us]")] == "12.00"
     assert S.SINGULAR_STEP.endswith(T.SINGULAR)

@@ -230,33 +230,64 @@ def path_counts(controller: Lp2Controller, work: SingularWorkload) -> PathCounts
 
 
 def after_collect(controller: Lp2Controller, work: SingularWorkload, reps: int = 30) -> dict:
-    """Median time [us] of a singular-path step right after ``gc.collect()`` and back to back.
+    """Median time [us] of a step right after ``gc.collect()``: on the singular path, on the
+    ratio test; and of the singular-path step back to back.
 
     The timing rounds collect garbage before each round (:func:`lpik_bench.runner.time_cases`),
-    as a Python control loop's collector does now and then; this tells what the first
-    singular-path step after it costs. Empty when no item takes the singular path.
+    as a Python control loop's collector does now and then; this tells what the first step
+    after it costs on each path. Empty when no item takes the singular path.
     """
     import gc
     import time
 
-    k = next((k for k in range(len(work))
-              if lp2(controller.problem(work.q[k], work.targets[k])).path == "singular"),
-             None)  # fmt: skip
-    if k is None:
-        return {}
-    q, target, other = work.q[k], work.targets[k], work.q[(k + 1) % len(work)]
-    out: dict[str, list[float]] = {"after_gc_collect_us": [], "back_to_back_us": []}
-    for key in out:
+    def first(path: str) -> int | None:
+        return next((k for k in range(len(work))
+                     if lp2(controller.problem(work.q[k], work.targets[k])).path == path),
+                    None)  # fmt: skip
+
+    def median(k: int, collect: bool) -> float:
+        times = []
         for _ in range(reps):
-            if key == "after_gc_collect_us":
-                gc.collect()
-                controller.step(other, work.targets[(k + 1) % len(work)])
-            else:
-                controller.step(q, target)
+            gc.collect() if collect else controller.step(work.q[k], work.targets[k])
             start = time.perf_counter_ns()
-            controller.step(q, target)
-            out[key].append((time.perf_counter_ns() - start) / 1e3)
-    return {key: float(np.median(value)) for key, value in out.items()}
+            controller.step(work.q[k], work.targets[k])
+            times.append((time.perf_counter_ns() - start) / 1e3)
+        return float(np.median(times))
+
+    singular, ratio = first("singular"), first("ratio-test")
+    if singular is None:
+        return {}
+    out = {
+        "after_gc_collect_us": median(singular, True),
+        "back_to_back_us": median(singular, False),
+    }
+    if ratio is not None:
+        out["ratio_test_after_gc_collect_us"] = median(ratio, True)
+    return out
+
+
+def back_to_back(controller: Lp2Controller, work: SingularWorkload, passes: int = 16) -> dict:
+    """Median, p99, p99.9 and worst [us] of ``passes`` runs over every item, one step after the
+    other with the garbage collector off: a loop that does nothing else between steps."""
+    import gc
+    import time
+
+    times = np.empty(passes * len(work))
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        for i in range(times.size):
+            k = i % len(work)
+            start = time.perf_counter_ns()
+            controller.step(work.q[k], work.targets[k])
+            times[i] = (time.perf_counter_ns() - start) / 1e3
+    finally:
+        if enabled:
+            gc.enable()
+    median, p99, p999 = np.percentile(times, [50, 99, 99.9])
+    return {"loop_median_us": float(median), "loop_p99_us": float(p99),
+            "loop_p999_us": float(p999), "loop_max_us": float(times.max()),
+            "loop_steps": int(times.size)}  # fmt: skip
 
 
 def singular_cases(work: SingularWorkload) -> list[Case]:
@@ -280,12 +311,15 @@ def singular_cases(work: SingularWorkload) -> list[Case]:
         counts = path_counts(controller, work)  # q_prev matters only with acceleration limits
         note = (f"Lp2Controller.step on {work.describe()}; {counts.text()}; "
                 f"{outcomes([fused(i) for i in range(N)])}")  # fmt: skip
-        cold = after_collect(controller, work) if controller is plain else {}
+        cold = {**after_collect(controller, work), **back_to_back(controller, work)} if (
+            controller is plain) else {}  # fmt: skip
         if cold:
-            note += (f"; a singular-path step right after gc.collect() (as at the start of "
-                     f"every round) and one other step: median "
-                     f"{cold['after_gc_collect_us']:.1f} us, back to back "
-                     f"{cold['back_to_back_us']:.1f} us")  # fmt: skip
+            note += (
+                f"; a singular-path step right after gc.collect() (as at the start of "
+                f"every round): median {cold['after_gc_collect_us']:.1f} us (back to back "
+                f"{cold['back_to_back_us']:.1f} us; a ratio-test step right after "
+                f"gc.collect(): {cold.get('ratio_test_after_gc_collect_us', 0.0):.1f} us)"
+            )
         cases.append(Case("lpik", "lp2 fused (compiled)", what, fused, note=note,
                           extra={**OWN, **counts.extra(), **cold}))  # fmt: skip
     for controller, what in ((plain, SINGULAR_STEP), (bounded, bound_what)):
