@@ -99,13 +99,14 @@ SINGULAR = """The Panda's elbow singularity (joint 5 at 0, joint 4 at the stretc
   count which path the numpy LP2 takes on the same steps (ratio test, singular
   path, HiGHS: the compiled step tries them in the same order) and how many
   fused steps fell back to HiGHS. Cases: the fused step without multiplier
-  bounds, with a symmetric multiplier bound (sec. 3.2; the `|lambda|` rows) and
-  with acceleration limits; the numpy layers on the same steps for comparison
-  (their singular path runs the compiled kernel's plain loops in Python). The
-  case without bounds also runs its steps back to back (the garbage collector
-  off, nothing else between steps: the Targets table's `back to back` row) and
-  times a step right after `gc.collect()` on each path, since every timing
-  round starts with one (its note)."""
+  bounds, with a symmetric multiplier bound (sec. 3.2; the `|lambda|` rows),
+  with the automatic bound (`lambda_bound='auto'`) and with acceleration
+  limits; the numpy layers on the same steps for comparison (their singular
+  path runs the compiled kernel's plain loops in Python). The case without
+  bounds also runs its steps back to back (the garbage collector off, nothing
+  else between steps: the Targets table's `back to back` row) and times a step
+  right after `gc.collect()` on each path, since every timing round starts
+  with one (its note)."""
 
 
 def _env(records: list[dict[str, Any]]) -> dict[str, Any]:

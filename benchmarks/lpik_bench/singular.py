@@ -92,7 +92,7 @@ class SingularWorkload:
     def __len__(self) -> int:
         return int(self.q.shape[0])
 
-    def controller(self, *, acc: bool = False, bound: float | None = None) -> Lp2Controller:
+    def controller(self, *, acc: bool = False, bound: float | str | None = None) -> Lp2Controller:
         """The fused controller: URDF end-stops and velocity limits, and what is asked."""
         from lpik.control.controller import Lp2Controller
 
@@ -291,17 +291,19 @@ def back_to_back(controller: Lp2Controller, work: SingularWorkload, passes: int 
 
 
 def singular_cases(work: SingularWorkload) -> list[Case]:
-    """The fused step (plain, ``|lambda| <= LAMBDA_BOUND``, +acc) and the numpy layers on the
-    singular workload, with the paths the steps take in their notes and records."""
+    """The fused step (plain, ``|lambda| <= LAMBDA_BOUND``, ``lambda_bound="auto"``, +acc) and
+    the numpy layers on the singular workload; the paths the steps take in notes and records."""
     from lpik_bench.cases import outcomes
 
     q, prev, targets = work.q, work.q_prev, work.targets
     N = len(work)
     plain, bounded = work.controller(), work.controller(bound=LAMBDA_BOUND)
     acc = work.controller(acc=True)
+    auto = work.controller(bound="auto")
     bound_what = f"{SINGULAR_STEP}, |lambda| <= {LAMBDA_BOUND:g}"
     cases = []
     for controller, what, with_prev in ((plain, SINGULAR_STEP, False), (bounded, bound_what, False),
+                                        (auto, f"{SINGULAR_STEP}, lambda_bound='auto'", False),
                                         (acc, SINGULAR_STEP_ACC, True)):  # fmt: skip
 
         def fused(i: int, c: Lp2Controller = controller, p: bool = with_prev) -> object:
