@@ -56,11 +56,15 @@ def assert_equals_highs(problem: Problem) -> None:
     assert_alike(auto, compiled)
 
 
-def assert_alike(a, b) -> None:
-    """The numpy and the compiled singular path: the same code, to LAPACK's rounding."""
-    assert (a.status, a.binding) == (b.status, b.binding)
-    assert abs(a.p - b.p) <= 1e-12
-    np.testing.assert_allclose(a.q, b.q, atol=1e-12, rtol=0)
+def assert_alike(a, b, tol: float = 1e-9) -> None:
+    """The numpy and the compiled singular path: the same code, with different SVDs (LAPACK,
+    one-sided Jacobi); where several multiplier bounds tie, the two name either."""
+    assert a.status == b.status and (a.binding is None) == (b.binding is None)
+    if a.binding != b.binding:
+        assert a.binding.kind == b.binding.kind == "multiplier", (a.binding, b.binding)
+    # (the two SVDs' rounding, amplified where J is ill-conditioned)
+    assert abs(a.p - b.p) <= tol
+    np.testing.assert_allclose(a.q, b.q, atol=tol, rtol=0)
 
 
 def reference_labels(problem: Problem) -> set[str]:
@@ -110,7 +114,7 @@ def test_the_stretched_planar_arm_equals_highs(heading, stretch, target, bound) 
 def assert_valid_and_compiled_alike(problem: Problem) -> None:
     res, compiled = lp2(problem), lp2(problem, path="compiled")
     assert res.path == "singular" and compiled.path == "compiled"
-    assert_alike(res, compiled)
+    assert_alike(res, compiled, tol=1e-6)  # J within 1e-7 of singular: its rounding amplified
     if res.status == OPTIMAL:
         assert 0.0 <= res.p <= 1.0 and check_step(problem, res.dq, res.p, res.lam) is None
 

@@ -20,6 +20,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from lpik.fast.jacobi import jacobi_svd
 from lpik.fast.linalg import cho_solve, cho_solve2, cholesky
 from lpik.fast.smoothing import add_smoothing
 from lpik.fast.twins import compiled_twin
@@ -39,14 +40,11 @@ from lpik.tolerances import (
 __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kernel"]
 
 #: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
-singular_core = compiled_twin(
-    singular.singular_core,
-    **{
-        name: njit(cache=True)(getattr(singular, name))
-        for name in ("_forward", "_backward", "_interval", "_eliminate", "_free_range", "_stop",
-                     "singularity_code")
-    },
-)  # fmt: skip
+_HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range", "_stop",
+            "singularity_code")  # fmt: skip
+singular_core = compiled_twin(singular.singular_core, _svd=jacobi_svd,  # (lpik.fast.jacobi)
+                              **{name: njit(cache=True)(getattr(singular, name))
+                                 for name in _HELPERS})  # fmt: skip
 
 
 def workspace_size(n: int, m: int, r: int) -> int:

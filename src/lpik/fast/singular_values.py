@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from lpik.fast import layout as L
+from lpik.fast.jacobi import jacobi_svd
 from lpik.fast.kinematics import chain_fk_jacobian
 
 
@@ -26,7 +27,7 @@ def probe_singular_values(state, q0, dq, activation, probe, out):
     """
     n, m = int(state[L.N]), int(state[L.M])
     J = L.matrix_at(state, L.JACOBIAN, m, n).copy()
-    s = np.linalg.svd(J)[1]
+    s = jacobi_svd(J)[1]
     out[0], out[1], out[2] = s[0], s[s.size - 1], np.nan
     size = 0.0
     for i in range(n):
@@ -46,5 +47,5 @@ def probe_singular_values(state, q0, dq, activation, probe, out):
     for k in range(m):
         for i in range(n):
             Jp[k, i] = J6[int(rows[k]), i]
-    sp = np.linalg.svd(Jp)[1]
+    sp = jacobi_svd(Jp)[1]
     out[2] = sp[sp.size - 1]

@@ -25,20 +25,17 @@ the remaining intervals is taken as by the ratio test, and the free ``mu_i``
 are chosen, by back-substitution, as close to 0 as the bounds allow (the
 smallest multipliers).
 
-An ill-conditioned but regular ``J`` (``s_i`` small, above the threshold)
-is solved exactly here: the decomposition is backward stable where the
-Cholesky factor of the Schur complement is not. Near a singularity with a
-command that ``J`` can hardly produce, the exact answer moves along ``v_i``
-at the joints' rate limits for a small ``p``: that is how the arm leaves a
-singular configuration. Only below the threshold, where ``s_i`` is
-rounding, is ``J`` taken to have the lower rank.
+An ill-conditioned but regular ``J`` is solved exactly here (the decomposition
+is backward stable where the Cholesky factor of the Schur complement is not):
+near a singularity, with a command ``J`` can hardly produce, the answer moves
+along ``v_i`` at the joints' rate limits for a small ``p``, which is how the arm
+leaves a singular configuration. Only where ``s_i`` is rounding is ``J`` taken
+to have the lower rank.
 
-The functions here are plain loops over small arrays so that numba compiles
-the very same code for the fused step (:mod:`lpik.fast.lp2_kernel`); the
-numpy path runs them as they are. Outcome codes and binding codes are those
-of the compiled kernel: code ``2 k`` is the lower and ``2 k + 1`` the upper
-side of constraint ``k`` (joints, multipliers, extra rows), and
-:func:`singularity_code` names the singularity.
+Plain loops over small arrays: numba compiles this very code for the fused step
+(:mod:`lpik.fast.lp2_kernel`, with its own SVD), the numpy path runs it as it is.
+Outcome and binding codes are the kernel's (``2 k``/``2 k + 1``: lower/upper side
+of joint, multiplier or row ``k``; :func:`singularity_code`: the singularity).
 """
 
 from __future__ import annotations
@@ -72,6 +69,10 @@ MAX_FREE_MULTIPLIERS = 2
 def singularity_code(n, m, r):
     """The binding code of ``"singularity"`` after ``n`` joints, ``m`` multipliers, ``r`` rows."""
     return 2 * (n + m + r)
+
+
+def _svd(A):  # the compiled twin binds lpik.fast.jacobi.jacobi_svd instead
+    return np.linalg.svd(A)
 
 
 def _forward(L, B):
@@ -216,7 +217,7 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     L = np.linalg.cholesky(Hp)
     Jh = _forward(L, Jt).T.copy()  # J L^-T, (m, n)
     ch = _forward(L, rhs)  # L^-1 c and L^-1 c_ref, (n, 2)
-    U, sv, Vt = np.linalg.svd(Jh)
+    U, sv, Vt = _svd(Jh)
     k0 = min(m, n)
     smax = sv[0] if k0 > 0 else 0.0
     regular = 0
@@ -361,8 +362,7 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
         A, cnt = stages[nz - 1 - var]
         lo, hi = _free_range(A, cnt, var, p, z)
         z[var] = min(max(0.0, lo), hi) if lo <= hi else 0.5 * (lo + hi)
-    # --- the step, and its own check (as lpik.check.check_step) ---
-    for i in range(n):
+    for i in range(n):  # the step, and its own check (as lpik.check.check_step)
         dq[i] = min(max(a_q[i] + p * b_q[i], lower[i]), upper[i])
     worst = 0.0
     for a in range(m):

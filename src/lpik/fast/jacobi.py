@@ -1,0 +1,83 @@
+"""A small singular value decomposition in plain loops (one-sided Jacobi), for the kernels.
+
+LP2's singular path (:mod:`lpik.methods.singular`) and the automatic bound's
+singular values (:mod:`lpik.fast.singular_values`) decompose a task Jacobian
+of at most a few rows. numba's ``np.linalg.svd`` calls LAPACK, which is fast
+when warm but several times slower right after Python's garbage collector has
+run (cold caches): the tail of the fused step's time at a singular
+configuration (docs/benchmarks.md). One-sided Jacobi (Hestenes;
+Demmel and Veselic, "Jacobi's method is more accurate than QR", SIAM J. Matrix
+Anal. Appl. 13(4), 1992) on ``A^T`` rotates the columns of ``A^T`` until they
+are orthogonal: ``A^T V = W``, so ``A = V diag(|w_j|) (W / |w_j|)^T``. It is
+as accurate (relative accuracy of the small singular values, the ones that
+matter here), allocates only its outputs, and is a few dozen lines.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+#: Rotations stop when every pair of columns is orthogonal to this (relative) cosine.
+JACOBI_TOL = 1e-15
+#: At most this many sweeps over all pairs (a handful suffice: convergence is quadratic).
+MAX_SWEEPS = 60
+
+
+@njit(cache=True)
+def jacobi_svd(A):
+    """``(U, s, Vt)`` of ``A`` (m, n) as ``np.linalg.svd(A)`` gives them (full ``U``).
+
+    ``s`` (``min(m, n)``) is sorted largest first; ``U`` is (m, m) and
+    orthogonal; ``Vt`` is (n, n) with its first ``min(m, n)`` rows the right
+    singular vectors (rows for zero singular values are zero, and so are the
+    rest: the callers read only the rows of nonzero singular values).
+    """
+    m, n = A.shape
+    B = A.T.copy()  # (n, m): its columns are rotated
+    V = np.eye(m)
+    for _ in range(MAX_SWEEPS):
+        rotated = False
+        for p in range(m - 1):
+            for q in range(p + 1, m):
+                alpha, beta, gamma = 0.0, 0.0, 0.0
+                for i in range(n):
+                    alpha += B[i, p] * B[i, p]
+                    beta += B[i, q] * B[i, q]
+                    gamma += B[i, p] * B[i, q]
+                if gamma == 0.0 or abs(gamma) <= JACOBI_TOL * math.sqrt(alpha * beta):
+                    continue
+                rotated = True
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = math.copysign(1.0, zeta) / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+                c = 1.0 / math.sqrt(1.0 + t * t)
+                s = c * t
+                for i in range(n):
+                    bp, bq = B[i, p], B[i, q]
+                    B[i, p], B[i, q] = c * bp - s * bq, s * bp + c * bq
+                for i in range(m):
+                    vp, vq = V[i, p], V[i, q]
+                    V[i, p], V[i, q] = c * vp - s * vq, s * vp + c * vq
+        if not rotated:
+            break
+    norms = np.empty(m)
+    for j in range(m):
+        total = 0.0
+        for i in range(n):
+            total += B[i, j] * B[i, j]
+        norms[j] = math.sqrt(total)
+    order = np.argsort(-norms)
+    k = min(m, n)
+    U, sv, Vt = np.empty((m, m)), np.empty(k), np.zeros((n, n))
+    for jj in range(m):
+        j = order[jj]
+        for i in range(m):
+            U[i, jj] = V[i, j]
+        if jj < k:
+            sv[jj] = norms[j]
+            if norms[j] > 0.0:
+                for i in range(n):
+                    Vt[jj, i] = B[i, j] / norms[j]
+    return U, sv, Vt
