@@ -85,3 +85,39 @@ def clip_to_bounds(problem: Problem, dq: FloatArray) -> FloatArray:
     """Remove solver-tolerance excursions (below :data:`FEASIBILITY_TOL`) past the bounds."""
     lower, upper, _, _ = problem.step_bounds()
     return np.clip(dq, lower, upper)
+
+
+def loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g):
+    """:func:`check_step` as plain loops, for the loop-level LP2 solvers and their kernels.
+
+    The multiplier bounds and the rows ``G dq <= g`` within :data:`FEASIBILITY_TOL`
+    (relative to ``max(1, |bound|)``), ``J dq = p dw`` within :data:`EQUALITY_RTOL`
+    (relative to ``max(1, |J| |dq| + |dw|)``); ``dq`` is already within its bounds.
+    :func:`lpik.fast.lp2_kernel.lp2_core` and :func:`lpik.methods.singular.singular_core`
+    call it on their answers (compiled there). Returns ``(ok, max |J dq - p dw|)``.
+    """
+    m, n = J.shape
+    worst = 0.0
+    for k in range(m):
+        if lam[k] < lam_min[k]:
+            worst = max(worst, (lam_min[k] - lam[k]) / max(1.0, abs(lam_min[k])))
+        if lam[k] > lam_max[k]:
+            worst = max(worst, (lam[k] - lam_max[k]) / max(1.0, abs(lam_max[k])))
+    for j in range(G.shape[0]):
+        s = 0.0
+        for i in range(n):
+            s += G[j, i] * dq[i]
+        if s > g[j]:
+            worst = max(worst, (s - g[j]) / max(1.0, abs(g[j])))
+    jmax, qmax, wmax, res = 0.0, 0.0, 0.0, 0.0
+    for a in range(m):
+        s = -p * dw[a]
+        for i in range(n):
+            s += J[a, i] * dq[i]
+            jmax = max(jmax, abs(J[a, i]))
+        res = max(res, abs(s))
+        wmax = max(wmax, abs(dw[a]))
+    for i in range(n):
+        qmax = max(qmax, abs(dq[i]))
+    ok = worst <= FEASIBILITY_TOL and res <= EQUALITY_RTOL * max(1.0, jmax * qmax + wmax)
+    return ok, res

@@ -20,6 +20,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from lpik.check import loop_check
 from lpik.fast.jacobi import jacobi_svd
 from lpik.fast.linalg import cho_solve, cho_solve2, cholesky
 from lpik.fast.smoothing import add_smoothing
@@ -28,8 +29,6 @@ from lpik.fast.views import matrix
 from lpik.methods import singular
 from lpik.methods.singular import CHECK_FAILED, INFEASIBLE, OK, SINGULAR
 from lpik.tolerances import (
-    EQUALITY_RTOL,
-    FEASIBILITY_TOL,
     FULL_P,
     INTERVAL_TOL,
     MAX_SCHUR_CONDITION,
@@ -40,11 +39,14 @@ from lpik.tolerances import (
 __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kernel"]
 
 #: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
-_HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range", "_stop",
+_HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
             "singularity_code")  # fmt: skip
-singular_core = compiled_twin(singular.singular_core, _svd=jacobi_svd,  # (lpik.fast.jacobi)
-                              **{name: njit(cache=True)(getattr(singular, name))
-                                 for name in _HELPERS})  # fmt: skip
+_loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
+_stop = njit(cache=True)(singular._stop)  # the safe step, INFEASIBLE
+singular_core = compiled_twin(
+    singular.singular_core, _svd=jacobi_svd, loop_check=_loop_check, _stop=_stop,
+    **{name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS},
+)  # fmt: skip
 
 
 def workspace_size(n: int, m: int, r: int) -> int:
@@ -54,20 +56,6 @@ def workspace_size(n: int, m: int, r: int) -> int:
 
 #: :func:`workspace_size` for the kernels.
 _workspace_size = njit(cache=True)(workspace_size)
-
-
-@njit(cache=True)
-def safe_step_into(lower, upper, dq):
-    """The safe step (:func:`lpik.result.safe_step`): 0 clipped to the bounds, into ``dq``."""
-    for i in range(lower.shape[0]):
-        dq[i] = min(max(0.0, lower[i]), upper[i])
-
-
-@njit(cache=True)
-def _safe_step(lower, upper, dq, binding):
-    """The outcome :data:`INFEASIBLE` with the safe step in ``dq``."""
-    safe_step_into(lower, upper, dq)
-    return INFEASIBLE, 0.0, binding, 0.0
 
 
 @njit(cache=True)
@@ -284,9 +272,9 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             if stuck_lo < 0 and s_lo < 0:
                 stuck_lo = 2 * k
     if stuck_hi >= 0:
-        return _safe_step(lower, upper, dq, stuck_hi)
+        return _stop(lower, upper, dq, stuck_hi)
     if stuck_lo >= 0:
-        return _safe_step(lower, upper, dq, stuck_lo)
+        return _stop(lower, upper, dq, stuck_lo)
     if up_hi <= up_lo:
         p_up, up_code = up_hi, 2 * i_up_hi + 1
     else:
@@ -298,38 +286,17 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     p_hi = min(1.0, p_up)
     p_lo = max(0.0, p_down)
     if p_hi < p_lo - INTERVAL_TOL:
-        return _safe_step(lower, upper, dq, down_code if p_lo > 1.0 else up_code)
+        return _stop(lower, upper, dq, down_code if p_lo > 1.0 else up_code)
     p = max(p_hi, p_lo)
     binding = up_code if p < FULL_P else -1
     p = min(1.0, max(0.0, p))
     # --- the step, clipped to solver-tolerance excursions, and its own check ---
-    worst = 0.0
     for i in range(n):
-        v = a_q[i] + p * b_q[i]
-        dq[i] = min(max(v, lower[i]), upper[i])
+        dq[i] = min(max(a_q[i] + p * b_q[i], lower[i]), upper[i])
     for k in range(m):
         lam[k] = a_l[k] + p * b_l[k]
-        if lam[k] < lam_min[k]:
-            worst = max(worst, (lam_min[k] - lam[k]) / max(1.0, abs(lam_min[k])))
-        if lam[k] > lam_max[k]:
-            worst = max(worst, (lam[k] - lam_max[k]) / max(1.0, abs(lam_max[k])))
-    for j in range(r):
-        s = 0.0
-        for i in range(n):
-            s += G[j, i] * dq[i]
-        if s > g[j]:
-            worst = max(worst, (s - g[j]) / max(1.0, abs(g[j])))
-    jmax, qmax, wmax, res = 0.0, 0.0, 0.0, 0.0
-    for a in range(m):
-        s = -p * dw[a]
-        for i in range(n):
-            s += J[a, i] * dq[i]
-            jmax = max(jmax, abs(J[a, i]))
-        res = max(res, abs(s))
-        wmax = max(wmax, abs(dw[a]))
-    for i in range(n):
-        qmax = max(qmax, abs(dq[i]))
-    if not (worst <= FEASIBILITY_TOL and res <= EQUALITY_RTOL * max(1.0, jmax * qmax + wmax)):
+    ok, res = _loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
+    if not ok:
         # rounding beyond the check's tolerance: the singular path decides, as in lpik.methods.lp2
         if not singular_path:
             return CHECK_FAILED, p, binding, res

@@ -44,9 +44,9 @@ import math
 
 import numpy as np
 
+from lpik.check import loop_check
 from lpik.tolerances import (
     EQUALITY_RTOL,
-    FEASIBILITY_TOL,
     FULL_P,
     INTERVAL_TOL,
     PULL_TOL,
@@ -364,31 +364,14 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
         z[var] = min(max(0.0, lo), hi) if lo <= hi else 0.5 * (lo + hi)
     for i in range(n):  # the step, and its own check (as lpik.check.check_step)
         dq[i] = min(max(a_q[i] + p * b_q[i], lower[i]), upper[i])
-    worst = 0.0
     for a in range(m):
         v = al[a] + p * bl[a]
         for j in range(nz):
             u = U[a, regular + j]
             v += u * z[j] if abs(u) > RATE_TOL**0.5 else 0.0
         lam[a] = v
-        if v < lam_min[a]:
-            worst = max(worst, (lam_min[a] - v) / max(1.0, abs(lam_min[a])))
-        if v > lam_max[a]:
-            worst = max(worst, (v - lam_max[a]) / max(1.0, abs(lam_max[a])))
-    for j in range(r):
-        s = 0.0
-        for i in range(n):
-            s += G[j, i] * dq[i]
-        if s > g[j]:
-            worst = max(worst, (s - g[j]) / max(1.0, abs(g[j])))
-    jmax, qmax, res = 0.0, np.abs(dq).max(), 0.0
-    for a in range(m):
-        s = -p * dw[a]
-        for i in range(n):
-            s += J[a, i] * dq[i]
-            jmax = max(jmax, abs(J[a, i]))
-        res = max(res, abs(s))
-    if not (worst <= FEASIBILITY_TOL and res <= EQUALITY_RTOL * max(1.0, jmax * qmax + wmax)):
+    ok, res = loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
+    if not ok:
         return CHECK_FAILED, p, binding, res
     return OK, p, binding, res
 
