@@ -17,7 +17,7 @@ import warnings
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
 from cli_documents import GOOD, OUTPUT_KEYS
@@ -182,6 +182,14 @@ def problem_file(tmp_path_factory) -> Path:  # type: ignore[no-untyped-def]
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(text=documents())
+# A subnormal command: the ratio test's rates are below its tolerance, and
+# dividing by them once overflowed (a warning on an otherwise good answer).
+@example(
+    text='{"method": "lp2", "J": [[-0.866, 0.0, 0.5, 0.5], [3.232, 2.732, 1.866, 0.866]],'
+    ' "dw": [0.0, 2.225073858507e-311], "q0": [1.047, -0.524, -0.524, -0.524],'
+    ' "q_min": [-3.14, -3.14, -3.14, -3.14], "q_max": [1.658, 3.14, 3.14, 3.14],'
+    ' "dq_min": [-0.01, -0.01, -0.01, -0.01], "dq_max": [0.01, 0.01, 0.01, 0.01]}'
+)
 def test_any_problem_file_is_an_answer_or_one_line_and_exit_2(
     problem_file: Path, text: str
 ) -> None:

@@ -99,10 +99,11 @@ def ratio_test(
             return RatioTest(False, 0.0, lo_labels[int(np.argmax(stuck_lo))])
         # a + p b <= hi: p <= s_hi / b for b > 0, p >= s_hi / b for b < 0.
         # a + p b >= lo: p <= s_lo / -b for b < 0, p >= -s_lo / b for b > 0.
-        up_hi = np.where(pos, s_hi / b, np.inf)
-        up_lo = np.where(neg, s_lo / -b, np.inf)
-        low_hi = np.where(neg, s_hi / b, -np.inf)
-        low_lo = np.where(pos, -s_lo / b, -np.inf)
+        # Divide only where the rate counts: a rate below ``eps`` may overflow.
+        up_hi = np.divide(s_hi, b, out=np.full_like(b, np.inf), where=pos)
+        up_lo = np.divide(s_lo, -b, out=np.full_like(b, np.inf), where=neg)
+        low_hi = np.divide(s_hi, b, out=np.full_like(b, -np.inf), where=neg)
+        low_lo = np.divide(-s_lo, b, out=np.full_like(b, -np.inf), where=pos)
     i_hi, i_lo = int(np.argmin(up_hi)), int(np.argmin(up_lo))
     if up_hi[i_hi] <= up_lo[i_lo]:
         p_up, up_label = float(up_hi[i_hi]), hi_labels[i_hi]
