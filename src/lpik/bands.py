@@ -164,4 +164,11 @@ def stop_band(q0: float, q_min: float, q_max: float, rate_lo: float, rate_hi: fl
         back = min(max(room_hi if outside > 0 else room_lo, rate_lo), rate_hi)
         return back, back, outside < 0, outside > 0, outside
     lo, hi, _ = yield_to(rate_lo, rate_hi, room_lo, room_hi)
+    if hi - lo <= SLACK_TOL * max(1.0, abs(lo), abs(hi)) and math.isfinite(hi - lo):
+        # A band narrower than the ratio test's slack is one point: the joint is
+        # pinned. Left as a sliver (a joint braking at its acceleration limit
+        # towards an end-stop ends there within rounding), LP2 would resolve its
+        # criterion over it too, and a change of the state by one rounding would
+        # switch the step between two different answers.
+        lo = hi = 0.5 * (lo + hi)
     return lo, hi, room_lo >= rate_lo, room_hi <= rate_hi, outside
