@@ -163,8 +163,7 @@ def exactly_feasible(P: Problem, ref: Reference, *, criterion: bool = False) -> 
         return False
     dq = ref.q - P.q0
     scale = max(1.0, float(np.abs(P.J).max() * np.abs(dq).max() + np.abs(P.dw).max()))
-    ok = hard_violation(P, ref.q, ref.lam) <= 1e-12
-    ok = ok and float(np.abs(P.J @ dq - ref.p * P.dw).max()) <= 1e-12 * scale
+    ok = hard_violation(P, ref.q, ref.lam) <= 1e-12 and _task_rows_hold(P, ref)
     if criterion and ref.lam is not None:
         H = P.M + P.Lambda
         c = P.f + P.Lambda @ (P.q_ref - P.q0)
@@ -212,9 +211,20 @@ def bracket(reference, P: Problem, *args: object, criterion: bool = False) -> Br
         exact=exact,
         loose=reference(P, *args, margin=MARGIN),
         exact_is_feasible=exactly_feasible(P, exact, criterion=criterion),
-        # strictly: a tightened program's point lies inside the limits by about MARGIN
-        tight_is_feasible=tight.feasible and hard_violation(P, tight.q, tight.lam) <= 1e-12,
+        # strictly: a tightened program's point lies inside the limits by about MARGIN, and
+        # keeps J dq = p dw (a row of tiny coefficients lets a solver buy p within its
+        # equality tolerance)
+        tight_is_feasible=tight.feasible
+        and hard_violation(P, tight.q, tight.lam) <= 1e-12
+        and _task_rows_hold(P, tight),
     )
+
+
+def _task_rows_hold(P: Problem, ref: Reference) -> bool:
+    """``J dq = p dw`` at a reference's point, to 1e-12 of the rows' scale."""
+    dq = ref.q - P.q0
+    scale = max(1.0, float(np.abs(P.J).max() * np.abs(dq).max() + np.abs(P.dw).max()))
+    return float(np.abs(P.J @ dq - ref.p * P.dw).max()) <= 1e-12 * scale
 
 
 def weighted_reference(P: Problem) -> tuple[np.ndarray, np.ndarray]:
