@@ -65,6 +65,19 @@ def test_a_joint_outside_its_end_stop_is_pinned_back_towards_it() -> None:
     assert bands.stop_band(1.0 + 1e-12, -1.0, 1.0, -0.01, 0.01)[:2] == (-0.01, 0.0)
 
 
+def test_a_band_narrower_than_the_slack_is_one_point() -> None:
+    """A joint braking at its acceleration limit towards its end-stop: the braking bound
+    and the acceleration bound meet to rounding. Pinned there, as where they meet exactly,
+    so that a rounding of the state cannot switch LP2 between two different steps."""
+    room = 1.79e-3  # to q_max; the rate band's upper edge lies a rounding above its lower
+    lo, hi, *_ = bands.stop_band(1.0 - room, -2.0, 1.0, 1.1664e-3, 1.1664e-3 + 1.6e-17)
+    assert lo == hi == pytest.approx(1.1664e-3, abs=1e-16)
+    lo, hi, *_ = bands.stop_band(1.0 - room, -2.0, 1.0, 1.1664e-3, 1.1664e-3 + 1e-9)
+    assert hi - lo == pytest.approx(1e-9)  # a real band stays one
+    lo, hi, *_ = bands.stop_band(0.0, -math.inf, math.inf, -math.inf, math.inf)
+    assert (lo, hi) == (-math.inf, math.inf)
+
+
 # ------------------------------------------------------------- closed loops from outside
 
 
