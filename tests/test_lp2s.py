@@ -10,7 +10,7 @@ from core_reference import bracket, hard_violation, lp2_reference
 from core_strategies import Case, cases, examples
 from lpik.methods import solve
 from lpik.methods.lp2 import lp2
-from lpik.methods.lp2s import lp2s, saturation_passes
+from lpik.methods.lp2s import joint_bound_index, lp2s, saturated, saturation_passes
 from lpik.paper.scenarios import PLANAR, get_scenario
 from lpik.problem import Problem
 from lpik.result import OPTIMAL
@@ -44,7 +44,9 @@ def test_no_free_redundancy_left_stops_the_passes() -> None:
 def test_lp2s_is_exact_never_below_lp2_and_keeps_every_limit(case: Case) -> None:
     P = case.problem
     res, plain = lp2s(P), lp2(P)
-    assert res.moved == plain.moved
+    # lp2s moves wherever LP2 does, and also where LP2 has no feasible p (a joint's
+    # conflict saturated, the others resolving the criterion)
+    assert res.moved or not plain.moved
     if not res.moved:
         return
     assert res.p >= plain.p - 1e-12  # each pass starts from the last one's answer
@@ -110,3 +112,52 @@ def test_the_controller_saturates_as_simulate_does(robot: str) -> None:
 def test_solve_and_the_registry_know_lp2s() -> None:
     P = Problem(J=[[1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0], q_max=[0.1, 2.0])
     assert solve(P, "lp2s").p == 1.0
+
+
+def test_a_step_lp2_finds_infeasible_is_saturated_too() -> None:
+    """A moving arm whose acceleration limits keep LP2's line dq(p) (eq. 18) off their band:
+    LP2 has no feasible p; lp2s fixes the joint of the conflict at that bound, the others
+    resolve the criterion, and the step goes on, exact, within every limit, on both paths."""
+    from lpik.limits import AccelerationLimits, build_problem, standard_limits
+    from lpik.robots.planar import planar_arm
+
+    arm = planar_arm([1.0] * 4, q_min=np.full(4, -2.5), q_max=np.full(4, 2.5), qd_max=1.0)
+    q = np.array([-0.16669391, -0.06087301, -0.45539972, 0.17496932])
+    prev = np.array([-0.16374539, -0.06121909, -0.45944306, 0.17490749])
+    limits = [*standard_limits(arm), AccelerationLimits(np.full(4, 5.0))]
+    P = build_problem(arm.jacobian(q), np.array([0.00584197, -0.00328419]), q, limits,
+                      dt=0.01, q_prev=prev, joint_names=arm.joint_names)  # fmt: skip
+    plain, res = lp2(P), lp2s(P)
+    assert plain.status == "infeasible" and str(plain.binding) == "joint 4 upper acceleration limit"
+    assert res.status == OPTIMAL and res.p > 0.3
+    assert hard_violation(P, res.q, res.lam) <= 1e-12
+    np.testing.assert_allclose(P.J @ res.dq, res.p * P.dw, atol=1e-15)
+    assert res.dq[3] == P.step_bounds()[1][3]  # saturated at the bound of the conflict
+    compiled = lp2s(P, path="compiled")
+    assert (compiled.status, compiled.binding) == (res.status, res.binding)
+    np.testing.assert_allclose(compiled.q, res.q, atol=1e-12, rtol=0)
+    _, final = saturation_passes(P)  # exact: the LP stated directly over the saturated problem
+    b = bracket(lp2_reference, final, criterion=True)
+    assert b.loose.feasible and res.p <= b.loose.p + 1e-7
+    proven = b.attainable()
+    assert proven is not None and res.p >= proven - 1e-7
+
+
+@settings(max_examples=examples(150), deadline=None)
+@given(case=cases(well_posed=True))
+def test_the_highs_path_never_names_a_saturated_joint(case: Case) -> None:
+    """A joint held at one value is not a limit that stops p: LP2's ratio test resolves the
+    criterion without it, and HiGHS's duals (which may be largest on it) must not name it
+    either, else lp2s's next pass would saturate it again and end early."""
+    P = case.problem
+    first = lp2(P, path="ratio-test", name_outside=False)
+    index = joint_bound_index(P)
+    if first.status != OPTIMAL or first.binding not in index:
+        return
+    joint, side = index[first.binding]
+    held = saturated(P, joint, side)
+    for path in ("ratio-test", "highs"):
+        res = lp2(held, path=path, name_outside=False)
+        named = res.binding
+        assert not (named is not None and named.kind in ("end-stop", "velocity", "acceleration")
+                    and named.index == joint), (path, named)  # fmt: skip

@@ -130,6 +130,7 @@ def safe_step(
     *,
     solve_time: float = 0.0,
     path: str = "",
+    name_outside: bool = True,
 ) -> Result:
     """The step returned whenever a method cannot answer: :data:`SAFE_STEP`.
 
@@ -138,12 +139,13 @@ def safe_step(
     so the safe step never breaks an acceleration limit: it is a controlled stop,
     not an instant one. ``J dq`` need not be 0 while joints brake. An infeasible
     step from a state outside its limits is reported as ``recovering``, naming
-    the limit the state is outside of.
+    the limit the state is outside of (``name_outside=False``: ``infeasible``,
+    naming the conflict, what LP2 with saturation needs from each pass).
     """
     lower, upper = problem.step_bounds()[:2]
     dq = np.clip(0.0, lower, upper)
     outside = problem.recovering()
-    if status == INFEASIBLE and outside:
+    if status == INFEASIBLE and outside and name_outside:
         status, binding = RECOVERING, outside[0]
     return Result(
         q=problem.q0 + dq,

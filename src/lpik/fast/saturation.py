@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from lpik.fast.lp2_kernel import CHECK_FAILED, OK, _workspace_size, lp2_core
+from lpik.fast.lp2_kernel import CHECK_FAILED, INFEASIBLE, OK, _workspace_size, lp2_core
 from lpik.tolerances import FULL_P
 
 
@@ -25,8 +25,11 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
     (saturated joints end with coinciding bounds).
 
     Returns:
-        ``(code, p, binding, residual)`` of the pass with the largest ``p``. A
-        first pass other than OK is returned as it is (``SINGULAR`` and
+        ``(code, p, binding, residual)`` of the pass with the largest ``p``. An
+        infeasible first pass whose conflict is a joint's bound saturates that
+        joint as a stopping bound would (the first feasible pass goes on as
+        usual; none feasible: the first pass's safe step and conflict). Any
+        other first pass other than OK is returned as it is (``SINGULAR`` and
         ``CHECK_FAILED`` send the caller to the numpy method); later passes
         skip the singular path, as :func:`lpik.methods.lp2s.saturation_passes`
         does: a later singular pass ends the passes (no well-conditioned
@@ -35,17 +38,26 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
     m, n = J.shape
     code, p, binding, residual = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min,
                                           lam_max, G, g, dq, lam, ws, True)  # fmt: skip
-    if code != OK:
+    # an infeasible first pass saturates the joint its conflict names, as the numpy method
+    stuck = code == INFEASIBLE and 0 <= binding < 2 * n
+    if code != OK and not stuck:
         return code, p, binding, residual
+    first_binding = binding
+    if stuck:
+        for i in range(n):
+            best[i] = dq[i]
+        for k in range(m):
+            best[n + k] = lam[k]
     free = 0
     for i in range(n):
         if lower[i] != upper[i]:
             free += 1
     while p < FULL_P and 0 <= binding < 2 * n and free - 1 >= m:
-        for i in range(n):
-            best[i] = dq[i]
-        for k in range(m):
-            best[n + k] = lam[k]
+        if code == OK:  # the best pass so far (while stuck: the first pass's safe step)
+            for i in range(n):
+                best[i] = dq[i]
+            for k in range(m):
+                best[n + k] = lam[k]
         joint = binding // 2
         if binding % 2 == 1:
             lower[joint] = upper[joint]
@@ -57,13 +69,22 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
                                                   False)  # fmt: skip
         if code2 == CHECK_FAILED:  # the numpy method decides
             return code2, p2, binding2, residual2
-        if code2 != OK or p2 < p:  # keep the best pass (SINGULAR: no redundancy left)
-            for i in range(n):
+        if code2 == INFEASIBLE and stuck:  # saturate the next conflict
+            binding = binding2
+            continue
+        if code2 != OK or (not stuck and p2 < p):
+            for i in range(n):  # keep the best pass (SINGULAR: no redundancy left)
                 dq[i] = best[i]
             for k in range(m):
                 lam[k] = best[n + k]
             break
-        code, p, binding, residual = code2, p2, binding2, residual2
+        code, p, binding, residual, stuck = code2, p2, binding2, residual2, False
+    if stuck:  # no pass feasible: the first pass's safe step and conflict
+        for i in range(n):
+            dq[i] = best[i]
+        for k in range(m):
+            lam[k] = best[n + k]
+        return INFEASIBLE, 0.0, first_binding, residual
     return code, p, binding, residual
 
 

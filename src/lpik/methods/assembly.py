@@ -77,13 +77,17 @@ def finish(
     start: float,
     path: str,
     status: str = OPTIMAL,
+    *,
+    name_outside: bool = True,
 ) -> Result:
     """Clip solver-tolerance excursions, re-check independently, and build the result.
 
     A step that fails :func:`lpik.check.check_step` is never returned: the
     result is the safe step with status ``check_failed``. A step from a state
     outside its limits has status ``recovering`` and names the first such limit
-    (:meth:`lpik.problem.Problem.recovering`).
+    (:meth:`lpik.problem.Problem.recovering`); with ``name_outside=False`` it
+    keeps ``binding``, the limit that stops ``p`` (what LP2 with saturation
+    needs from each pass).
     """
     dq = check.clip_to_bounds(problem, dq)
     p = float(min(1.0, max(0.0, p)))
@@ -93,7 +97,8 @@ def finish(
         return safe_step(problem, method, CHECK_FAILED, failure, solve_time=elapsed, path=path)
     outside = problem.recovering()
     if outside:
-        status, binding = RECOVERING, outside[0]
+        status = RECOVERING
+        binding = outside[0] if name_outside else binding
     return Result(
         q=problem.q0 + dq,
         dq=dq,
@@ -121,6 +126,7 @@ def unsolved_step(
     b_eq: FloatArray,
     n_lam: int,
     start: float,
+    name_outside: bool = True,
 ) -> Result:
     """The safe step of a HiGHS answer that is not optimal, naming the conflict if infeasible.
 
@@ -132,11 +138,14 @@ def unsolved_step(
         b_eq: Their right-hand side.
         n_lam: The number of multiplier columns in ``A_eq`` (0 for LP1).
         start: ``time.perf_counter()`` when the method started.
+        name_outside: As for :func:`~lpik.result.safe_step`.
     """
     conflict = conflict_label(problem, A_eq, b_eq, n_lam) if status == INFEASIBLE else None
+    elapsed = time.perf_counter() - start
     return safe_step(
-        problem, method, status, conflict, solve_time=time.perf_counter() - start, path="highs"
-    )
+        problem, method, status, conflict, solve_time=elapsed, path="highs",
+        name_outside=name_outside,
+    )  # fmt: skip
 
 
 def is_diagonal(H: FloatArray) -> bool:

@@ -34,6 +34,7 @@ def binding_from_duals(
     lam_slice: slice | None = None,
     *,
     relaxed: bool = False,
+    pinned: FloatArray | None = None,
 ) -> str | None:
     """Name the limit that keeps ``p`` below 1, from the solver's duals.
 
@@ -49,6 +50,9 @@ def binding_from_duals(
 
     The bounds are read from ``lp`` (the columns of ``dq`` first, those of the
     multipliers at ``lam_slice``, ``p`` last) and the labels from ``problem``.
+    Joints flagged in ``pinned`` (LP2's joints held at one value, saturated
+    ones included) are not limits that stop ``p`` here: LP2's ratio test
+    resolves the criterion without them, and so they are never named.
     """
     if p >= FULL_P:
         return None
@@ -59,10 +63,14 @@ def binding_from_duals(
     active: list[tuple[int, str | None, str | None]] = []
     x = sol.x
 
-    def add_columns(sl: slice, lo_labels: tuple[str, ...], hi_labels: tuple[str, ...]) -> None:
+    def add_columns(
+        sl: slice, lo_labels: tuple[str, ...], hi_labels: tuple[str, ...], skip: object = None
+    ) -> None:
         values, duals = x[sl], sol.col_dual[sl]
         lo, hi = lp.col_lower[sl], lp.col_upper[sl]
         for i in range(values.size):
+            if skip is not None and skip[i]:
+                continue
             near_lo = abs(values[i] - lo[i]) <= ACTIVE_RTOL * max(1.0, abs(lo[i]))
             near_hi = abs(values[i] - hi[i]) <= ACTIVE_RTOL * max(1.0, abs(hi[i]))
             at_lo = np.isfinite(lo[i]) and near_lo
@@ -76,7 +84,7 @@ def binding_from_duals(
                     (sl.start + i, lo_labels[i] if at_lo else None, hi_labels[i] if at_hi else None)
                 )
 
-    add_columns(slice(0, n), lower_labels, upper_labels)
+    add_columns(slice(0, n), lower_labels, upper_labels, pinned)
     if lam_slice is not None:
         add_columns(lam_slice, *problem.multiplier_labels())
     r = problem.G.shape[0]

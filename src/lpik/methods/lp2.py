@@ -122,7 +122,13 @@ def ratio_test(
     return RatioTest(True, p, up_label if p < FULL_P else None)
 
 
-def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = None) -> Result:
+def lp2(
+    problem: Problem,
+    *,
+    path: str = "auto",
+    solver: HighsSolver | None = None,
+    name_outside: bool = True,
+) -> Result:
     """Solve LP2 (eqs. 15-18) with the smoothing term (sec. 3.1) and multiplier bounds (sec. 3.2).
 
     Joints outside their end-stops, and joints whose bounds coincide, are
@@ -138,6 +144,9 @@ def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = No
             LP, the reference) or ``"compiled"`` (the same order compiled by
             numba, :mod:`lpik.fast`).
         solver: A :class:`~lpik.highs.HighsSolver` to reuse across steps.
+        name_outside: From a state outside its limits (status ``recovering``),
+            name the first limit it is outside of (the default), or, ``False``,
+            the limit that stops ``p`` (:func:`lpik.methods.lp2s.lp2s`'s passes).
 
     Returns:
         The step; ``binding`` names the limit that keeps ``p < 1`` (e.g.
@@ -160,17 +169,17 @@ def lp2(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = No
     ratio = path in ("auto", "ratio-test")
     affine = affine_solution(problem) if ratio or problem.Lambda.any() else None
     if ratio and affine is not None:
-        result = _ratio_path(problem, affine, start)
+        result = _ratio_path(problem, affine, start, name_outside)
         if result.status != CHECK_FAILED:
             return result
     if path != "highs":
-        result = _singular_path(problem, start)
+        result = _singular_path(problem, start, name_outside)
         if result is not None:
             return result
-    return _highs_path(problem, solver, start, smoothing(problem, affine))
+    return _highs_path(problem, solver, start, smoothing(problem, affine), name_outside)
 
 
-def _singular_path(problem: Problem, start: float) -> Result | None:
+def _singular_path(problem: Problem, start: float, name_outside: bool) -> Result | None:
     """LP2 by :func:`~lpik.methods.singular.singular_core`; ``None`` where HiGHS must decide."""
     J, dw, H, _, c, c_ref, lower, upper, lam_min, lam_max, G, g = kernel_args(problem)
     dq, lam = np.empty(problem.n), np.empty(problem.m)
@@ -181,12 +190,12 @@ def _singular_path(problem: Problem, start: float) -> Result | None:
     labels = code_labels(*problem.step_bounds()[2:], problem.m, problem.row_labels)
     label = None if binding < 0 else labels[binding]
     if code == SINGULAR_INFEASIBLE:
-        return safe_step(problem, "lp2", INFEASIBLE, label,
-                         solve_time=time.perf_counter() - start, path="singular")  # fmt: skip
-    return finish(problem, "lp2", dq, p, lam, label, start, "singular")
+        return safe_step(problem, "lp2", INFEASIBLE, label, solve_time=time.perf_counter() - start,
+                         path="singular", name_outside=name_outside)  # fmt: skip
+    return finish(problem, "lp2", dq, p, lam, label, start, "singular", name_outside=name_outside)
 
 
-def _ratio_path(problem: Problem, aff: AffineSolution, start: float) -> Result:
+def _ratio_path(problem: Problem, aff: AffineSolution, start: float, name_outside: bool) -> Result:
     lower, upper, lower_labels, upper_labels = problem.step_bounds()
     lam_lo_labels, lam_hi_labels = problem.multiplier_labels()
     G = problem.G
@@ -207,6 +216,7 @@ def _ratio_path(problem: Problem, aff: AffineSolution, start: float) -> Result:
             test.binding,
             solve_time=time.perf_counter() - start,
             path="ratio-test",
+            name_outside=name_outside,
         )
     p = test.p
     return finish(
@@ -218,11 +228,16 @@ def _ratio_path(problem: Problem, aff: AffineSolution, start: float) -> Result:
         test.binding,
         start,
         "ratio-test",
+        name_outside=name_outside,
     )
 
 
 def _highs_path(
-    problem: Problem, solver: HighsSolver | None, start: float, scale: float = 1.0
+    problem: Problem,
+    solver: HighsSolver | None,
+    start: float,
+    scale: float = 1.0,
+    name_outside: bool = True,
 ) -> Result:
     n, m = problem.n, problem.m
     H, c = criterion(problem)
@@ -246,7 +261,7 @@ def _highs_path(
     lp = lp_over(problem, cost, A_eq, b_eq, col_lower, col_upper)
     sol = solver_for(solver).solve(lp)
     if sol.status != OPTIMAL:
-        return unsolved_step(problem, "lp2", sol.status, A_eq, b_eq, m, start)
+        return unsolved_step(problem, "lp2", sol.status, A_eq, b_eq, m, start, name_outside)
     dq, lam, p = sol.x[:n], sol.x[n : n + m], float(sol.x[-1])
     failure = _criterion_failure(problem, H[free], c[free], dq, lam, free)
     if failure is not None:
@@ -258,8 +273,10 @@ def _highs_path(
             solve_time=time.perf_counter() - start,
             path="highs",
         )
-    binding = binding_from_duals(problem, sol, lp, p, A_eq.shape[0], lam_slice=slice(n, n + m))
-    return finish(problem, "lp2", dq, p, lam, binding, start, "highs")
+    binding = binding_from_duals(
+        problem, sol, lp, p, A_eq.shape[0], lam_slice=slice(n, n + m), pinned=pinned
+    )
+    return finish(problem, "lp2", dq, p, lam, binding, start, "highs", name_outside=name_outside)
 
 
 def _criterion_failure(

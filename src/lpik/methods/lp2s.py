@@ -30,7 +30,7 @@ from lpik.methods.assembly import finish
 from lpik.methods.kkt import affine_solution
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
-from lpik.result import Result
+from lpik.result import INFEASIBLE, Result, safe_step
 from lpik.tolerances import FULL_P
 
 
@@ -73,6 +73,9 @@ def lp2s(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = N
         return solve_compiled(problem, solver, saturate=True)
     start = time.perf_counter()
     best, _ = saturation_passes(problem, path=path, solver=solver)
+    if best.status == INFEASIBLE:  # no pass feasible: as LP2 names it (recovering or not)
+        return safe_step(problem, "lp2s", INFEASIBLE, best.binding,
+                         solve_time=time.perf_counter() - start, path=best.path)  # fmt: skip
     if not best.moved or best.lam is None:  # LP2's own safe step: nothing to saturate
         return _renamed(best)
     return finish(
@@ -87,13 +90,21 @@ def saturation_passes(
 
     That problem has the saturated joints' bounds set to the bound where each
     stopped a pass (:func:`saturated`): LP2 on it is the answer.
+
+    A pass with no feasible ``p`` at all (typically a joint whose acceleration
+    limits keep it off the line ``dq(p)`` of eq. 18) saturates the joint its
+    conflict names in the same way: fixed at that bound, the others resolve the
+    criterion, and the first feasible pass starts the ordinary passes. When no
+    pass is feasible, the first pass's safe step is the answer.
     """
-    best = current_result = lp2(problem, path=path, solver=solver)
+    # each pass names the limit that stops it, also from a state outside its limits
+    best = current_result = lp2(problem, path=path, solver=solver, name_outside=False)
     best_problem = current = problem
+    stuck = best.status == INFEASIBLE  # no pass feasible yet
     index = joint_bound_index(problem)
     free = problem.n - int(problem.pinned()[0].sum())
     while (
-        current_result.moved
+        (stuck or current_result.moved)
         and current_result.p < FULL_P
         and current_result.binding in index
         and free - 1 >= problem.m
@@ -103,10 +114,12 @@ def saturation_passes(
             break
         current = candidate
         free -= 1
-        current_result = lp2(current, path=path, solver=solver)
-        if not (current_result.moved and current_result.p >= best.p):
+        current_result = lp2(current, path=path, solver=solver, name_outside=False)
+        if current_result.status == INFEASIBLE and stuck:
+            continue  # saturate the next conflict
+        if not (current_result.moved and (stuck or current_result.p >= best.p)):
             break
-        best, best_problem = current_result, current
+        best, best_problem, stuck = current_result, current, False
     return best, best_problem
 
 
