@@ -36,6 +36,7 @@ def test_each_step_is_the_controllers_step(planar) -> None:
     loop.set_target([0.2, 0.866, 0.0])
     reference = Lp2Controller(planar.model, dt=planar.dt, v_max=planar.v_max, w_max=planar.w_max)
     q, q_prev = planar.q0.copy(), None
+    saturated = 0  # steps with joint 1 on its end-stop
     for _ in range(400):
         snap = loop.tick()
         expected = reference.step(q, np.array([0.2, 0.866, 0.0]), q_prev)
@@ -43,7 +44,9 @@ def test_each_step_is_the_controllers_step(planar) -> None:
         assert snap.p == pytest.approx(expected.p, abs=1e-12)
         assert snap.binding == expected.binding
         np.testing.assert_allclose(snap.q, expected.q, atol=1e-12)
-    assert snap.p < 1 and snap.binding.kind == "end-stop" and snap.binding.index == 0
+        saturated += snap.q[0] == planar.model.q_max[0]
+    # joint 1 meets its end-stop on the way; saturated there, the others carry the tool on
+    assert saturated > 100 and snap.p == 1.0 and snap.binding is None
 
 
 @pytest.mark.parametrize("name", ["planar", "panda"])

@@ -25,7 +25,7 @@ from lpik.limits import (
     build_problem,
     standard_limits,
 )
-from lpik.methods.lp2 import lp2
+from lpik.methods import solve
 from lpik.robots.planar import planar_arm
 
 pytest.importorskip("numba")
@@ -43,21 +43,24 @@ LIMITS = [
 
 
 def test_the_same_values_give_the_same_steps_in_every_entry_point() -> None:
-    """Lp2Controller(limits=...) step by step = build_problem(limits) + lp2 = simulate(limits)."""
+    """Lp2Controller(limits=...) step by step = build_problem(limits) + its method = simulate."""
     q0 = np.deg2rad([60.0, -30.0, -30.0, -30.0])
     target = np.array([0.2, 0.866, 0.0])
     dt, steps = 0.01, 400
+    # the paper's LP2: it stops at the end-stop, so that every kind of limit binds
     controller = Lp2Controller(ARM, dt=dt, limits=LIMITS, M=np.ones(4), f=np.zeros(4),
-                               Lambda=np.zeros(4))  # fmt: skip
+                               Lambda=np.zeros(4), saturate=False)  # fmt: skip
     log = simulate(ARM, ClampedTarget(target, v_max=0.5), q0, steps, dt=dt, limits=LIMITS,
-                   weights={"M": np.ones(4), "f": np.zeros(4), "Lambda": np.zeros(4)})  # fmt: skip
+                   weights={"M": np.ones(4), "f": np.zeros(4), "Lambda": np.zeros(4)},
+                   method=controller.method)  # fmt: skip
     q, prev = q0.copy(), None
     kinds = set()
     for k in range(steps):
         res = controller.step(q, target, prev)
         dw = ARM.difference(ARM.pose(q), target)
         dw *= min(1.0, 0.5 * dt / np.linalg.norm(dw))
-        ref = lp2(build_problem(ARM.jacobian(q), dw, q, LIMITS, dt=dt, q_prev=prev))
+        ref = solve(build_problem(ARM.jacobian(q), dw, q, LIMITS, dt=dt, q_prev=prev),
+                    controller.method)  # fmt: skip
         np.testing.assert_allclose(res.q, ref.q, atol=1e-9, rtol=0)
         np.testing.assert_allclose(log.q[k], q, atol=1e-9, rtol=0)
         assert (res.status, res.binding) == (ref.status, ref.binding) == (

@@ -121,8 +121,9 @@ def test_a_start_past_an_end_stop_recovers_on_every_path(
     limits = standard_limits(model)
     if qdd_max is not None:
         limits.append(AccelerationLimits(np.full(model.n_joints, qdd_max)))
-    log = simulate(model, ClampedTarget(target), start, steps, dt=DT, limits=limits)
     controller = Lp2Controller(model, dt=DT, qdd_max=qdd_max)
+    log = simulate(model, ClampedTarget(target), start, steps, dt=DT, limits=limits,
+                   method=controller.method)  # fmt: skip
     q, prev = start.copy(), None
     for k in range(steps):
         res = controller.step(q, target, prev)
@@ -197,7 +198,7 @@ def test_every_step_from_any_state_keeps_the_contract(state) -> None:
     qdd = controller.limits[-1].qdd_max
     problem = controller.problem(q0, goal, q_prev)
     fast = controller.step(q0, goal, q_prev)
-    reference = solve(problem, "lp2")
+    reference = solve(problem, controller.method)
     regular = np.linalg.svd(problem.J, compute_uv=False)[-1] > 1e-6  # far from a singularity
     if fast.path == "compiled" and reference.path == "ratio-test" and regular:
         assert fast.status == reference.status

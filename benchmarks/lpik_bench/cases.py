@@ -100,8 +100,10 @@ def controllers(workload: Workload) -> tuple[Lp2Controller, Lp2Controller]:
     from lpik.control.controller import Lp2Controller
 
     w = workload
-    plain = Lp2Controller(w.model, dt=w.dt, v_max=w.v_max, w_max=w.w_max)
-    acc = Lp2Controller(w.model, dt=w.dt, v_max=w.v_max, w_max=w.w_max, qdd_max=w.qdd_max)
+    # the paper's LP2 (the rows say "lp2 fused"); lp2s, the default, adds passes only at a bound
+    plain = Lp2Controller(w.model, dt=w.dt, v_max=w.v_max, w_max=w.w_max, saturate=False)
+    acc = Lp2Controller(w.model, dt=w.dt, v_max=w.v_max, w_max=w.w_max, qdd_max=w.qdd_max,
+                        saturate=False)  # fmt: skip
     return plain, acc
 
 
@@ -133,7 +135,8 @@ class PlanarWorkload:
         """The fused controller with end-stops, velocity and acceleration limits."""
         from lpik.control.controller import Lp2Controller
 
-        return Lp2Controller(self.model, dt=self.dt, v_max=0.5, qdd_max=self.qdd_max)
+        return Lp2Controller(self.model, dt=self.dt, v_max=0.5, qdd_max=self.qdd_max,
+                             saturate=False)  # fmt: skip
 
 
 def planar_workload(steps: int = 400, qdd_max: float = 10.0) -> PlanarWorkload:

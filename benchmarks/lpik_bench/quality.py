@@ -44,15 +44,15 @@ from lpik_bench.workload import DT, QDD_MAX
 
 #: lpik's variants: name -> keyword arguments of Lp2Controller (besides ``model`` and ``dt``).
 VARIANTS: dict[str, dict[str, Any]] = {
-    "lp2": {},
-    "lp2 +acc": {"qdd_max": QDD_MAX},
-    "lp2s": {"saturate": True},
-    "lp2s +acc": {"saturate": True, "qdd_max": QDD_MAX},
-    "lp2 unbounded": {"lambda_bound": None},
-    "lp2s unbounded": {"saturate": True, "lambda_bound": None},
+    "lp2s": {},
+    "lp2s +acc": {"qdd_max": QDD_MAX},
+    "lp2": {"saturate": False},
+    "lp2 +acc": {"saturate": False, "qdd_max": QDD_MAX},
+    "lp2s unbounded": {"lambda_bound": None},
+    "lp2 unbounded": {"saturate": False, "lambda_bound": None},
 }
 #: The variant the goal names ("lpik's default controller").
-DEFAULT_VARIANT = "lp2"
+DEFAULT_VARIANT = "lp2s"
 
 #: ``step(q, q_prev, target) -> (dq, p, status, binding, ns)``: one timed step.
 StepCall = Callable[[FloatArray, FloatArray, FloatArray], tuple]

@@ -151,7 +151,7 @@ def make_workload(
     from lpik.control.controller import Lp2Controller
 
     model = load_robot(robot, task="pose")
-    controller = Lp2Controller(model, dt=dt, v_max=V_MAX, w_max=W_MAX)
+    controller = Lp2Controller(model, dt=dt, v_max=V_MAX, w_max=W_MAX, saturate=False)
     rng = np.random.default_rng(seed)
     lo, hi = model.q_min, model.q_max
     mid, half = 0.5 * (lo + hi), 0.5 * RANGE_FRACTION * (hi - lo)

@@ -35,7 +35,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     parser.add_argument(
         "--scene", metavar="SCENE.json", help="obstacles to avoid (2-D for --planar)"
     )
-    parser.add_argument("--method", default="lp2", help=f"one of {', '.join(METHODS)} (lp2)")
+    parser.add_argument("--method", default="lp2s", help=f"one of {', '.join(METHODS)} (lp2s)")
     parser.add_argument(
         "--host",
         default=DEFAULT_HOST,

@@ -59,7 +59,7 @@ class Settings:
         qdd_max: Acceleration limit of every joint [rad/s^2], or None (off).
     """
 
-    method: str = "lp2"
+    method: str = "lp2s"
     v_max: float = 0.5
     w_max: float = 1.0
     lambda_bound: float | str | None = "auto"

@@ -81,8 +81,10 @@ class Lp2Controller:
         h: Their right-hand side, (r,).
         row_labels: Their labels.
         saturate: LP2 with saturation in the null space (method ``lp2s``,
-            :func:`lpik.methods.lp2s.lp2s`): a joint whose bound stops the step is
-            fixed there and the others carry the command on.
+            :func:`lpik.methods.lp2s.lp2s`), the default: a joint whose bound
+            stops the step is fixed there and the others carry the command on.
+            ``False``: the paper's LP2 as stated (method ``lp2``), which stops
+            at the first bound it meets.
         on_stall: Opt-in progress step (:mod:`lpik.methods.progress`, status
             ``off_direction``) after this many steps with ``p = 0``; ``None``: never.
 
@@ -108,7 +110,7 @@ class Lp2Controller:
         G: Any = None,
         h: Any = None,
         row_labels: Any = None,
-        saturate: bool = False,
+        saturate: bool = True,
         on_stall: int | None = None,
     ) -> None:
         self.model = model = as_task_model(model)
