@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cli_documents import LPIK
-from lpik.control.autobound import bound_for_step, bounds
+from lpik.control.autobound import automatic_bound, bound_for_step, parameters
 from lpik.control.command import ClampedTarget, task_rows
 from lpik.control.simulate import simulate
 from lpik.limits import AutomaticMultiplierBounds, standard_limits
@@ -100,16 +100,39 @@ def test_it_stays_out_of_the_way_where_the_command_is_followed() -> None:
     assert bound_for_step(limit, model.jacobian, q, J, rows, 0.01, part) is None  # regular J
 
 
+def _rule(J, rows, dq=None, jacobian=None):  # type: ignore[no-untyped-def]
+    """The rule's bounds on a step ``dq`` (none: the probe is not taken), or None."""
+    J, bound = np.asarray(J, dtype=float), np.full(len(rows), np.nan)
+    dq = np.zeros(J.shape[1]) if dq is None else dq
+    settings = parameters(AutomaticMultiplierBounds())
+    found = automatic_bound(settings, J, np.asarray(rows, float), 0.01, np.zeros(J.shape[1]), dq,
+                            jacobian, bound)  # fmt: skip
+    return bound if found else None
+
+
 def test_the_bound_follows_its_formula_and_vanishes_at_the_floor() -> None:
     limit = AutomaticMultiplierBounds()
     J = np.array([[2.0, 0.0, 1.0], [0.0, 1e-2, 0.0]])
     s = np.linalg.svd(J, compute_uv=False)
-    B = bounds(limit, J, np.array([0, 1]), 0.01, s[0], s[-1])
-    lever = np.linalg.svd(J, compute_uv=False)[0]
+    lever = np.linalg.svd(J[:1], compute_uv=False)[0]  # the position row's
     shrink = 1 - (limit.floor * s[0] / s[-1]) ** 2
-    np.testing.assert_allclose(B, 0.01 / (limit.approach_time * lever) * shrink)
+    np.testing.assert_allclose(_rule(J, [0, 3]), 0.01 / limit.approach_time * shrink
+                               / np.array([lever, 1.0]))  # fmt: skip
     at_floor = np.array([[2.0, 0.0], [0.0, 2e-3]])
-    assert (bounds(limit, at_floor, np.array([0, 3]), 0.01, 2.0, 2e-3) == 0).all()
+    assert (_rule(at_floor, [0, 3]) == 0).all()
+    assert _rule(np.diag([2.0, 0.2]), [0, 1]) is None  # sigma_min > activation sigma_max
+    # the probe: a step that leaves the singularity keeps the unbounded step
+    leaves = lambda q: np.diag([2.0, 1e-2 + q[1]])  # noqa: E731
+    assert _rule(leaves([0, 0]), [0, 1], np.array([0.0, 1e-3]), leaves) is None
+    assert _rule(leaves([0, 0]), [0, 1], np.array([0.0, -1e-3]), leaves) is not None
+
+
+def test_the_fused_step_compiles_the_one_rule() -> None:
+    """lpik.fast.autobound compiles lpik.control.autobound.automatic_bound's own code."""
+    pytest.importorskip("numba")
+    from lpik.fast import autobound as compiled
+
+    assert compiled.automatic_bound.py_func.__code__ is automatic_bound.__code__
 
 
 @pytest.mark.parametrize(

@@ -72,3 +72,37 @@ def test_the_rows_are_the_scenes() -> None:
     controller = AvoidingLp2Controller(setup.model, setup.scene, dt=0.01)
     with pytest.raises(ValueError, match="^q0:"):
         controller.step([0.0, np.nan, 0.0, 0.0], setup.target)
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled distances", "coal"])
+def test_the_automatic_bound_is_applied_inside_the_avoiding_step(compiled: bool) -> None:
+    """At and near the Panda's singular configurations in its shelf: the default bound, in the
+    fused step, equals the numpy rule on the unbounded step and the step under that bound."""
+    pytest.importorskip("numba")
+    from lpik.control.autobound import bound_for_step
+    from lpik.control.command import task_rows
+    from lpik.limits import MultiplierBounds
+    from lpik_bench.singular import singular_workload
+
+    work = singular_workload(bases=1, seed=4)
+    scene, home = load_scene(shelf_scene_path()), reach_setup("panda", SHELF_TARGET).q0
+    model = work.model
+
+    def make(**options):  # type: ignore[no-untyped-def]
+        return AvoidingLp2Controller(model, scene, home, dt=1e-3, compiled_distances=compiled,
+                                     **options)  # fmt: skip
+
+    controller, free_twin = make(), make(lambda_bound=None)
+    auto = controller.controller.automatic_bound
+    bounded = 0
+    for q, prev, target in zip(work.q, work.q_prev, work.targets):
+        got, free = controller.step(q, target, prev), free_twin.step(q, target, prev)
+        bound = bound_for_step(auto, model.jacobian, q, model.jacobian(q), task_rows(model), 1e-3,
+                               free)  # fmt: skip
+        ref = free if bound is None else make(
+            lambda_bound=MultiplierBounds(-bound, bound)).step(q, target, prev)  # fmt: skip
+        assert (got.status, got.binding, got.path) == (ref.status, ref.binding, "compiled")
+        assert abs(got.p - ref.p) <= 1e-12
+        np.testing.assert_allclose(got.q, ref.q, atol=1e-12, rtol=0)
+        bounded += bound is not None
+    assert bounded > 0

@@ -16,7 +16,7 @@ NAMES = [
     "fused step, a backend's kinematics",
     "fused step with distance rows (AvoidingLp2Controller)",
     "fused step batch, serial chain",
-    "the automatic multiplier bound's singular values",
+    "the automatic multiplier bound's rule, after a step on the HiGHS path",
     'LP2 ratio test (lp2, path="compiled")',
     "LP2 batch (lp2_batch)",
 ]

@@ -69,6 +69,36 @@ def test_the_backend_step_equals_the_numpy_layers_and_lpik_s_own_chain(name, bac
 
 
 @pytest.mark.parametrize(("name", "backend"), BACKENDS, ids=[b[0] for b in BACKENDS])
+def test_the_automatic_bound_over_a_backend_is_the_fused_chain_s(name, backend) -> None:  # type: ignore[no-untyped-def]
+    """The default bound, applied in Python over a backend (its probe needs the backend's
+    kinematics), at and near the Panda's singular configurations: the fused chain's steps,
+    within J's rounding times its condition number; step_into and the batch as step."""
+    from lpik_bench.singular import singular_workload
+
+    work = singular_workload(bases=1, seed=3)
+    fast = Lp2Controller(PoseTask(backend), dt=1e-3, v_max=0.5, w_max=1.0)
+    own = Lp2Controller(PoseTask(load_chain("panda")), dt=1e-3, v_max=0.5, w_max=1.0)
+    bounded, out = 0, np.empty(7)
+    for q, prev, target in zip(work.q, work.q_prev, work.targets):
+        got, twin = fast.step(q, target, prev), own.step(q, target, prev)
+        assert (got.status, got.binding) == (twin.status, twin.binding)
+        s = np.linalg.svd(own.model.jacobian(q), compute_uv=False)
+        tol = 1e-13 * s[0] / s[-1] + 1e-10
+        assert abs(got.p - twin.p) <= tol
+        np.testing.assert_allclose(got.q, twin.q, atol=tol, rtol=0)
+        assert fast.step_into(q, target, prev, out=out) == got.p
+        np.testing.assert_array_equal(out, got.q)
+        bounded += own._out.item(own._bounded_at) == 1.0
+    assert bounded > 0
+    batch = fast.step_batch(work.q, work.targets, work.q_prev)
+    for b in range(len(work)):
+        ref = fast.step(work.q[b], work.targets[b], work.q_prev[b])
+        assert (batch.status_of(b), batch.binding_of(b), batch.p[b]) == (ref.status, ref.binding,
+                                                                         ref.p)  # fmt: skip
+        np.testing.assert_array_equal(batch.q[b], ref.q)
+
+
+@pytest.mark.parametrize(("name", "backend"), BACKENDS, ids=[b[0] for b in BACKENDS])
 def test_a_chain_alone_is_its_pose_task_and_bad_input_is_named(name, backend) -> None:  # type: ignore[no-untyped-def]
     controller = Lp2Controller(backend, dt=0.001)
     assert controller.model.task_dim == 6 and isinstance(as_task_model(backend), PoseTask)

@@ -36,7 +36,9 @@ with a reachable target it is unbounded LP2 exactly.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -45,56 +47,88 @@ from lpik.result import Result
 from lpik.tolerances import FULL_P
 from lpik.types import FloatArray
 
-__all__ = ["bound_for_step", "bounds", "decide"]
+__all__ = ["PARAMETERS", "automatic_bound", "bound_for_step", "parameters"]
+
+#: The parameters of :class:`~lpik.limits.AutomaticMultiplierBounds` in the order
+#: :func:`automatic_bound` reads them (and the fused step's state holds them).
+PARAMETERS = ("approach_time", "activation", "floor", "probe")
 
 
-def bounds(
-    limit: AutomaticMultiplierBounds,
-    J: FloatArray,
-    rows: FloatArray,
-    dt: float,
-    s_max: float,
-    s_min: float,
-) -> FloatArray:
-    """``B_k`` of step 3 (module docstring), shrunk towards the floor.
+def parameters(limit: AutomaticMultiplierBounds) -> FloatArray:
+    """``limit``'s :data:`PARAMETERS` as the array :func:`automatic_bound` takes."""
+    return np.array([getattr(limit, name) for name in PARAMETERS], dtype=np.float64)
+
+
+def _singular_values(A):  # the compiled twin binds lpik.fast.jacobi's SVD instead
+    return np.linalg.svd(A, compute_uv=False)
+
+
+def _task_jacobian(jacobian, q):  # the compiled twin: the chain in the state buffer
+    return np.asarray(jacobian(q), dtype=np.float64)
+
+
+def automatic_bound(
+    settings: FloatArray, J: FloatArray, rows: FloatArray, dt: float, q0: FloatArray,
+    dq: FloatArray, jacobian: Any, bound: FloatArray,
+) -> bool:  # fmt: skip
+    """Steps 1-3 (module docstring) after an unbounded step that moved with ``p < 1``.
+
+    The one rule of every path: :func:`bound_for_step` runs it as it is
+    (numpy's SVD, the task model's Jacobian at the probe), and the fused step
+    compiles this very function (:mod:`lpik.fast.autobound`: the Jacobi SVD, the
+    chain's kinematics from the state buffer). Plain loops over small arrays.
 
     Args:
-        limit: The parameters (approach time, floor).
-        J: The task Jacobian, (m, n).
+        settings: The :data:`PARAMETERS` (:func:`parameters`).
+        J: The task Jacobian at ``q0``, (m, n).
         rows: Each task row's index in x, y, z, rx, ry, rz, (m,).
         dt: Control period [s].
-        s_max: ``J``'s largest singular value.
-        s_min: ``J``'s smallest singular value.
+        q0: Joint coordinates now, (n,).
+        dq: The unbounded step (eq. 18 with ``|lam|`` free), (n,).
+        jacobian: What gives the task Jacobian at the probe's configuration
+            (the task model's ``jacobian``; compiled: the state buffer).
+        bound: Receives ``B_k`` of step 3, (m,), when the step is to be bounded.
 
     Returns:
-        The bound of each multiplier, (m,).
+        True when the multipliers are to be bounded by ``bound`` (sec. 3.2),
+        False to keep the unbounded step.
     """
-    position = rows < 3
-    lever = np.linalg.svd(J[position], compute_uv=False)[0] if position.any() else 1.0
-    scale = np.where(position, max(float(lever), 1e-12), 1.0)
-    shrink = max(0.0, 1.0 - (limit.floor * s_max / s_min) ** 2) if s_min > 0 else 0.0
-    return dt / (limit.approach_time * scale) * shrink
-
-
-def decide(
-    limit: AutomaticMultiplierBounds,
-    J: FloatArray,
-    rows: FloatArray,
-    dt: float,
-    singular_values: tuple[float, float, float],
-) -> FloatArray | None:
-    """Steps 1-3 (module docstring) from ``(sigma_max, sigma_min, sigma_min at the probe)``.
-
-    The probe's value is NaN where none was taken (``dq = 0``, or far from a
-    singularity). Returns the bounds, or ``None`` to keep the unbounded step.
-    The one rule of both paths: :func:`bound_for_step` (numpy) and
-    :class:`~lpik.control.controller.Lp2Controller` (its compiled
-    :func:`lpik.fast.singular_values.probe_singular_values`) feed it.
-    """
-    s_max, s_min, s_probe = singular_values
-    if s_min > limit.activation * s_max or s_probe >= s_min:
-        return None  # far from a singularity, or the step leaves it
-    return bounds(limit, J, rows, dt, s_max, s_min)
+    approach_time, activation, floor, probe = settings[0], settings[1], settings[2], settings[3]
+    m, n = J.shape
+    if m == 0:
+        return False
+    s = _singular_values(J)
+    s_max, s_min = s[0], s[s.size - 1]
+    if s_min > activation * s_max:
+        return False  # far from a singularity: exact tracking
+    size = 0.0
+    for i in range(n):
+        size += dq[i] * dq[i]
+    size = math.sqrt(size)
+    if size > 0.0:  # sigma_min a probe along dq away: does the step leave the singularity?
+        q = np.empty(n)
+        for i in range(n):
+            q[i] = q0[i] + probe * dq[i] / size
+        s_probe = _singular_values(_task_jacobian(jacobian, q))
+        if s_probe[s_probe.size - 1] >= s_min:
+            return False
+    count = 0  # the lever arm L: the largest singular value of J's position rows
+    for k in range(m):
+        count += rows[k] < 3
+    lever = 1.0
+    if count > 0:
+        position = np.empty((count, n))
+        j = 0
+        for k in range(m):
+            if rows[k] < 3:
+                for i in range(n):
+                    position[j, i] = J[k, i]
+                j += 1
+        lever = max(_singular_values(position)[0], 1e-12)
+    shrink = max(0.0, 1.0 - (floor * s_max / s_min) ** 2) if s_min > 0.0 else 0.0
+    for k in range(m):
+        bound[k] = dt / (approach_time * (lever if rows[k] < 3 else 1.0)) * shrink
+    return True
 
 
 def bound_for_step(
@@ -108,6 +142,9 @@ def bound_for_step(
 ) -> FloatArray | None:
     """The multiplier bounds of this step (step 3), or ``None`` to keep the unbounded step.
 
+    :func:`automatic_bound` through the numpy layers (``simulate``, and
+    :class:`~lpik.control.controller.Lp2Controller` over a backend's kinematics).
+
     Args:
         limit: The automatic bound's parameters.
         jacobian: The task model's Jacobian at a configuration.
@@ -117,12 +154,9 @@ def bound_for_step(
         dt: Control period [s].
         unbounded: LP2's step with unbounded multipliers.
     """
-    if not unbounded.moved or unbounded.p >= FULL_P or not J.size:
+    if not unbounded.moved or unbounded.p >= FULL_P:
         return None
-    s = np.linalg.svd(J, compute_uv=False)
-    probe = np.nan
-    size = float(np.linalg.norm(unbounded.dq))
-    if s[-1] <= limit.activation * s[0] and size > 0.0:
-        q = q0 + limit.probe * unbounded.dq / size
-        probe = float(np.linalg.svd(jacobian(q), compute_uv=False)[-1])
-    return decide(limit, J, rows, dt, (float(s[0]), float(s[-1]), probe))
+    bound = np.empty(J.shape[0])
+    q, dq = np.asarray(q0, dtype=np.float64), np.asarray(unbounded.dq, dtype=np.float64)
+    found = automatic_bound(parameters(limit), J, rows, float(dt), q, dq, jacobian, bound)
+    return bound if found else None

@@ -20,9 +20,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.control.backend_step import step_functions
+from lpik.control.backend_step import fuses_kinematics, step_functions
 from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, clamp_command, task_rows
-from lpik.control.controller_steps import batch_steps, bounded_step
+from lpik.control.controller_steps import auto_bound_block, batch_steps, bounded_step, highs_step
 from lpik.control.inputs import (
     chain_arrays,
     controller_limits,
@@ -147,6 +147,10 @@ class Lp2Controller:
             template.q_min, template.q_max, np.full(n, np.nan))  # fmt: skip
         # (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max.
         bounds = np.vstack([template.q_min, template.q_max, rate_limits(self.limits, n)])
+        #: The automatic multiplier bound in force (lpik.control.autobound), or None.
+        self.automatic_bound = next(
+            (lim for lim in self.limits if isinstance(lim, AutomaticMultiplierBounds)), None
+        )
         self._state = layout.pack(
             n, m, template.G.shape[0],
             h_diag=is_diagonal(H), dt=self.dt, v_max=self.v_max, w_max=self.w_max,
@@ -154,7 +158,7 @@ class Lp2Controller:
             revolute=revolute, row_index=self._row_index, origins=origins, axes=axes, tip=tip,
             limits=bounds, criterion=H, f_ref=np.vstack([template.f, ref]),
             Lambda=template.Lambda, lam_bounds=np.vstack([template.lam_min, template.lam_max]),
-            G=template.G, h=template.h,
+            G=template.G, h=template.h, auto_bound=auto_bound_block(self.automatic_bound, model),
         )  # fmt: skip
         #: The fields of an optimal compiled step that are the same on every step.
         self._optimal_fields = {"status": OPTIMAL, "method": self.method, "path": "compiled"}
@@ -165,16 +169,15 @@ class Lp2Controller:
         self._p, self._label_at = fields["p"].start, fields["label"].start
         self._residual = fields["residual"].start
         self._outside = fields["outside"].start
+        self._bounded_at, self._bound_at = fields["bounded"].start, fields["bound"]
         self._n, self._m = n, m
         self._labels = step_label_table(model.joint_names, m, template.row_labels)
         self._q_view = self._out[self._q]  # the kernel's q, for step_into
         self._vector_shape = (n,)
         self._last: Result | None = None  # step_into's last outcome when not optimal
-        self._last_code: int | None = None  # step_into's last kernel outcome
-        #: The automatic multiplier bound in force (lpik.control.autobound), or None.
-        self.automatic_bound = next(
-            (lim for lim in self.limits if isinstance(lim, AutomaticMultiplierBounds)), None
-        )
+        self._last_code: int | None = None  # step_into's last kernel outcome (-1: see _last)
+        # a Result for step_into: the automatic bound over a backend's kinematics (its probe)
+        self._python_bound = self.automatic_bound is not None and not fuses_kinematics(model)
 
     def step(
         self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, watch: bool = True
@@ -220,7 +223,7 @@ class Lp2Controller:
             result = Result.trusted(fields)
         else:
             result = self._not_optimal(code, q0, target, q_prev, start)
-        if self.automatic_bound is not None and self._bound is None and result.p < FULL_P:
+        if self.automatic_bound is not None and result.p < FULL_P:
             result = self._bounded(q0, target, q_prev, result)
         if self._stall.after is None or not watch:
             return result
@@ -254,7 +257,7 @@ class Lp2Controller:
                 f"out: must be a float64 array of shape ({self._n},), got "
                 f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
             )
-        if self._stall.after is not None or self.automatic_bound is not None:  # a Result
+        if self._stall.after is not None or self._python_bound:  # a Result
             self._last, self._last_code = self.step(q0, target, q_prev), -1
             out[...] = self._last.q
             return self._last.p
@@ -269,9 +272,9 @@ class Lp2Controller:
             out[...] = self._q_view
             return self._out.item(self._p)
         result = self._not_optimal(code, q0, target, q_prev, perf_counter())
-        self._last, self._last_code = result, code
-        out[...] = result.q
-        return result.p
+        self._last, self._last_code = self._bounded(q0, target, q_prev, result), -1
+        out[...] = self._last.q
+        return self._last.p
 
     @property
     def last_status(self) -> str | None:
@@ -343,10 +346,13 @@ class Lp2Controller:
             )
         if code == BAD_INPUT:
             self._converted(q0, target, q_prev, check_finite=True)  # raises, naming the input
-        return self._fallback(self.problem(q0, target, q_prev))
+        return highs_step(self, q0, target, q_prev)
 
     def _bounded(self, q0: Any, target: Any, q_prev: Any, unbounded: Result) -> Result:
-        """The step again with the automatic multiplier bound, where it applies."""
+        """The automatic multiplier bound where the kernel did not apply it (a backend, HiGHS)."""
+        if (self.automatic_bound is None or unbounded.p >= FULL_P or self._bound is not None
+                or self._out.item(self._bounded_at) >= 0):  # fmt: skip
+            return unbounded
         return bounded_step(self, q0, target, q_prev, unbounded)
 
     def _converted(

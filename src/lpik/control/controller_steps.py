@@ -1,4 +1,10 @@
-"""Lp2Controller's steps beyond one fused call: a batch, and a step under the automatic bound."""
+"""Lp2Controller's steps beyond one fused call: a batch, the HiGHS path, the automatic bound.
+
+Over a :class:`~lpik.robots.chain.SerialChain` the fused step applies the
+automatic multiplier bound itself (:func:`lpik.fast.step.bounded_again`);
+:func:`bounded_step` applies it where the step could not: over a backend's
+kinematics (the rule's probe needs them) and after HiGHS took the unbounded step.
+"""
 
 from __future__ import annotations
 
@@ -8,17 +14,20 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.control.autobound import bound_for_step, decide
+from lpik.control.autobound import bound_for_step
 from lpik.control.backend_step import fuses_kinematics
 from lpik.control.inputs import TARGET_SHAPES, stacked_rows
 from lpik.fast import layout
+from lpik.fast.autobound import bound_in_state, settings
 from lpik.fast.batch import BatchResult
 from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
-from lpik.fast.singular_values import probe_singular_values
 from lpik.fast.step import BAD_INPUT
+from lpik.limits import AutomaticMultiplierBounds
 from lpik.result import Result
+from lpik.robots.base import TaskModel
 from lpik.tolerances import FULL_P
+from lpik.types import FloatArray
 
 if TYPE_CHECKING:
     from lpik.control.controller import Lp2Controller
@@ -30,8 +39,9 @@ def batch_steps(
     """``controller.step`` over the rows of ``q0``, ``targets`` and ``q_prev``, in parallel.
 
     The compiled batch kernel takes every row; rows it does not answer itself
-    (from outside the limits, the HiGHS path, and under the automatic
-    multiplier bound every row with ``p < 1``) are stepped again one by one.
+    (from outside the limits, the HiGHS path, and rows with ``p < 1`` where
+    the automatic multiplier bound is applied outside the kernel) are stepped
+    again one by one.
     """
     n = controller._n
     Q0 = stacked_rows("q0", q0, ((n,),))
@@ -50,11 +60,11 @@ def batch_steps(
     p[infeasible], lam[infeasible] = 0, np.nan  # q, dq: the kernel's safe step
     fallback: dict[int, Result] = {}
     outside = outs[:, controller._outside] >= 0
-    # rows from outside the limits, those the HiGHS path takes, and (automatic
-    # multiplier bound) those that may need a bound: one by one
+    # rows from outside the limits, those the HiGHS path takes, and those that may
+    # need the automatic multiplier bound the kernel did not apply: one by one
     again = (codes != OK) & ~infeasible | outside
     if controller.automatic_bound is not None:
-        again |= ~infeasible & (p < FULL_P)
+        again |= ~infeasible & (p < FULL_P) & (outs[:, controller._bounded_at] < 0)
     for b in np.nonzero(again)[0].tolist():
         res = controller.step(Q0[b], T[b], None if q_prev is None else Qp[b], watch=False)
         fallback[b] = res
@@ -65,37 +75,57 @@ def batch_steps(
                        _labels=lambda b: table, _fallback=fallback)  # fmt: skip
 
 
+def auto_bound_block(limit: AutomaticMultiplierBounds | None, model: TaskModel) -> FloatArray:
+    """The state's ``auto_bound`` block: the fused step applies the rule over a SerialChain."""
+    return settings(limit, fuses_kinematics(model))
+
+
+def highs_step(controller: Lp2Controller, q0: Any, target: Any, q_prev: Any) -> Result:
+    """The step by the HiGHS path, on its problem with the automatic bound it ran under, if any."""
+    c = controller
+    if c._bound is not None or c._out.item(c._bounded_at) <= 0:  # no bound, or bounded_step's
+        return c._fallback(c.problem(q0, target, q_prev))
+    c._bound = c._out[c._bound_at].copy()  # the fused step's (lpik.fast.step.bounded_again)
+    try:
+        return c._fallback(c.problem(q0, target, q_prev))
+    finally:
+        c._bound = None
+
+
 def bounded_step(
     controller: Lp2Controller, q0: Any, target: Any, q_prev: Any, unbounded: Result
 ) -> Result:
     """``controller``'s step again under the automatic multiplier bound, where it applies.
 
-    The rule is :func:`lpik.control.autobound.decide`'s; over a SerialChain the
-    singular values come from the compiled
-    :func:`lpik.fast.singular_values.probe_singular_values`, else from the
-    numpy :func:`~lpik.control.autobound.bound_for_step`. The bound is written
-    into the state's multiplier bounds for one compiled step (and into the
-    problem :meth:`~lpik.control.controller.Lp2Controller.problem` builds, for
-    its HiGHS path), then restored.
+    For the steps the fused step did not decide (module docstring). The rule
+    is :func:`lpik.control.autobound.automatic_bound`: compiled over a
+    SerialChain (:func:`lpik.fast.autobound.bound_in_state`), else through
+    the numpy :func:`~lpik.control.autobound.bound_for_step`. The bound is
+    written into the state's multiplier bounds for one compiled step (the
+    step's own rule switched off, and into the problem
+    :meth:`~lpik.control.controller.Lp2Controller.problem` builds, for its
+    HiGHS path), then restored.
     """
     if not unbounded.moved:
         return unbounded
-    c, q, auto = controller, np.asarray(q0, dtype=np.float64), controller.automatic_bound
-    start = int(c._state[layout.JACOBIAN])  # the step's J, as the kernel left it
-    J = c._state[start : start + c._m * c._n].reshape(c._m, c._n).copy()
-    if fuses_kinematics(c.model):  # the singular values, compiled
-        values = np.empty(3)
-        probe_singular_values(c._state, q, unbounded.dq, auto.activation, auto.probe, values)
-        bound = decide(auto, J, c._row_index, c.dt, tuple(values.tolist()))
+    c, q = controller, np.ascontiguousarray(q0, dtype=np.float64)
+    if fuses_kinematics(c.model):  # the rule, compiled, on the step the state holds
+        dq = np.ascontiguousarray(unbounded.dq, dtype=np.float64)
+        found = bound_in_state(c._state, q, dq)
+        bound = c._out[c._bound_at].copy() if found else None
     else:
-        bound = bound_for_step(auto, c.model.jacobian, q, J, c._row_index, c.dt, unbounded)
+        start = int(c._state[layout.JACOBIAN])  # the step's J, as the kernel left it
+        J = c._state[start : start + c._m * c._n].reshape(c._m, c._n).copy()
+        bound = bound_for_step(c.automatic_bound, c.model.jacobian, q, J, c._row_index, c.dt,
+                               unbounded)  # fmt: skip
     if bound is None:
         return unbounded
-    block = layout.matrix_at(controller._state, layout.LAM_BOUNDS, 2, controller._m)
-    saved = block.copy()
+    block = layout.matrix_at(c._state, layout.LAM_BOUNDS, 2, c._m)
+    on = int(c._state[layout.AUTO_BOUND])
+    saved, saved_on = block.copy(), c._state[on]
     block[0], block[1] = np.maximum(saved[0], -bound), np.minimum(saved[1], bound)
-    controller._bound = bound
+    c._state[on], c._bound = 0.0, bound
     try:
-        return controller.step(q0, target, q_prev, watch=False)
+        return c.step(q0, target, q_prev, watch=False)
     finally:
-        block[...], controller._bound = saved, None
+        block[...], c._state[on], c._bound = saved, saved_on, None

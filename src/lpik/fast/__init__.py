@@ -7,7 +7,8 @@ same answers as the pure-numpy path of :func:`lpik.methods.lp2.lp2`.
 - :mod:`lpik.fast.lp2_kernel`: LP2's ratio test (eqs. 15-18) as one kernel;
 - :mod:`lpik.fast.kinematics`: a serial chain's pose, Jacobian and pose error;
 - :mod:`lpik.fast.layout` and :mod:`lpik.fast.step`: the fused control step
-  behind :class:`lpik.control.controller.Lp2Controller` and its state buffer;
+  behind :class:`lpik.control.controller.Lp2Controller` and its state buffer,
+  with the automatic multiplier bound (sec. 3.2) of :mod:`lpik.fast.autobound`;
 - :mod:`lpik.fast.arrays` and :mod:`lpik.fast.batch`: one problem
   (``lp2(problem, path="compiled")``) and batches of problems (:func:`lp2_batch`);
 - :mod:`lpik.fast.precompile`: every kernel readied at once (``lpik compile``).

@@ -9,8 +9,9 @@ target``); ``state`` holds all the rest, so that the step allocates nothing:
   at the slot named by each block's constant, the offset where the block
   starts (slot :data:`END`: the buffer's length);
 - the blocks of :data:`BLOCKS`, in that order: the chain's geometry and the
-  constants of the step (limits, criterion, rows), then :data:`OUT_BLOCKS`
-  (what the step reports), then the step's scratch.
+  constants of the step (limits, criterion, rows, the automatic multiplier
+  bound), then :data:`OUT_BLOCKS` (what the step reports), then the step's
+  scratch.
 
 :func:`pack` builds a buffer; a kernel reads a block through :func:`vector`,
 :func:`matrix_at` or :func:`tensor_at` with the block's constant; Python reads
@@ -37,14 +38,14 @@ N, M, R, H_DIAG, DT, V_MAX, W_MAX, SATURATE = range(8)
 # ---------------------------------------------- header: one slot per block, holding its offset
 # the chain and the constants of the step
 REVOLUTE, ROW_INDEX, ORIGINS, AXES, TIP = range(8, 13)
-LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H = range(13, 20)
+LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H, AUTO_BOUND = range(13, 21)
 # out: what a step reports
-Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, OUTSIDE = range(20, 29)
+Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, BOUND, BOUNDED, OUTSIDE = range(21, 32)
 # scratch of the step
-GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(29, 36)
-LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(36, 44)
+GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(32, 39)
+LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(39, 47)
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 44
+END = 47
 #: Length of the header.
 HEADER = END + 1
 
@@ -83,6 +84,7 @@ BLOCKS = (
     Block(LAM_BOUNDS, "lam_bounds", (2, "m"), "lower and upper multiplier bounds"),
     Block(ROWS_G, "G", ("r", "n"), "extra rows G q <= h"),
     Block(ROWS_H, "h", ("r",), "their right-hand side"),
+    Block(AUTO_BOUND, "auto_bound", (5,), "1: the step applies the auto bound, its parameters"),
     Block(Q, "q", ("n",), "the new joint coordinates q0 + dq"),
     Block(DQ, "dq", ("n",), "the step"),
     Block(LAM, "lam", ("m",), "the multipliers"),
@@ -91,6 +93,8 @@ BLOCKS = (
     Block(P, "p", (1,), "the affine dexterity"),
     Block(LABEL, "label", (1,), "the binding limit's index in the label table (-1: none)"),
     Block(RESIDUAL, "residual", (1,), "max |J dq - p dw|"),
+    Block(BOUND, "bound", ("m",), "the automatic bound B_k on |lam_k| the step ran under"),
+    Block(BOUNDED, "bounded", (1,), "1: LP2 under the auto bound, 0: not, -1: no rule"),
     Block(OUTSIDE, "outside", (1,), "the label index of the limit the state is outside of (-1)"),
     Block(GOAL, "goal", (4, 4), "the commanded pose"),
     Block(FRAME, "frame", (4, 4), "the task frame at q0"),
@@ -109,7 +113,8 @@ BLOCKS = (
     Block(SATURATION, "saturation", (lambda n, m, r: n + m,), "the best pass's dq and lam"),
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.
-OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "outside")
+OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "bound", "bounded",
+              "outside")  # fmt: skip
 #: The blocks :func:`pack` fills from its arguments (the others start at zero).
 INPUT_BLOCKS = tuple(b.name for b in BLOCKS if b.slot < Q)
 

@@ -49,9 +49,9 @@ def compile_kernels() -> list[KernelLoad]:
     """
     from lpik.control.controller import Lp2Controller
     from lpik.fast import lp2_kernel, step
+    from lpik.fast.autobound import bound_in_state
     from lpik.fast.avoiding_step import avoiding_kernel, loaded_avoiding_kernel
     from lpik.fast.batch import lp2_batch
-    from lpik.fast.singular_values import probe_singular_values
     from lpik.methods.lp2 import lp2
     from lpik.problem import Problem
     from lpik.robots.registry import home_configuration, load_robot
@@ -92,11 +92,9 @@ def compile_kernels() -> list[KernelLoad]:
         step.chain_step_batch,
     )
     ready(
-        "the automatic multiplier bound's singular values",
-        lambda: probe_singular_values(
-            controller._state, q, np.ones(q.size), 0.05, 1e-7, np.empty(3)
-        ),  # fmt: skip
-        probe_singular_values,
+        "the automatic multiplier bound's rule, after a step on the HiGHS path",
+        lambda: bound_in_state(controller._state, q, np.ones(q.size)),
+        bound_in_state,
     )
     ready(
         'LP2 ratio test (lp2, path="compiled")',

@@ -6,8 +6,11 @@ through the numpy layers: the pose and Jacobian at ``q0``, the commanded
 displacement ``dw`` of eq. 2 (clamped by :func:`lpik.control.command.clamp_command`,
 compiled here), the bounds on ``dq`` from end-stops, velocity and acceleration
 limits (eqs. 13-14), the criterion's ``c`` (eq. 3, sec. 3.1) and LP2's ratio
-test (eqs. 15-18). Everything it reads and writes lives in one state buffer
-(:mod:`lpik.fast.layout`).
+test (eqs. 15-18), and under the automatic multiplier bound
+(:mod:`lpik.control.autobound`, sec. 3.2) what ``simulate`` does after an
+unbounded step with ``p < 1``: the rule, and LP2 again under its bound
+(:func:`bounded_again`). Everything it reads and writes lives in one state
+buffer (:mod:`lpik.fast.layout`).
 
 :func:`step_kernel` compiles the step on first use (or loads it from the disk
 cache) for its explicit signatures only: a call with other types raises
@@ -26,10 +29,12 @@ from numba import njit, prange
 from lpik import bands
 from lpik.control.command import clamp_command as _clamp_command
 from lpik.fast import layout as L
+from lpik.fast.autobound import bound_in_state
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
-from lpik.fast.lp2_kernel import INFEASIBLE, lp2_core
+from lpik.fast.lp2_kernel import INFEASIBLE, OK, lp2_core
 from lpik.fast.saturation import lp2s_core
 from lpik.fast.twins import compiled_twin
+from lpik.tolerances import FULL_P
 
 #: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
 BAD_INPUT = 4
@@ -176,6 +181,32 @@ def limit_and_solve(state, q0, q_prev, J, dw):
 
 
 @njit(cache=True)
+def bounded_again(state, q0, q_prev, J, dw):
+    """After an unbounded step with ``p < 1``: the automatic multiplier bound (sec. 3.2).
+
+    The rule (:func:`lpik.fast.autobound.bound_in_state`, that of
+    :mod:`lpik.control.autobound`) on the step :func:`limit_and_solve` left in
+    ``state``; where it bounds the multipliers, :func:`limit_and_solve` again
+    with ``|lam_k| <= B_k`` added to the state's multiplier bounds, which are
+    then restored. Returns the outcome of the step that stands.
+    """
+    bounded = int(state[L.BOUNDED])
+    state[bounded] = 0.0
+    if state[int(state[L.P])] >= FULL_P or not bound_in_state(state, q0, L.vector(state, L.DQ)):
+        return OK
+    m = J.shape[0]
+    lam_bounds, bound = L.matrix_at(state, L.LAM_BOUNDS, 2, m), L.vector(state, L.BOUND)
+    saved = lam_bounds.copy()
+    for k in range(m):
+        lam_bounds[0, k] = max(saved[0, k], -bound[k])
+        lam_bounds[1, k] = min(saved[1, k], bound[k])
+    state[bounded] = 1.0
+    code = limit_and_solve(state, q0, q_prev, J, dw)
+    lam_bounds[:, :] = saved
+    return code
+
+
+@njit(cache=True)
 def _finite_joints(q0, q_prev, n):
     """True when ``q0`` and ``q_prev`` both have ``n`` finite entries."""
     if q0.shape[0] != n or q_prev.shape[0] != n:
@@ -223,12 +254,14 @@ def task_step(state, q0, q_prev, target):
     world-aligned Jacobian from ``jacobian6`` (6, n), as :func:`chain_step`
     leaves them, or as a kinematics backend (Pinocchio, MuJoCo) writes them
     (:mod:`lpik.control.backend_step`); then the pose error to the target,
-    the task rows, the clamped command, the bounds and LP2.
+    the task rows, the clamped command, the bounds and LP2, and, where the
+    state's ``auto_bound`` block says so, :func:`bounded_again`.
 
     Returns:
         The LP2 kernel's outcome code, or :data:`BAD_INPUT`.
     """
     n, m = int(state[L.N]), int(state[L.M])
+    state[int(state[L.BOUNDED])] = -1.0
     goal = L.matrix_at(state, L.GOAL, 4, 4)
     if not (_finite_joints(q0, q_prev, n) and target_pose(target, goal)):
         return BAD_INPUT
@@ -248,7 +281,10 @@ def task_step(state, q0, q_prev, target):
     position = L.vector(state, L.POSITION)
     for a in range(3):
         position[a] = T[a, 3]
-    return limit_and_solve(state, q0, q_prev, J, dw)
+    code = limit_and_solve(state, q0, q_prev, J, dw)
+    if code != OK or state[int(state[L.AUTO_BOUND])] == 0.0:
+        return code
+    return bounded_again(state, q0, q_prev, J, dw)
 
 
 #: The only argument types :func:`step_kernel` compiles :func:`chain_step` for.
