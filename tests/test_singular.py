@@ -182,3 +182,19 @@ def test_the_controller_takes_the_panda_singularity_compiled() -> None:
             s[-1] = 0.0
             exact = problem.replace(J=(u[:, :6] * s) @ vt[:6])
             assert_equals_highs(exact)
+
+
+def test_the_jacobi_singular_values_alone_are_those_of_its_svd() -> None:
+    """lpik.fast.jacobi.singular_values (the automatic bound's) rotates as jacobi_svd does,
+    without V: the same values to the bit, and numpy's within rounding."""
+    pytest.importorskip("numba")
+    from lpik.fast.jacobi import jacobi_svd, singular_values
+
+    rng = np.random.default_rng(9)
+    for m, n in [(6, 7), (3, 7), (2, 4), (6, 6), (4, 2)]:
+        for rank in range(1, min(m, n) + 1):
+            A = rng.normal(size=(m, rank)) @ rng.normal(size=(rank, n))
+            s = singular_values(A)
+            np.testing.assert_array_equal(s, jacobi_svd(A)[1])
+            np.testing.assert_allclose(s, np.linalg.svd(A, compute_uv=False), rtol=0,
+                                       atol=1e-13 * s[0])  # fmt: skip

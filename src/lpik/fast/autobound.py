@@ -16,18 +16,12 @@ from numba import njit
 
 from lpik.control import autobound
 from lpik.fast import layout as L
-from lpik.fast.jacobi import jacobi_svd
+from lpik.fast.jacobi import singular_values
 from lpik.fast.kinematics import chain_fk_jacobian
 from lpik.fast.twins import compiled_twin
 from lpik.limits import AutomaticMultiplierBounds
 
 __all__ = ["automatic_bound", "bound_in_state", "settings", "state_jacobian"]
-
-
-@njit(cache=True)
-def singular_values(A):
-    """``A``'s singular values, largest first (:func:`lpik.fast.jacobi.jacobi_svd`)."""
-    return jacobi_svd(A)[1]
 
 
 @njit(cache=True)

@@ -1,11 +1,12 @@
 """A small singular value decomposition in plain loops (one-sided Jacobi), for the kernels.
 
-LP2's singular path (:mod:`lpik.methods.singular`) and the automatic bound's
-singular values (:mod:`lpik.fast.singular_values`) decompose a task Jacobian
-of at most a few rows. numba's ``np.linalg.svd`` calls LAPACK, which is fast
-when warm but several times slower right after Python's garbage collector has
-run (cold caches): the tail of the fused step's time at a singular
-configuration (docs/benchmarks.md). One-sided Jacobi (Hestenes;
+LP2's singular path (:mod:`lpik.methods.singular`) and the automatic bound
+(:mod:`lpik.fast.autobound`, which needs the singular values alone:
+:func:`singular_values`) decompose a task Jacobian of at most a few rows.
+numba's ``np.linalg.svd`` calls LAPACK, which is fast when warm but several
+times slower right after Python's garbage collector has run (cold caches):
+the tail of the fused step's time at a singular configuration
+(docs/benchmarks.md). One-sided Jacobi (Hestenes;
 Demmel and Veselic, "Jacobi's method is more accurate than QR", SIAM J. Matrix
 Anal. Appl. 13(4), 1992) on ``A^T`` rotates the columns of ``A^T`` until they
 are orthogonal: ``A^T V = W``, so ``A = V diag(|w_j|) (W / |w_j|)^T``. It is
@@ -27,17 +28,14 @@ MAX_SWEEPS = 60
 
 
 @njit(cache=True)
-def jacobi_svd(A):
-    """``(U, s, Vt)`` of ``A`` (m, n) as ``np.linalg.svd(A)`` gives them (full ``U``).
+def orthogonalize(B, V):
+    """Rotate the columns of ``B`` (n, m) until they are orthogonal; ``V`` (m, m) with them.
 
-    ``s`` (``min(m, n)``) is sorted largest first; ``U`` is (m, m) and
-    orthogonal; ``Vt`` is (n, n) with its first ``min(m, n)`` rows the right
-    singular vectors (rows for zero singular values are zero, and so are the
-    rest: the callers read only the rows of nonzero singular values).
+    ``B V_0 = W`` with ``V_0`` the product of the rotations, accumulated into
+    ``V`` (start from the identity); a ``V`` with no rows accumulates nothing
+    (the singular values alone, :func:`singular_values`).
     """
-    m, n = A.shape
-    B = A.T.copy()  # (n, m): its columns are rotated
-    V = np.eye(m)
+    n, m = B.shape
     for _ in range(MAX_SWEEPS):
         rotated = False
         for p in range(m - 1):
@@ -57,11 +55,45 @@ def jacobi_svd(A):
                 for i in range(n):
                     bp, bq = B[i, p], B[i, q]
                     B[i, p], B[i, q] = c * bp - s * bq, s * bp + c * bq
-                for i in range(m):
+                for i in range(V.shape[0]):
                     vp, vq = V[i, p], V[i, q]
                     V[i, p], V[i, q] = c * vp - s * vq, s * vp + c * vq
         if not rotated:
             break
+
+
+@njit(cache=True)
+def singular_values(A):
+    """``A``'s singular values (``min(m, n)``, largest first), those of :func:`jacobi_svd`."""
+    m, n = A.shape
+    B = A.T.copy()
+    orthogonalize(B, np.empty((0, m)))
+    norms = np.empty(m)
+    for j in range(m):
+        total = 0.0
+        for i in range(n):
+            total += B[i, j] * B[i, j]
+        norms[j] = math.sqrt(total)
+    order = np.argsort(-norms)
+    sv = np.empty(min(m, n))
+    for jj in range(sv.size):
+        sv[jj] = norms[order[jj]]
+    return sv
+
+
+@njit(cache=True)
+def jacobi_svd(A):
+    """``(U, s, Vt)`` of ``A`` (m, n) as ``np.linalg.svd(A)`` gives them (full ``U``).
+
+    ``s`` (``min(m, n)``) is sorted largest first; ``U`` is (m, m) and
+    orthogonal; ``Vt`` is (n, n) with its first ``min(m, n)`` rows the right
+    singular vectors (rows for zero singular values are zero, and so are the
+    rest: the callers read only the rows of nonzero singular values).
+    """
+    m, n = A.shape
+    B = A.T.copy()  # (n, m): its columns are rotated
+    V = np.eye(m)
+    orthogonalize(B, V)
     norms = np.empty(m)
     for j in range(m):
         total = 0.0
