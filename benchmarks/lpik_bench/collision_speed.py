@@ -16,7 +16,7 @@ run only warms up. Variants:
   (:mod:`lpik.fast.avoiding_step`), and its ``step_into`` (no Result);
 * ``AvoidingLp2Controller.step, lambda_bound=None``: without the automatic
   multiplier bound (:mod:`lpik.control.autobound`), which on a step with
-  ``p < 1`` looks for a bound in Python and may take the step again;
+  ``p < 1`` looks for a bound inside the compiled step and may solve LP2 again;
 * ``AvoidingLp2Controller.step, coal``: ``compiled_distances=False``, the
   distances through coal in Python and the rows written in before the
   compiled step (the path before the compiled distance kernels).
