@@ -112,11 +112,12 @@ def automatic_bound(
         s_probe = _singular_values(_task_jacobian(jacobian, q))
         if s_probe[s_probe.size - 1] >= s_min:
             return False
+    shrink = max(0.0, 1.0 - (floor * s_max / s_min) ** 2) if s_min > 0.0 else 0.0
     count = 0  # the lever arm L: the largest singular value of J's position rows
     for k in range(m):
         count += rows[k] < 3
     lever = 1.0
-    if count > 0:
+    if count > 0 and shrink > 0.0:  # (at the floor every B_k is 0, whatever L)
         position = np.empty((count, n))
         j = 0
         for k in range(m):
@@ -125,7 +126,6 @@ def automatic_bound(
                     position[j, i] = J[k, i]
                 j += 1
         lever = max(_singular_values(position)[0], 1e-12)
-    shrink = max(0.0, 1.0 - (floor * s_max / s_min) ** 2) if s_min > 0.0 else 0.0
     for k in range(m):
         bound[k] = dt / (approach_time * (lever if rows[k] < 3 else 1.0)) * shrink
     return True
