@@ -173,7 +173,8 @@ def test_a_step_on_the_highs_path_gets_the_rule_in_python(states, monkeypatch) -
     from lpik.fast.lp2_kernel import SINGULAR
 
     model, Q, P, T = states
-    controller = Lp2Controller(model, **OPTIONS)
+    # LP2's own fallback is HiGHS (lp2s falls back to its numpy passes)
+    controller = Lp2Controller(model, saturate=False, **OPTIONS)
     kernel, on = controller._kernel, block(controller, "auto_bound").start
     bounded = 0
     for k in range(40):
