@@ -69,6 +69,7 @@ def test_singular_cases_run_and_carry_their_paths(work: S.SingularWorkload) -> N
         assert case.extra["robot"] == "panda" and case.extra["ratio_to_fastest_peer"] is None
         if case.method == "lp2 fused (compiled)":
             assert case.extra["fused_highs"] == 0 and "paths (numpy LP2)" in case.note
+            assert case.extra["loop_steps"] == 16 * len(work)  # every fused step back to back
     plain = cases[0].extra
     assert plain["after_gc_collect_us"] > 0 and plain["back_to_back_us"] > 0
     assert plain["loop_steps"] == 16 * len(work)

@@ -266,9 +266,12 @@ def after_collect(controller: Lp2Controller, work: SingularWorkload, reps: int =
     return out
 
 
-def back_to_back(controller: Lp2Controller, work: SingularWorkload, passes: int = 16) -> dict:
+def back_to_back(
+    controller: Lp2Controller, work: SingularWorkload, passes: int = 16, with_prev: bool = False
+) -> dict:
     """Median, p99, p99.9 and worst [us] of ``passes`` runs over every item, one step after the
-    other with the garbage collector off: a loop that does nothing else between steps."""
+    other with the garbage collector off: a loop that does nothing else between steps
+    (``with_prev``: each item's last configuration too, for acceleration limits)."""
     import gc
     import time
 
@@ -279,7 +282,7 @@ def back_to_back(controller: Lp2Controller, work: SingularWorkload, passes: int 
         for i in range(times.size):
             k = i % len(work)
             start = time.perf_counter_ns()
-            controller.step(work.q[k], work.targets[k])
+            controller.step(work.q[k], work.targets[k], work.q_prev[k] if with_prev else None)
             times[i] = (time.perf_counter_ns() - start) / 1e3
     finally:
         if enabled:
@@ -313,8 +316,9 @@ def singular_cases(work: SingularWorkload) -> list[Case]:
         counts = path_counts(controller, work)  # q_prev matters only with acceleration limits
         note = (f"Lp2Controller.step on {work.describe()}; {counts.text()}; "
                 f"{outcomes([fused(i) for i in range(N)])}")  # fmt: skip
-        cold = {**after_collect(controller, work), **back_to_back(controller, work)} if (
-            controller is plain) else {}  # fmt: skip
+        # every fused step back to back too: the worst case without the rounds' restarts
+        loop = back_to_back(controller, work, with_prev=with_prev)
+        cold = {**after_collect(controller, work), **loop} if controller is plain else {}
         if cold:
             note += (
                 f"; a singular-path step right after gc.collect() (as at the start of "
@@ -323,7 +327,7 @@ def singular_cases(work: SingularWorkload) -> list[Case]:
                 f"gc.collect(): {cold.get('ratio_test_after_gc_collect_us', 0.0):.1f} us)"
             )
         cases.append(Case("lpik", "lp2 fused (compiled)", what, fused, note=note,
-                          extra={**OWN, **counts.extra(), **cold}))  # fmt: skip
+                          extra={**OWN, **counts.extra(), **loop, **cold}))  # fmt: skip
     for controller, what in ((plain, SINGULAR_STEP), (bounded, bound_what)):
 
         def numpy_layers(i: int, c: Lp2Controller = controller) -> object:
