@@ -54,6 +54,10 @@ def workspace_size(n: int, m: int, r: int) -> int:
     return n * m + n * n + 7 * n + 2 * m * m + 6 * m + 4 * (n + m + r)
 
 
+#: :func:`lp2_core`'s ``singular_path``: never, always (``True``), or only for a
+#: ratio-test answer that fails its check.
+SINGULAR_PATH_NEVER, SINGULAR_PATH_ALWAYS, SINGULAR_PATH_AFTER_CHECK = 0, 1, 2
+
 #: :func:`workspace_size` for the kernels.
 _workspace_size = njit(cache=True)(workspace_size)
 
@@ -64,7 +68,7 @@ def lp2_kernel(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g,
     m, n = J.shape
     ws = np.empty(_workspace_size(n, m, G.shape[0]))
     return lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws,
-                    True)  # fmt: skip
+                    SINGULAR_PATH_ALWAYS)  # fmt: skip
 
 
 @njit(cache=True)
@@ -95,8 +99,13 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         lam: Output multipliers, (m,).
         ws: Float workspace of length :func:`workspace_size` (no allocation inside).
         singular_path: Whether a singular or ill-conditioned Schur complement, or
-            an answer that fails the check, goes to the singular path (else the
-            outcome is :data:`SINGULAR` or :data:`CHECK_FAILED`).
+            an answer that fails the check, goes to the singular path (True,
+            :data:`SINGULAR_PATH_ALWAYS`; else the outcome is :data:`SINGULAR` or
+            :data:`CHECK_FAILED`); :data:`SINGULAR_PATH_AFTER_CHECK`: only an
+            answer that fails the check (:func:`lpik.methods.lp2s.lp2s`'s later
+            passes: no well-conditioned affine solution ends the passes, while
+            numpy's LP2 takes the singular path after a failed ratio test), and
+            :data:`CHECK_FAILED` where the singular path would need HiGHS.
 
     Returns:
         ``(code, p, binding, residual)``: the outcome (:data:`OK`,
@@ -192,7 +201,7 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             S[a, b] = s
             S[b, a] = s
     if not cholesky(S, LS):
-        if not singular_path:
+        if singular_path != SINGULAR_PATH_ALWAYS:
             return SINGULAR, 0.0, -1, 0.0
         return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
     dmax, dmin = 0.0, np.inf
@@ -200,7 +209,7 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         dmax = max(dmax, LS[a, a])
         dmin = min(dmin, LS[a, a])
     if not dmin > 0.0 or dmax > math.sqrt(MAX_SCHUR_CONDITION) * dmin:
-        if not singular_path:
+        if singular_path != SINGULAR_PATH_ALWAYS:
             return SINGULAR, 0.0, -1, 0.0
         return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
     for a in range(m):
@@ -298,9 +307,13 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     ok, res = _loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
     if not ok:
         # rounding beyond the check's tolerance: the singular path decides, as in lpik.methods.lp2
-        if not singular_path:
+        if singular_path == SINGULAR_PATH_NEVER:
             return CHECK_FAILED, p, binding, res
-        return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
+        code, p, binding, res = singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max,
+                                              G, g, dq, lam)  # fmt: skip
+        if code == SINGULAR and singular_path == SINGULAR_PATH_AFTER_CHECK:
+            return CHECK_FAILED, p, binding, res  # HiGHS decides: the caller's numpy method
+        return code, p, binding, res
     return OK, p, binding, res
 
 
@@ -358,7 +371,7 @@ def lp2_batch_kernel(
                 dq[b],
                 lam[b],
                 ws,
-                True,
+                SINGULAR_PATH_ALWAYS,
             )
             codes[b] = code
             ps[b] = p
