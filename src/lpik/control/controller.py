@@ -196,7 +196,10 @@ class Lp2Controller:
             watch: Count the step for ``on_stall`` (batch rows, independent states, do not).
 
         Returns:
-            The same :class:`~lpik.result.Result` as ``lp2(self.problem(q0, target, q_prev))``.
+            The same :class:`~lpik.result.Result` as the controller's method
+            (``self.method``: ``lp2s`` or ``lp2``) on ``self.problem(q0, target,
+            q_prev)``, with the automatic multiplier bound of the step where it
+            applies.
 
         Raises:
             ValueError: For a ``q0``, ``q_prev`` or ``target`` of the wrong shape, or
