@@ -63,17 +63,25 @@ def orthogonalize(B, V):
 
 
 @njit(cache=True)
-def singular_values(A):
-    """``A``'s singular values (``min(m, n)``, largest first), those of :func:`jacobi_svd`."""
-    m, n = A.shape
-    B = A.T.copy()
-    orthogonalize(B, np.empty((0, m)))
+def _column_norms(B):
+    """The 2-norm of each column of ``B``: the singular values once the columns are orthogonal."""
+    n, m = B.shape
     norms = np.empty(m)
     for j in range(m):
         total = 0.0
         for i in range(n):
             total += B[i, j] * B[i, j]
         norms[j] = math.sqrt(total)
+    return norms
+
+
+@njit(cache=True)
+def singular_values(A):
+    """``A``'s singular values (``min(m, n)``, largest first), those of :func:`jacobi_svd`."""
+    m, n = A.shape
+    B = A.T.copy()
+    orthogonalize(B, np.empty((0, m)))
+    norms = _column_norms(B)
     order = np.argsort(-norms)
     sv = np.empty(min(m, n))
     for jj in range(sv.size):
@@ -94,12 +102,7 @@ def jacobi_svd(A):
     B = A.T.copy()  # (n, m): its columns are rotated
     V = np.eye(m)
     orthogonalize(B, V)
-    norms = np.empty(m)
-    for j in range(m):
-        total = 0.0
-        for i in range(n):
-            total += B[i, j] * B[i, j]
-        norms[j] = math.sqrt(total)
+    norms = _column_norms(B)
     order = np.argsort(-norms)
     k = min(m, n)
     U, sv, Vt = np.empty((m, m)), np.empty(k), np.zeros((n, n))
