@@ -53,20 +53,14 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
         return code, p, binding, residual
     first_binding = binding
     if stuck:
-        for i in range(n):
-            best[i] = dq[i]
-        for k in range(m):
-            best[n + k] = lam[k]
+        best[:n], best[n : n + m] = dq, lam
     free = 0
     for i in range(n):
         if lower[i] != upper[i]:
             free += 1
     while p < FULL_P and 0 <= binding < 2 * n and free - 1 >= m:
         if code == OK:  # the best pass so far (while stuck: the first pass's safe step)
-            for i in range(n):
-                best[i] = dq[i]
-            for k in range(m):
-                best[n + k] = lam[k]
+            best[:n], best[n : n + m] = dq, lam
         joint = binding // 2
         if binding % 2 == 1:
             lower[joint] = upper[joint]
@@ -81,18 +75,12 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
         if code2 == INFEASIBLE and stuck:  # saturate the next conflict
             binding = binding2
             continue
-        if code2 != OK or (not stuck and p2 < p):
-            for i in range(n):  # keep the best pass (SINGULAR: no redundancy left)
-                dq[i] = best[i]
-            for k in range(m):
-                lam[k] = best[n + k]
+        if code2 != OK or (not stuck and p2 < p):  # keep the best pass (SINGULAR: no redundancy)
+            dq[:], lam[:] = best[:n], best[n : n + m]
             break
         code, p, binding, residual, stuck = code2, p2, binding2, residual2, False
     if stuck:  # no pass feasible: the first pass's safe step and conflict
-        for i in range(n):
-            dq[i] = best[i]
-        for k in range(m):
-            lam[k] = best[n + k]
+        dq[:], lam[:] = best[:n], best[n : n + m]
         return INFEASIBLE, 0.0, first_binding, residual
     return code, p, binding, residual
 
