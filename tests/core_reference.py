@@ -28,6 +28,13 @@ LINPROG_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tole
 HARD_TOL = 1e-7
 
 
+#: Two paths of lp2s (numpy and compiled) may differ by this in ``q``: its later passes
+#: run over fewer free joints, whose Schur complement may be ill-conditioned up to
+#: :data:`lpik.tolerances.MAX_SCHUR_CONDITION` (rounding times that condition); plain
+#: LP2 on a regular Jacobian agrees to 1e-12.
+SATURATION_ROUNDING = 1e-7
+
+
 #: Margin by which :func:`bracket` relaxes (and tightens) every limit: 100 times the
 #: solvers' feasibility tolerance, so that their tolerance cannot cross it.
 MARGIN = 1e-8

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 
-from core_reference import bracket, hard_violation, lp2_reference
+from core_reference import SATURATION_ROUNDING, bracket, hard_violation, lp2_reference
 from core_strategies import Case, cases, examples
 from lpik.methods import solve
 from lpik.methods.lp2 import lp2
@@ -70,12 +70,11 @@ def test_the_compiled_passes_equal_the_numpy_passes(case: Case) -> None:
     P = case.problem
     a, b = lp2s(P), lp2s(P, path="compiled")
     if b.path == "compiled" and a.path == "ratio-test":
-        # the same step to rounding: passes over fewer free joints may be ill-conditioned
-        # (Schur condition up to 1e10), and a step of 1e-13 may count as infeasible on one
-        # path and as a step on the other
-        np.testing.assert_allclose(a.q, b.q, atol=1e-7, rtol=0)
+        # the same step to rounding (SATURATION_ROUNDING), and a step of 1e-13 may count
+        # as infeasible on one path and as a step on the other
+        np.testing.assert_allclose(a.q, b.q, atol=SATURATION_ROUNDING, rtol=0)
         if a.status == b.status:
-            assert abs(a.p - b.p) <= 1e-7
+            assert abs(a.p - b.p) <= SATURATION_ROUNDING
             # a limit binds on both or neither; two limits reached at the same p (a tie,
             # common at p = 0) may be named either way by the two paths' rounding
             assert (a.binding is None) == (b.binding is None)

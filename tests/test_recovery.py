@@ -15,6 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from core_reference import SATURATION_ROUNDING
 from core_strategies import examples
 from lpik import ClampedTarget, bands, planar_arm, simulate
 from lpik.limits import AccelerationLimits, standard_limits
@@ -192,19 +193,23 @@ def moving_states(draw: st.DrawFn):
 @given(state=moving_states())
 def test_every_step_from_any_state_keeps_the_contract(state) -> None:
     from lpik.methods import solve
+    from lpik.methods.lp2 import lp2
 
     controller, q0, goal, q_prev = state
     arm, dt = controller.model, controller.dt
     qdd = controller.limits[-1].qdd_max
     problem = controller.problem(q0, goal, q_prev)
     fast = controller.step(q0, goal, q_prev)
-    reference = solve(problem, controller.method)
     regular = np.linalg.svd(problem.J, compute_uv=False)[-1] > 1e-6  # far from a singularity
-    if fast.path == "compiled" and reference.path == "ratio-test" and regular:
-        assert fast.status == reference.status
-        if fast.status != INFEASIBLE:  # an infeasible step's conflict may be a tie
-            assert fast.binding == reference.binding
-        np.testing.assert_allclose(fast.q, reference.q, rtol=0, atol=1e-12)
+    # the controller's method (lp2s) and plain LP2, each compiled against numpy
+    pairs = [(fast, solve(problem, controller.method), SATURATION_ROUNDING),
+             (lp2(problem, path="compiled"), lp2(problem), 1e-12)]  # fmt: skip
+    for compiled, reference, atol in pairs:
+        if compiled.path == "compiled" and reference.path == "ratio-test" and regular:
+            assert compiled.status == reference.status
+            if compiled.status != INFEASIBLE:  # an infeasible step's conflict may be a tie
+                assert compiled.binding == reference.binding
+            np.testing.assert_allclose(compiled.q, reference.q, rtol=0, atol=atol)
     last = q0 - q_prev
     tol = 1e-9
     for res in (fast, solve(problem, "lp1"), solve(problem, "l1")):
