@@ -39,6 +39,22 @@ def test_no_free_redundancy_left_stops_the_passes() -> None:
     assert lp2s(P).p == best.p >= lp2(P).p
 
 
+def test_no_pass_over_nearly_singular_free_joints() -> None:
+    """Joints 2 and 3 of this arm are nearly aligned (q3 = 2.5e-5): once joint 1 is saturated,
+    the pass over them would race both to a new step for p 0.99999 -> 1, and rounding at
+    its Schur condition (~1e10) broke J dq = p dw by 3e-8 (a CI find). It is not taken."""
+    from lpik.control.controller import Lp2Controller
+    from lpik.robots.planar import planar_arm
+
+    arm = planar_arm([1.0, 1.0, 1.0], q_min=[-1.0, -1.5, -1.0], q_max=[1.0, 0.5, 1.0], qd_max=1.0)
+    controller = Lp2Controller(arm, dt=0.01, v_max=1.0, lambda_bound=None)
+    q0 = np.array([0.0, -0.5, 2.4574519735179843e-05])
+    P = controller.problem(q0, arm.pose(q0) + np.array([0.0, 0.5, 0.0]))
+    for res in (lp2s(P), lp2s(P, path="compiled"), controller.step(q0, arm.pose(q0) + [0, 0.5, 0])):
+        np.testing.assert_allclose(P.J @ res.dq, res.p * P.dw, rtol=0, atol=1e-15)
+        assert str(res.binding) == "joint 1 upper velocity limit" and res.p == lp2(P).p
+
+
 @settings(max_examples=examples(250), deadline=None)
 @given(case=cases(well_posed=True))
 def test_lp2s_is_exact_never_below_lp2_and_keeps_every_limit(case: Case) -> None:

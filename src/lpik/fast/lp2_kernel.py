@@ -68,12 +68,12 @@ def lp2_kernel(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g,
     m, n = J.shape
     ws = np.empty(_workspace_size(n, m, G.shape[0]))
     return lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws,
-                    SINGULAR_PATH_ALWAYS)  # fmt: skip
+                    SINGULAR_PATH_ALWAYS, MAX_SCHUR_CONDITION)  # fmt: skip
 
 
 @njit(cache=True)
 def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws,
-             singular_path):  # fmt: skip
+             singular_path, max_condition):  # fmt: skip
     """LP2 by the ratio test (eqs. 15-18). Writes ``dq`` and ``lam``.
 
     The equality rows of eq. 18 give ``dq = a_q + p b_q`` and
@@ -106,6 +106,9 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             passes: no well-conditioned affine solution ends the passes, while
             numpy's LP2 takes the singular path after a failed ratio test), and
             :data:`CHECK_FAILED` where the singular path would need HiGHS.
+        max_condition: The Schur complement's condition above which it counts as
+            singular: :data:`~lpik.tolerances.MAX_SCHUR_CONDITION`, or for
+            lp2s's later passes :data:`~lpik.tolerances.SATURATION_MAX_CONDITION`.
 
     Returns:
         ``(code, p, binding, residual)``: the outcome (:data:`OK`,
@@ -208,7 +211,7 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     for a in range(m):
         dmax = max(dmax, LS[a, a])
         dmin = min(dmin, LS[a, a])
-    if not dmin > 0.0 or dmax > math.sqrt(MAX_SCHUR_CONDITION) * dmin:
+    if not dmin > 0.0 or dmax > math.sqrt(max_condition) * dmin:
         if singular_path != SINGULAR_PATH_ALWAYS:
             return SINGULAR, 0.0, -1, 0.0
         return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
@@ -372,6 +375,7 @@ def lp2_batch_kernel(
                 lam[b],
                 ws,
                 SINGULAR_PATH_ALWAYS,
+                MAX_SCHUR_CONDITION,
             )
             codes[b] = code
             ps[b] = p

@@ -21,7 +21,7 @@ from lpik.fast.lp2_kernel import (
     _workspace_size,
     lp2_core,
 )
-from lpik.tolerances import FULL_P
+from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION, SATURATION_MAX_CONDITION
 
 
 @njit(cache=True)
@@ -45,8 +45,8 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
     """
     m, n = J.shape
     code, p, binding, residual = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min,
-                                          lam_max, G, g, dq, lam, ws,
-                                          SINGULAR_PATH_ALWAYS)  # fmt: skip
+                                          lam_max, G, g, dq, lam, ws, SINGULAR_PATH_ALWAYS,
+                                          MAX_SCHUR_CONDITION)  # fmt: skip
     # an infeasible first pass saturates the joint its conflict names, as the numpy method
     stuck = code == INFEASIBLE and 0 <= binding < 2 * n
     if code != OK and not stuck:
@@ -69,7 +69,8 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
         free -= 1
         code2, p2, binding2, residual2 = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper,
                                                   lam_min, lam_max, G, g, dq, lam, ws,
-                                                  SINGULAR_PATH_AFTER_CHECK)  # fmt: skip
+                                                  SINGULAR_PATH_AFTER_CHECK,
+                                                  SATURATION_MAX_CONDITION)  # fmt: skip
         if code2 == CHECK_FAILED:  # the numpy method decides
             return code2, p2, binding2, residual2
         if code2 == INFEASIBLE and stuck:  # saturate the next conflict

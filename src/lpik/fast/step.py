@@ -34,7 +34,7 @@ from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
 from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core
 from lpik.fast.saturation import lp2s_core
 from lpik.fast.twins import compiled_twin
-from lpik.tolerances import FULL_P
+from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION
 
 #: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
 BAD_INPUT = 4
@@ -161,7 +161,7 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     else:
         code, p, binding, residual = lp2_core(
             J, dw, H, h_diag, c, c_ref, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq,
-            lam, ws, SINGULAR_PATH_ALWAYS,
+            lam, ws, SINGULAR_PATH_ALWAYS, MAX_SCHUR_CONDITION,
         )  # fmt: skip
     q = L.vector(state, L.Q)
     for i in range(n):

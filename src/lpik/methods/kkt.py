@@ -64,7 +64,9 @@ def pinned_system(problem: Problem) -> tuple[FloatArray, FloatArray, FloatArray,
     return J, H, c, problem.J @ d
 
 
-def affine_solution(problem: Problem) -> AffineSolution | None:
+def affine_solution(
+    problem: Problem, max_condition: float = MAX_SCHUR_CONDITION
+) -> AffineSolution | None:
     """Solve eq. 18's equality rows for ``dq`` and ``lam`` as affine functions of ``p``.
 
     With ``H = M + Lambda`` (positive definite) and ``c = f + Lambda (q_ref - q0)``,
@@ -76,7 +78,8 @@ def affine_solution(problem: Problem) -> AffineSolution | None:
     Returns:
         The affine solution, or ``None`` when ``S`` is singular or its condition
         number, estimated from its Cholesky factor ``L`` as ``(max L_ii / min L_ii)^2``
-        (the compiled kernel's estimate), exceeds :data:`MAX_SCHUR_CONDITION`.
+        (the compiled kernel's estimate), exceeds ``max_condition``
+        (:data:`MAX_SCHUR_CONDITION` unless given).
     """
     J, H, c, w_fixed = pinned_system(problem)
     c_ref = smoothing_pull(problem)
@@ -91,7 +94,7 @@ def affine_solution(problem: Problem) -> AffineSolution | None:
         return None
     diag = np.abs(np.diagonal(S_factor[0]))
     # the condition estimate of the compiled kernel: (max / min of L's diagonal)^2
-    if not diag.min() > 0 or diag.max() > math.sqrt(MAX_SCHUR_CONDITION) * diag.min():
+    if not diag.min() > 0 or diag.max() > math.sqrt(max_condition) * diag.min():
         return None
     rhs = np.column_stack([J @ Hinvc[:, 0] + w_fixed, J @ Hinvc[:, 1], -problem.dw])
     lam = sla.cho_solve(S_factor, rhs)

@@ -10,9 +10,9 @@ eqs. 15-18 over the free joints (:func:`lpik.methods.kkt.pinned_system`),
 repeated until the command is met, or what stops it is not a joint's bound
 (a multiplier bound, an extra row, a singularity), or no free redundancy is left
 (fewer free joints than task rows, or a free joints' Jacobian so ill-conditioned
-that eq. 18's Schur complement fails :data:`~lpik.tolerances.MAX_SCHUR_CONDITION`:
+that eq. 18's Schur complement fails :data:`~lpik.tolerances.SATURATION_MAX_CONDITION`:
 there the last few free joints would race at their velocity limits for a
-sliver of ``p``).
+sliver of ``p``, and rounding would break ``J dq = p dw``).
 
 Each pass starts from the previous one's answer: at ``p*`` the fixed joint sits
 exactly at its bound and the other joints' criterion rows hold, so that answer
@@ -31,7 +31,7 @@ from lpik.methods.kkt import affine_solution
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, Result, safe_step
-from lpik.tolerances import FULL_P
+from lpik.tolerances import FULL_P, SATURATION_MAX_CONDITION
 
 
 def joint_bound_index(problem: Problem) -> dict[str, tuple[int, int]]:
@@ -110,7 +110,7 @@ def saturation_passes(
         and free - 1 >= problem.m
     ):
         candidate = saturated(current, *index[current_result.binding])
-        if affine_solution(candidate) is None:  # no well-conditioned redundancy left
+        if affine_solution(candidate, SATURATION_MAX_CONDITION) is None:  # no redundancy left
             break
         current = candidate
         free -= 1
