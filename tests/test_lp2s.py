@@ -55,6 +55,28 @@ def test_no_pass_over_nearly_singular_free_joints() -> None:
         assert str(res.binding) == "joint 1 upper velocity limit" and res.p == lp2(P).p
 
 
+def test_the_condition_of_a_later_pass_is_bounded_not_estimated() -> None:
+    """A 5-link arm in the plane (pose task) with joints 3 and 4 nearly aligned: after joint 1
+    saturates, the free joints' Schur complement has condition 8e11, which the Cholesky
+    estimate puts at 4e7; the pass broke J dq = p dw by 7e-9 (a CI find). It is not taken."""
+    from lpik.methods.kkt import condition_bound
+
+    J = [[-3.971151412932255, -3.491725874328052, -2.4942308877239974, -1.496735193797801,
+          -0.4992394998716043],
+         [1.1173408955669903, 0.23975833367661759, 0.16902113200891467, 0.09829390529461435,
+          0.027566678580314363],
+         [1.0, 1.0, 1.0, 1.0, 1.0]]  # fmt: skip
+    P = Problem(J=J, dw=[0.0, 1e-3, 0.0], q0=[0.5, 1.0, 1e-05, 0.0, 0.015625],
+                q_min=[-1.0, 0.0, -0.99999, -1.0, -1.0], q_max=[1.0, 2.0, 1.00001, 1.0, 1.0],
+                dq_min=np.full(5, -1e-3), dq_max=np.full(5, 1e-3))  # fmt: skip
+    for res in (lp2s(P), lp2s(P, path="compiled")):
+        np.testing.assert_allclose(P.J @ res.dq, res.p * P.dw, rtol=0, atol=1e-15)
+        assert str(res.binding) == "joint 1 upper velocity limit"
+        assert abs(res.p - lp2(P).p) <= 1e-15  # LP2's first pass, on either path
+    S = np.array(J) @ np.array(J).T
+    assert condition_bound(S, np.linalg.cholesky(S)) >= np.linalg.cond(S)
+
+
 @settings(max_examples=examples(250), deadline=None)
 @given(case=cases(well_posed=True))
 def test_lp2s_is_exact_never_below_lp2_and_keeps_every_limit(case: Case) -> None:

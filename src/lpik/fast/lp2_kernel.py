@@ -22,7 +22,7 @@ from numba import njit, prange
 
 from lpik.check import loop_check
 from lpik.fast.jacobi import jacobi_svd
-from lpik.fast.linalg import cho_solve, cho_solve2, cholesky
+from lpik.fast.linalg import cho_solve, cho_solve2, cholesky, condition_bound
 from lpik.fast.smoothing import add_smoothing
 from lpik.fast.twins import compiled_twin
 from lpik.fast.views import matrix
@@ -106,9 +106,10 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             passes: no well-conditioned affine solution ends the passes, while
             numpy's LP2 takes the singular path after a failed ratio test), and
             :data:`CHECK_FAILED` where the singular path would need HiGHS.
-        max_condition: The Schur complement's condition above which it counts as
-            singular: :data:`~lpik.tolerances.MAX_SCHUR_CONDITION`, or for
-            lp2s's later passes :data:`~lpik.tolerances.SATURATION_MAX_CONDITION`.
+        max_condition: :data:`~lpik.tolerances.MAX_SCHUR_CONDITION`; or, for
+            lp2s's later passes, :data:`~lpik.tolerances.SATURATION_MAX_CONDITION`,
+            checked against :func:`~lpik.fast.linalg.condition_bound` too (the
+            Cholesky estimate may fall short of the condition by orders of magnitude).
 
     Returns:
         ``(code, p, binding, residual)``: the outcome (:data:`OK`,
@@ -211,7 +212,11 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     for a in range(m):
         dmax = max(dmax, LS[a, a])
         dmin = min(dmin, LS[a, a])
-    if not dmin > 0.0 or dmax > math.sqrt(max_condition) * dmin:
+    if (
+        not dmin > 0.0
+        or dmax > math.sqrt(MAX_SCHUR_CONDITION) * dmin
+        or (max_condition < MAX_SCHUR_CONDITION and condition_bound(S, LS, rhs) > max_condition)
+    ):
         if singular_path != SINGULAR_PATH_ALWAYS:
             return SINGULAR, 0.0, -1, 0.0
         return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)

@@ -78,8 +78,9 @@ def affine_solution(
     Returns:
         The affine solution, or ``None`` when ``S`` is singular or its condition
         number, estimated from its Cholesky factor ``L`` as ``(max L_ii / min L_ii)^2``
-        (the compiled kernel's estimate), exceeds ``max_condition``
-        (:data:`MAX_SCHUR_CONDITION` unless given).
+        (the compiled kernel's estimate), exceeds :data:`MAX_SCHUR_CONDITION`; and
+        where a stricter ``max_condition`` is given (lp2s's later passes), when
+        :func:`condition_bound` exceeds it.
     """
     J, H, c, w_fixed = pinned_system(problem)
     c_ref = smoothing_pull(problem)
@@ -94,7 +95,9 @@ def affine_solution(
         return None
     diag = np.abs(np.diagonal(S_factor[0]))
     # the condition estimate of the compiled kernel: (max / min of L's diagonal)^2
-    if not diag.min() > 0 or diag.max() > math.sqrt(max_condition) * diag.min():
+    if not diag.min() > 0 or diag.max() > math.sqrt(MAX_SCHUR_CONDITION) * diag.min():
+        return None
+    if max_condition < MAX_SCHUR_CONDITION and condition_bound(S, S_factor[0]) > max_condition:
         return None
     rhs = np.column_stack([J @ Hinvc[:, 0] + w_fixed, J @ Hinvc[:, 1], -problem.dw])
     lam = sla.cho_solve(S_factor, rhs)
@@ -104,6 +107,17 @@ def affine_solution(
     s = smoothing_scale(a_q, e_q, lower, upper)
     return AffineSolution(a_q=a_q + s * e_q, b_q=-HinvJt @ b_l, a_l=a_l + s * e_l, b_l=b_l,
                           smoothing=s)  # fmt: skip
+
+
+def condition_bound(S: FloatArray, L: FloatArray) -> float:
+    """``|S|_F |L^-1|_F^2`` for ``S = L L^T`` (``L`` lower): never below the condition of ``S``.
+
+    The Cholesky estimate ``(max L_ii / min L_ii)^2`` can fall short of the
+    condition by orders of magnitude; this bound is at most ``m^2`` times it.
+    The twin of :func:`lpik.fast.linalg.condition_bound`.
+    """
+    inverse = sla.solve_triangular(np.tril(L), np.eye(len(S)), lower=True)
+    return float(np.linalg.norm(S) * np.sum(inverse * inverse))
 
 
 def smoothing_pull(problem: Problem) -> FloatArray:
