@@ -165,7 +165,10 @@ def conflict_label(problem: Problem, A_eq: FloatArray, b_eq: FloatArray, n_lam: 
     give way by a slack ``s >= 0``; it minimises the slacks, each divided by
     the width of its band (``upper - lower`` where both are finite, else 1),
     so that the narrowest limits (an acceleration band of ``2 qdd_max dt^2``)
-    count most. The limit whose weighted slack is largest is named.
+    count most. The limit whose weighted slack is largest is named. A pinned
+    joint (:meth:`~lpik.problem.Problem.pinned`: its bounds coincide) is held at
+    its value without slack: it is not a limit that can give way, and its zero
+    width would turn a slack at the solver's tolerance into the largest one.
 
     Returns:
         Its label (as :meth:`~lpik.problem.Problem.step_bounds`,
@@ -198,13 +201,14 @@ def conflict_label(problem: Problem, A_eq: FloatArray, b_eq: FloatArray, n_lam: 
         ]
     )
     inf_k, inf_r = np.full(k, np.inf), np.full(r, np.inf)
+    give = np.concatenate([np.where(problem.pinned()[0], 0.0, np.inf), np.full(n_lam, np.inf)])
     lp = LinearProgram(
         c=np.concatenate([np.zeros(cols), weight]),
         A=A,
         row_lower=np.concatenate([b_eq, lo, -inf_k, -inf_r]),
         row_upper=np.concatenate([b_eq, inf_k, hi, g]),
         col_lower=np.concatenate([np.full(cols - 1, -np.inf), [0.0], np.zeros(n_slack)]),
-        col_upper=np.concatenate([np.full(cols - 1, np.inf), [1.0], np.full(n_slack, np.inf)]),
+        col_upper=np.concatenate([np.full(cols - 1, np.inf), [1.0], give, give, inf_r]),
     )
     sol = HighsSolver().solve(lp)
     if sol.status != OPTIMAL:
