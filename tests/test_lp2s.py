@@ -126,7 +126,11 @@ def test_the_compiled_passes_equal_the_numpy_passes(case: Case) -> None:
     pytest.importorskip("numba")
     P = case.problem
     a, b = lp2s(P), lp2s(P, path="compiled")
-    if b.path == "compiled" and a.path == "ratio-test":
+    first_a, first_b = lp2(P, path="ratio-test"), lp2(P, path="compiled")
+    # a tie in the first pass (two limits at the same p, e.g. a row that repeats an end-stop)
+    # may be named either way by the two paths' rounding; the passes then part ways
+    tie = first_a.binding != first_b.binding and abs(first_a.p - first_b.p) <= 1e-12
+    if b.path == "compiled" and a.path == "ratio-test" and not tie:
         # the same step to rounding (SATURATION_ROUNDING), and a step of 1e-13 may count
         # as infeasible on one path and as a step on the other
         np.testing.assert_allclose(a.q, b.q, atol=SATURATION_ROUNDING, rtol=0)
