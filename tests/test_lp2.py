@@ -342,6 +342,37 @@ def test_the_smoothing_pull_takes_at_most_its_share_of_a_joints_band() -> None:
                            np.array([0.1])) == 0.0  # fmt: skip
 
 
+def test_a_small_pulls_share_on_a_joint_at_its_end_stop_counts() -> None:
+    # Joint 3 sits on its upper end-stop; the pull's share there (1e-11 rad of a 1e-4 rad
+    # pull) is genuine, not rounding. Ignored (a threshold of 1e-10 rad), it put the step at
+    # p = 0 past the end-stop, and every p was infeasible: the smoothing term froze the arm
+    # on its own account (found on the Panda's path through a singularity). Now the pull is
+    # scaled away on that joint, and the step is LP2's without it.
+    P = Problem(J=[[1.0, 1.0, 0.0], [0.0, 1e-7, 1.0]], dw=[0.0, 1e-3], q0=[0.0, 0.0, 0.0],
+                q_min=[-1.0, -1.0, -1.0], q_max=[1.0, 1.0, 0.0], dq_min=np.full(3, -0.01),
+                dq_max=np.full(3, 0.01), Lambda=[1e-4] * 3, q_ref=[1.0, -1.0, -1.0])  # fmt: skip
+    assert smoothing(P) == 0.0
+    res = assert_paths_agree(P)
+    assert (res.status, res.p, res.binding) == (st.OPTIMAL, 0.0, "joint 3 upper end-stop")
+    compiled = lp2(P, path="compiled")
+    assert (compiled.status, compiled.binding) == (res.status, res.binding)
+    np.testing.assert_allclose(compiled.q, res.q, rtol=0, atol=1e-15)
+
+
+def test_a_pull_leaves_the_multipliers_their_share_of_a_bound() -> None:
+    # q_ref pulls joint 1 along the task: at p = 0 the pull alone needs lam = 1 against a bound
+    # of 0.1 (sec. 3.2), and every p was infeasible on the pull's account (the automatic bound
+    # with a smoothing term did this on the Panda). The pull is scaled to half the room.
+    P = Problem(J=[[1.0, 0.0]], dw=[0.01], q0=[0.0, 0.0], Lambda=[1.0, 1.0], q_ref=[1.0, 0.0],
+                lam_min=[-0.1], lam_max=[0.1])  # fmt: skip
+    assert smoothing(P) == pytest.approx(0.05)
+    res = assert_paths_agree(P)
+    assert res.status == st.OPTIMAL and res.p > 0.0
+    compiled = lp2(P, path="compiled")
+    assert (compiled.status, compiled.binding) == (res.status, res.binding)
+    np.testing.assert_allclose(compiled.q, res.q, rtol=0, atol=1e-15)
+
+
 def test_zero_command_keeps_the_criterion_step() -> None:
     P = Problem(J=[[1.0, 1.0]], dw=[0.0], q0=[0.0, 0.0], Lambda=[1.0, 1.0], q_ref=[0.2, -0.2])
     res = assert_paths_agree(P)

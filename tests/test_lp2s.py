@@ -79,15 +79,16 @@ def test_the_condition_of_a_later_pass_is_bounded_not_estimated() -> None:
 
 def test_an_infeasible_pass_never_names_the_joint_it_holds() -> None:
     """Every multiplier held at 0 and joint 2 held at its end-stop: the held pass is infeasible
-    on every path, and the conflict is the multiplier bound. HiGHS's elastic program named
-    the held joint (its zero-width band turned a slack at the solver's tolerance into the
-    largest one; a find of the thorough profile)."""
+    on every path (the force f needs a multiplier), and the conflict is the multiplier bound.
+    HiGHS's elastic program once named the held joint (its zero-width band turned a slack at
+    the solver's tolerance into the largest one; a find of the thorough profile, whose
+    problem a smoothing pull made infeasible, until the pull was scaled for the multipliers)."""
     from lpik.robots.planar import planar_arm
 
     P = Problem(J=planar_arm([1.0, 1.0, 1.0]).jacobian(np.array([0.0, 0.0, 1.0])),
                 dw=[0.003, 0.0], q0=[0.0, 0.0, 1.0], q_min=[0.0, 0.0, 1.0], q_max=[1.0, 1.0, 2.0],
-                dq_min=np.full(3, -0.125), dq_max=np.full(3, 0.125), Lambda=[0.0, 0.0, 1.0],
-                q_ref=[0.5, 0.5, 1.5], lam_min=[0.0, 0.0], lam_max=[0.0, 0.0])  # fmt: skip
+                dq_min=np.full(3, -0.125), dq_max=np.full(3, 0.125), f=[0.0, 0.0, 0.5],
+                lam_min=[0.0, 0.0], lam_max=[0.0, 0.0])  # fmt: skip
     first = lp2(P, path="ratio-test", name_outside=False)
     assert str(first.binding) == "joint 2 lower end-stop"
     held = saturated(P, *joint_bound_index(P)[first.binding])

@@ -64,7 +64,8 @@ INTERVAL_TOL = 1e-12
 SMOOTHING_SHARE = 0.5
 #: A joint's share of that pull at or below this (relative to the largest, at least 1) counts
 #: as none: it is the rounding of a zero (a pinned joint's coupling), which must not decide
-#: how much of the pull the step takes.
+#: how much of the pull the step takes (:func:`lpik.methods.pull.pull_room`), as long as
+#: it does not carry the joint past a bound it sits at (beyond :data:`SLACK_TOL`).
 PULL_TOL = 1e-10
 
 # ----------------------------------------------------- binding from the duals

@@ -40,7 +40,7 @@ __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kern
 
 #: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
 _HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
-            "singularity_code")  # fmt: skip
+            "singularity_code", "pull_room")  # fmt: skip
 _loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
 _stop = njit(cache=True)(singular._stop)  # the safe step, INFEASIBLE
 singular_core = compiled_twin(
@@ -241,8 +241,8 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         if lower[i] != upper[i] and c_ref[i] != 0.0:
             smooth = True
     if smooth:
-        add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, a_q, a_l,
-                      (col, Hinvr, e_q), (rhs3, e_l))  # fmt: skip
+        add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, lam_min, lam_max, a_q,
+                      a_l, (col, Hinvr, e_q), (rhs3, e_l))  # fmt: skip
     # --- ratio test over joints, multipliers, rows ---
     for i in range(n):
         av[i], bv[i], lo[i], hi[i] = a_q[i], b_q[i], lower[i], upper[i]

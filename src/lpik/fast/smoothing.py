@@ -9,12 +9,14 @@ from __future__ import annotations
 from numba import njit
 
 from lpik.fast.linalg import cho_solve
-from lpik.tolerances import PULL_TOL, SMOOTHING_SHARE
+from lpik.methods.pull import pull_room
+
+_pull_room = njit(cache=True)(pull_room)
 
 
 @njit(cache=True)
-def add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, a_q, a_l, n_scratch,
-                  m_scratch):  # fmt: skip
+def add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, lam_min, lam_max, a_q, a_l,
+                  n_scratch, m_scratch):  # fmt: skip
     """Add ``s`` times the pull's share of eq. 18's solution to ``a_q`` and ``a_l``.
 
     Called when ``c_ref = Lambda (q_ref - q0)`` pulls a free joint; pinned joints
@@ -38,21 +40,13 @@ def add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, a_q, a_l, n
             s += J[a, i] * Hinvr[i]
         rhs3[a] = s
     cho_solve(LS, rhs3, e_l)
-    emax = 0.0
     for i in range(n):
         s = Hinvr[i]
         for k in range(m):
             s -= HinvJt[i, k] * e_l[k]
         e_q[i] = s
-        emax = max(emax, abs(s))
-    eps, scale = PULL_TOL * max(1.0, emax), 1.0
-    for i in range(n):
-        s = e_q[i]
-        if s > eps:
-            scale = min(scale, max(0.0, SMOOTHING_SHARE * (upper[i] - a_q[i])) / s)
-        elif s < -eps:
-            scale = min(scale, min(0.0, SMOOTHING_SHARE * (lower[i] - a_q[i])) / s)
-    scale = max(0.0, scale)
+    # the numpy path's rule (lpik.methods.kkt.smoothing_scale): joints, then multipliers
+    scale = _pull_room(a_l, e_l, lam_min, lam_max, _pull_room(a_q, e_q, lower, upper, 1.0))
     for i in range(n):
         a_q[i] += scale * e_q[i]
     for k in range(m):

@@ -19,8 +19,9 @@ import numpy as np
 import scipy.linalg as sla
 
 from lpik.methods.assembly import criterion, reference_pull
+from lpik.methods.pull import pull_room
 from lpik.problem import Problem
-from lpik.tolerances import MAX_SCHUR_CONDITION, PULL_TOL, SMOOTHING_SHARE
+from lpik.tolerances import MAX_SCHUR_CONDITION
 from lpik.types import FloatArray
 
 
@@ -104,7 +105,7 @@ def affine_solution(
     a_l, e_l, b_l = lam[:, 0], lam[:, 1], lam[:, 2]
     a_q, e_q = Hinvc[:, 0] - HinvJt @ a_l, Hinvc[:, 1] - HinvJt @ e_l
     lower, upper = problem.step_bounds()[:2]
-    s = smoothing_scale(a_q, e_q, lower, upper)
+    s = smoothing_scale(a_q, e_q, lower, upper, (a_l, e_l, problem.lam_min, problem.lam_max))
     return AffineSolution(a_q=a_q + s * e_q, b_q=-HinvJt @ b_l, a_l=a_l + s * e_l, b_l=b_l,
                           smoothing=s)  # fmt: skip
 
@@ -126,7 +127,11 @@ def smoothing_pull(problem: Problem) -> FloatArray:
 
 
 def smoothing_scale(
-    a_q: FloatArray, e_q: FloatArray, lower: FloatArray, upper: FloatArray
+    a_q: FloatArray,
+    e_q: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    multipliers: tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None = None,
 ) -> float:
     """The largest ``s`` in [0, 1] by which sec. 3.1's pull ``e_q`` may be added to the step.
 
@@ -134,17 +139,17 @@ def smoothing_scale(
     of it (both resolved by eq. 18). On each joint ``s e_q`` may take at most
     :data:`~lpik.tolerances.SMOOTHING_SHARE` of the room between ``a_q`` and
     its bounds (and any amount towards the bounds when ``a_q`` is outside
-    them), so the rest of the band is left for the command. ``s = 1`` is the
-    paper's term; a smaller ``s`` a weaker pull this step. Continuous in the state.
+    them), so the rest of the band is left for the command
+    (:func:`lpik.methods.pull.pull_room`). ``multipliers`` ``(a_l, e_l, lam_min,
+    lam_max)``: the same for the multipliers and their bounds (sec. 3.2), so that
+    a bounded multiplier cannot make the step infeasible on the pull's account.
+    ``s = 1`` is the paper's term; a smaller ``s`` a weaker pull this step.
+    Continuous in the state.
     """
-    s = 1.0
-    eps = PULL_TOL * max(1.0, float(np.abs(e_q).max(initial=0.0)))  # a pull of 0, to rounding
-    for a, e, lo, hi in zip(a_q, e_q, lower, upper):
-        if e > eps:
-            s = min(s, max(0.0, SMOOTHING_SHARE * (hi - a)) / e)
-        elif e < -eps:
-            s = min(s, min(0.0, SMOOTHING_SHARE * (lo - a)) / e)
-    return max(0.0, s)
+    s = pull_room(a_q, e_q, lower, upper, 1.0)
+    if multipliers is not None:
+        s = pull_room(*multipliers, s)
+    return float(s)
 
 
 def smoothing(problem: Problem, affine: AffineSolution | None | EllipsisType = ...) -> float:
@@ -171,4 +176,5 @@ def smoothing(problem: Problem, affine: AffineSolution | None | EllipsisType = .
     )
     x = np.linalg.lstsq(K, rhs, rcond=None)[0]
     lower, upper = problem.step_bounds()[:2]
-    return smoothing_scale(x[:n, 0], x[:n, 1], lower, upper)
+    lam = (x[n:, 0], x[n:, 1], problem.lam_min, problem.lam_max)
+    return smoothing_scale(x[:n, 0], x[:n, 1], lower, upper, lam)

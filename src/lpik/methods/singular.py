@@ -45,15 +45,14 @@ import math
 import numpy as np
 
 from lpik.check import loop_check
+from lpik.methods.pull import pull_room
 from lpik.tolerances import (
     EQUALITY_RTOL,
     FULL_P,
     INTERVAL_TOL,
-    PULL_TOL,
     RATE_TOL,
     SINGULAR_RTOL,
     SLACK_TOL,
-    SMOOTHING_SHARE,
 )
 
 #: Outcome codes of the loop-level LP2 solvers (here and :mod:`lpik.fast.lp2_kernel`).
@@ -253,16 +252,7 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     _backward(L, ey, e_q)
     _backward(L, by, b_q)
     # --- sec. 3.1's pull, scaled to leave room for the command (smoothing_scale) ---
-    emax = 0.0
-    for i in range(n):
-        emax = max(emax, abs(e_q[i]))
-    eps, scale = PULL_TOL * max(1.0, emax), 1.0
-    for i in range(n):
-        if e_q[i] > eps:
-            scale = min(scale, max(0.0, SMOOTHING_SHARE * (upper[i] - a_q[i])) / e_q[i])
-        elif e_q[i] < -eps:
-            scale = min(scale, min(0.0, SMOOTHING_SHARE * (lower[i] - a_q[i])) / e_q[i])
-    scale = max(0.0, scale)
+    scale = pull_room(al, el, lam_min, lam_max, pull_room(a_q, e_q, lower, upper, 1.0))
     for i in range(n):
         a_q[i] += scale * e_q[i]
     for a in range(m):
