@@ -23,6 +23,7 @@ from numba import njit, prange
 from lpik.check import loop_check
 from lpik.fast.jacobi import jacobi_svd
 from lpik.fast.linalg import cho_solve, cho_solve2, cholesky, condition_bound
+from lpik.fast.ratio import first_within, slacks
 from lpik.fast.smoothing import add_smoothing
 from lpik.fast.twins import compiled_twin
 from lpik.fast.views import matrix
@@ -33,7 +34,6 @@ from lpik.tolerances import (
     INTERVAL_TOL,
     MAX_SCHUR_CONDITION,
     RATE_TOL,
-    SLACK_TOL,
 )
 
 __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kernel"]
@@ -259,30 +259,14 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         bmax = max(bmax, abs(bv[k]))
     eps = RATE_TOL * max(1.0, bmax)
     up_hi, up_lo, low_hi, low_lo = np.inf, np.inf, -np.inf, -np.inf
-    i_up_hi, i_up_lo, i_low_hi, i_low_lo = 0, 0, 0, 0
     stuck_hi, stuck_lo = -1, -1
     for k in range(total):
-        s_hi = hi[k] - av[k]
-        s_lo = av[k] - lo[k]
-        if s_hi < 0 and s_hi >= -SLACK_TOL * max(1.0, abs(hi[k])):
-            s_hi = 0.0
-        if s_lo < 0 and s_lo >= -SLACK_TOL * max(1.0, abs(lo[k])):
-            s_lo = 0.0
+        s_hi, s_lo = slacks(av[k], lo[k], hi[k])
         b = bv[k]
         if b > eps:
-            v = s_hi / b
-            if v < up_hi:
-                up_hi, i_up_hi = v, k
-            v = -s_lo / b
-            if v > low_lo:
-                low_lo, i_low_lo = v, k
+            up_hi, low_lo = min(up_hi, s_hi / b), max(low_lo, -s_lo / b)
         elif b < -eps:
-            v = s_lo / -b
-            if v < up_lo:
-                up_lo, i_up_lo = v, k
-            v = s_hi / b
-            if v > low_hi:
-                low_hi, i_low_hi = v, k
+            up_lo, low_hi = min(up_lo, s_lo / -b), max(low_hi, s_hi / b)
         else:
             if stuck_hi < 0 and s_hi < 0:
                 stuck_hi = 2 * k + 1
@@ -292,14 +276,16 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         return _stop(lower, upper, dq, stuck_hi)
     if stuck_lo >= 0:
         return _stop(lower, upper, dq, stuck_lo)
-    if up_hi <= up_lo:
-        p_up, up_code = up_hi, 2 * i_up_hi + 1
+    # ties within INTERVAL_TOL go to the first entry, upper bounds first (lpik.methods.lp2)
+    p_up, p_down = min(up_hi, up_lo), max(low_hi, low_lo)
+    if up_hi <= up_lo + INTERVAL_TOL:
+        up_code = 2 * first_within(av, bv, lo, hi, total, eps, True, True, up_hi) + 1
     else:
-        p_up, up_code = up_lo, 2 * i_up_lo
-    if low_hi >= low_lo:
-        p_down, down_code = low_hi, 2 * i_low_hi + 1
+        up_code = 2 * first_within(av, bv, lo, hi, total, eps, True, False, up_lo)
+    if low_hi >= low_lo - INTERVAL_TOL:
+        down_code = 2 * first_within(av, bv, lo, hi, total, eps, False, True, low_hi) + 1
     else:
-        p_down, down_code = low_lo, 2 * i_low_lo
+        down_code = 2 * first_within(av, bv, lo, hi, total, eps, False, False, low_lo)
     p_hi = min(1.0, p_up)
     p_lo = max(0.0, p_down)
     if p_hi < p_lo - INTERVAL_TOL:

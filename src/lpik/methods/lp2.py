@@ -81,7 +81,9 @@ def ratio_test(
 ) -> RatioTest:
     """Largest ``p`` in [0, 1] with ``lo <= a + p b <= hi`` for every entry.
 
-    Ties go to the first entry in order (joint bounds, then multipliers, then rows).
+    Ties go to the first entry in order (joint bounds, then multipliers, then rows),
+    upper bounds before lower ones; limits within :data:`INTERVAL_TOL` of each
+    other in ``p`` tie, so that the rounding of two paths cannot name two limits.
     """
     with np.errstate(invalid="ignore", divide="ignore"):
         s_hi = hi - a
@@ -104,16 +106,18 @@ def ratio_test(
         up_lo = np.divide(s_lo, -b, out=np.full_like(b, np.inf), where=neg)
         low_hi = np.divide(s_hi, b, out=np.full_like(b, -np.inf), where=neg)
         low_lo = np.divide(-s_lo, b, out=np.full_like(b, -np.inf), where=pos)
-    i_hi, i_lo = int(np.argmin(up_hi)), int(np.argmin(up_lo))
-    if up_hi[i_hi] <= up_lo[i_lo]:
-        p_up, up_label = float(up_hi[i_hi]), hi_labels[i_hi]
+    first_hi, first_lo = float(up_hi.min(initial=np.inf)), float(up_lo.min(initial=np.inf))
+    p_up = min(first_hi, first_lo)
+    if first_hi <= first_lo + INTERVAL_TOL:
+        up_label = hi_labels[int(np.argmax(up_hi <= first_hi + INTERVAL_TOL))]
     else:
-        p_up, up_label = float(up_lo[i_lo]), lo_labels[i_lo]
-    j_hi, j_lo = int(np.argmax(low_hi)), int(np.argmax(low_lo))
-    if low_hi[j_hi] >= low_lo[j_lo]:
-        p_down, down_label = float(low_hi[j_hi]), hi_labels[j_hi]
+        up_label = lo_labels[int(np.argmax(up_lo <= first_lo + INTERVAL_TOL))]
+    last_hi, last_lo = float(low_hi.max(initial=-np.inf)), float(low_lo.max(initial=-np.inf))
+    p_down = max(last_hi, last_lo)
+    if last_hi >= last_lo - INTERVAL_TOL:
+        down_label = hi_labels[int(np.argmax(low_hi >= last_hi - INTERVAL_TOL))]
     else:
-        p_down, down_label = float(low_lo[j_lo]), lo_labels[j_lo]
+        down_label = lo_labels[int(np.argmax(low_lo >= last_lo - INTERVAL_TOL))]
     p_hi = min(1.0, p_up)
     p_lo = max(0.0, p_down)
     if p_hi < p_lo - INTERVAL_TOL:
