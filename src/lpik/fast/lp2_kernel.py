@@ -23,7 +23,7 @@ from numba import njit, prange
 from lpik.check import loop_check
 from lpik.fast.jacobi import jacobi_svd
 from lpik.fast.linalg import cho_solve, cho_solve2, cholesky, condition_bound
-from lpik.fast.ratio import first_within, slacks
+from lpik.fast.ratio import limit_code, slacks
 from lpik.fast.smoothing import add_smoothing
 from lpik.fast.twins import compiled_twin
 from lpik.fast.views import matrix
@@ -276,22 +276,16 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         return _stop(lower, upper, dq, stuck_hi)
     if stuck_lo >= 0:
         return _stop(lower, upper, dq, stuck_lo)
-    # ties within INTERVAL_TOL go to the first entry, upper bounds first (lpik.methods.lp2)
-    p_up, p_down = min(up_hi, up_lo), max(low_hi, low_lo)
-    if up_hi <= up_lo + INTERVAL_TOL:
-        up_code = 2 * first_within(av, bv, lo, hi, total, eps, True, True, up_hi) + 1
-    else:
-        up_code = 2 * first_within(av, bv, lo, hi, total, eps, True, False, up_lo)
-    if low_hi >= low_lo - INTERVAL_TOL:
-        down_code = 2 * first_within(av, bv, lo, hi, total, eps, False, True, low_hi) + 1
-    else:
-        down_code = 2 * first_within(av, bv, lo, hi, total, eps, False, False, low_lo)
-    p_hi = min(1.0, p_up)
-    p_lo = max(0.0, p_down)
+    # a limit is named only where one stops p (ties: lpik.fast.ratio.limit_code)
+    p_hi = min(1.0, min(up_hi, up_lo))
+    p_lo = max(0.0, max(low_hi, low_lo))
     if p_hi < p_lo - INTERVAL_TOL:
-        return _stop(lower, upper, dq, down_code if p_lo > 1.0 else up_code)
+        if p_lo > 1.0:
+            return _stop(lower, upper, dq, limit_code(av, bv, lo, hi, total, eps, False,
+                                                      low_hi, low_lo))  # fmt: skip
+        return _stop(lower, upper, dq, limit_code(av, bv, lo, hi, total, eps, True, up_hi, up_lo))
     p = max(p_hi, p_lo)
-    binding = up_code if p < FULL_P else -1
+    binding = limit_code(av, bv, lo, hi, total, eps, True, up_hi, up_lo) if p < FULL_P else -1
     p = min(1.0, max(0.0, p))
     # --- the step, clipped to solver-tolerance excursions, and its own check ---
     for i in range(n):
