@@ -74,7 +74,7 @@ def test_the_condition_of_a_later_pass_is_bounded_not_estimated() -> None:
         assert str(res.binding) == "joint 1 upper velocity limit"
         assert abs(res.p - lp2(P).p) <= 1e-15  # LP2's first pass, on either path
     S = np.array(J) @ np.array(J).T
-    assert condition_bound(S, np.linalg.cholesky(S)) >= np.linalg.cond(S)
+    assert condition_bound(S, np.linalg.cholesky(S), np.empty(3)) >= np.linalg.cond(S)
 
 
 def test_an_infeasible_pass_never_names_the_joint_it_holds() -> None:

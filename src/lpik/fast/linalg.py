@@ -63,26 +63,3 @@ def cho_solve2(L, b, c, x, y):
             t -= L[k, i] * y[k]
         d = L[i, i]
         x[i], y[i] = s / d, t / d
-
-
-@njit(cache=True)
-def condition_bound(A, L, x):
-    """An upper bound on the 2-norm condition of the SPD matrix ``A = L L^T``.
-
-    ``|A|_F |L^-1|_F^2``, which is at least ``|A|_2 |A^-1|_2`` (``|A^-1|_2 <=
-    |L^-1|_2^2``) and at most ``n^2`` times it; ``x`` is a scratch vector of length
-    ``n``. :func:`lpik.methods.kkt.condition_bound` is the numpy twin.
-    """
-    n = A.shape[0]
-    norm_a, norm_inv = 0.0, 0.0
-    for i in range(n):
-        for j in range(n):
-            norm_a += A[i, j] * A[i, j]
-    for j in range(n):  # column j of L^-1: forward substitution on the unit vector e_j
-        for i in range(n):
-            s = 1.0 if i == j else 0.0
-            for k in range(j, i):
-                s -= L[i, k] * x[k]
-            x[i] = s / L[i, i] if i >= j else 0.0
-            norm_inv += x[i] * x[i]
-    return math.sqrt(norm_a) * norm_inv

@@ -22,12 +22,12 @@ from numba import njit, prange
 
 from lpik.check import loop_check
 from lpik.fast.jacobi import jacobi_svd
-from lpik.fast.linalg import cho_solve, cho_solve2, cholesky, condition_bound
+from lpik.fast.linalg import cho_solve, cho_solve2, cholesky
 from lpik.fast.ratio import limit_code, slacks
 from lpik.fast.smoothing import add_smoothing
 from lpik.fast.twins import compiled_twin
 from lpik.fast.views import matrix
-from lpik.methods import singular
+from lpik.methods import kkt, singular
 from lpik.methods.singular import CHECK_FAILED, INFEASIBLE, OK, SINGULAR
 from lpik.tolerances import (
     FULL_P,
@@ -42,6 +42,7 @@ __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kern
 _HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
             "singularity_code", "pull_room")  # fmt: skip
 _loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
+condition_bound = njit(cache=True)(kkt.condition_bound)  # lp2s's later passes
 _stop = njit(cache=True)(singular._stop)  # the safe step, INFEASIBLE
 singular_core = compiled_twin(
     singular.singular_core, _svd=jacobi_svd, loop_check=_loop_check, _stop=_stop,
@@ -108,7 +109,7 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             :data:`CHECK_FAILED` where the singular path would need HiGHS.
         max_condition: :data:`~lpik.tolerances.MAX_SCHUR_CONDITION`; or, for
             lp2s's later passes, :data:`~lpik.tolerances.SATURATION_MAX_CONDITION`,
-            checked against :func:`~lpik.fast.linalg.condition_bound` too (the
+            checked against :func:`~lpik.methods.kkt.condition_bound` too (the
             Cholesky estimate may fall short of the condition by orders of magnitude).
 
     Returns:

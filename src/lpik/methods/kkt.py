@@ -98,7 +98,10 @@ def affine_solution(
     # the condition estimate of the compiled kernel: (max / min of L's diagonal)^2
     if not diag.min() > 0 or diag.max() > math.sqrt(MAX_SCHUR_CONDITION) * diag.min():
         return None
-    if max_condition < MAX_SCHUR_CONDITION and condition_bound(S, S_factor[0]) > max_condition:
+    if (
+        max_condition < MAX_SCHUR_CONDITION
+        and condition_bound(S, S_factor[0], np.empty(len(S))) > max_condition
+    ):
         return None
     rhs = np.column_stack([J @ Hinvc[:, 0] + w_fixed, J @ Hinvc[:, 1], -problem.dw])
     lam = sla.cho_solve(S_factor, rhs)
@@ -110,15 +113,28 @@ def affine_solution(
                           smoothing=s)  # fmt: skip
 
 
-def condition_bound(S: FloatArray, L: FloatArray) -> float:
-    """``|S|_F |L^-1|_F^2`` for ``S = L L^T`` (``L`` lower): never below the condition of ``S``.
+def condition_bound(S, L, x):  # type: ignore[no-untyped-def]
+    """``|S|_F |L^-1|_F^2`` for ``S = L L^T``: never below the condition of ``S``.
 
     The Cholesky estimate ``(max L_ii / min L_ii)^2`` can fall short of the
-    condition by orders of magnitude; this bound is at most ``m^2`` times it.
-    The twin of :func:`lpik.fast.linalg.condition_bound`.
+    condition by orders of magnitude; this bound (``|S^-1|_2 <= |L^-1|_2^2``) is
+    at most ``m^2`` times it. Only ``L``'s lower triangle is read; ``x`` is a
+    scratch vector of length ``m``. Plain loops: the compiled kernel
+    (:mod:`lpik.fast.lp2_kernel`) runs this same code.
     """
-    inverse = sla.solve_triangular(np.tril(L), np.eye(len(S)), lower=True)
-    return float(np.linalg.norm(S) * np.sum(inverse * inverse))
+    m = S.shape[0]
+    norm_s, norm_inv = 0.0, 0.0
+    for i in range(m):
+        for j in range(m):
+            norm_s += S[i, j] * S[i, j]
+    for j in range(m):  # column j of L^-1: forward substitution on the unit vector e_j
+        for i in range(j, m):
+            s = 1.0 if i == j else 0.0
+            for k in range(j, i):
+                s -= L[i, k] * x[k]
+            x[i] = s / L[i, i]
+            norm_inv += x[i] * x[i]
+    return math.sqrt(norm_s) * norm_inv
 
 
 def smoothing_pull(problem: Problem) -> FloatArray:
