@@ -120,6 +120,25 @@ def test_the_highs_path_and_a_batch_name_the_same_binding() -> None:
     assert agree > 0
 
 
+def test_a_limit_that_holds_p_weakly_near_a_singularity_is_named_on_both_paths() -> None:
+    # A stretched 2-link arm (smallest singular value 1.9e-3) with multiplier 1 held
+    # in [0, 0]: that bound stops p at 0, but relaxing it by 1e-6 raises p by only
+    # 1e-10, within HiGHS's rounding. The HiGHS path once called this a singularity.
+    problem = Problem(
+        J=np.array([[-1.93530688e-03, -1.93530688e-03], [9.36353397e-07, -1.99999906e00]]),
+        dw=np.array([0.04, 0.0]), q0=np.array([0.0, 3.140625]),
+        q_min=np.full(2, -3.2), q_max=np.array([0.0, 3.140625]),
+        dq_min=np.full(2, -0.125), dq_max=np.full(2, 0.125),
+        lam_min=np.zeros(2), lam_max=np.array([0.0, 1.0]),
+    )  # fmt: skip
+    answers = [lp2(problem, path=path) for path in ("ratio-test", "highs")]
+    assert [res.p for res in answers] == [0.0, 0.0]
+    assert [str(res.binding) for res in answers] == ["multiplier 1 lower bound"] * 2
+    # and it does hold p: relaxing it alone lets the step move along the command
+    relaxed = lp2(problem.replace(lam_min=np.array([-1e-3, 0.0])), path="highs")
+    assert relaxed.p > 1e-8
+
+
 def test_recovering_and_singularity_are_named_as_values() -> None:
     arm = planar_arm([1.0, 1.0], q_min=[-1.0, -1.0], q_max=[1.0, 1.0], qd_max=1.0)
     limits = standard_limits(arm)

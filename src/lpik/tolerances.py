@@ -75,6 +75,11 @@ ACTIVE_RTOL = 1e-9
 DUAL_TOL = 1e-9
 #: Relative amount by which active limits are relaxed to find the binding one.
 RELAX = 1e-6
+#: Relaxing by RELAX times these in turn: near a singularity a limit that holds p may
+#: raise it by only 1e-4 of its relaxation, within the solver's rounding at RELAX alone.
+RELAX_SCALES = (1.0, 1e3)
+#: p must rise by more than this share of RELAX for a relaxation to have raised it.
+RELAX_GAIN = 1e-3
 
 # -------------------------------------------------------- classical methods
 #: Above this condition number the classical linear systems count as singular.

@@ -13,7 +13,7 @@ from lpik.highs import HighsSolver, LinearProgram, LpSolution
 from lpik.labels import SINGULARITY
 from lpik.problem import Problem
 from lpik.result import OPTIMAL
-from lpik.tolerances import ACTIVE_RTOL, DUAL_TOL, FULL_P, RELAX
+from lpik.tolerances import ACTIVE_RTOL, DUAL_TOL, FULL_P, RELAX, RELAX_GAIN, RELAX_SCALES
 from lpik.types import FloatArray
 
 
@@ -129,31 +129,41 @@ def _binding_after_relaxing(
 
     Only limits that hold ``p`` can bind the relaxed program, which is
     nondegenerate; a label that was not active before (another limit close by)
-    is not trusted, and ``None`` is returned. When relaxing every active limit
-    does not raise ``p``, none of them holds it: :data:`SINGULARITY`.
+    is not trusted, and ``None`` is returned. The relaxation grows by
+    :data:`~lpik.tolerances.RELAX_SCALES`: near a singularity a limit that holds
+    ``p`` raises it by only a small share of its relaxation. When no relaxation
+    of every active limit raises ``p``, none of them holds it: :data:`SINGULARITY`.
     """
+    labels = {label for _, lo, hi in active for label in (lo, hi) if label is not None}
+    for scale in RELAX_SCALES:
+        relaxed_lp = _relaxed(lp, active, RELAX * scale)
+        sol = HighsSolver().solve(relaxed_lp)
+        if sol.status != OPTIMAL:
+            return None
+        p_relaxed = float(sol.x[-1])
+        if p_relaxed > p + RELAX_GAIN * RELAX:
+            label = binding_from_duals(problem, sol, relaxed_lp, p_relaxed, n_eq, lam_slice,
+                                       relaxed=True)  # fmt: skip
+            return label if label in labels else None
+    return SINGULARITY
+
+
+def _relaxed(
+    lp: LinearProgram, active: list[tuple[int, str | None, str | None]], amount: float
+) -> LinearProgram:
+    """``lp`` with every active limit moved outward by ``amount`` times its own factor in [1, 2)."""
     col_lower, col_upper = lp.col_lower.copy(), lp.col_upper.copy()
     row_upper = lp.row_upper.copy()
     n_col = lp.A.shape[1]
-    labels: set[str] = set()
     for k, (position, lo_label, hi_label) in enumerate(active):
-        step = RELAX * (1.0 + k / len(active))
+        step = amount * (1.0 + k / len(active))
         if position >= n_col:
             row_upper[position - n_col] += step * max(1.0, abs(row_upper[position - n_col]))
         if position < n_col and lo_label is not None:
             col_lower[position] -= step * max(1.0, abs(col_lower[position]))
         if position < n_col and hi_label is not None:
             col_upper[position] += step * max(1.0, abs(col_upper[position]))
-        labels.update(label for label in (lo_label, hi_label) if label is not None)
-    relaxed_lp = LinearProgram(lp.c, lp.A, lp.row_lower, row_upper, col_lower, col_upper)
-    sol = HighsSolver().solve(relaxed_lp)
-    if sol.status != OPTIMAL:
-        return None
-    p_relaxed = float(sol.x[-1])
-    if p_relaxed <= p + 1e-3 * RELAX:
-        return SINGULARITY
-    label = binding_from_duals(problem, sol, relaxed_lp, p_relaxed, n_eq, lam_slice, relaxed=True)
-    return label if label in labels else None
+    return LinearProgram(lp.c, lp.A, lp.row_lower, row_upper, col_lower, col_upper)
 
 
 def conflict_label(problem: Problem, A_eq: FloatArray, b_eq: FloatArray, n_lam: int) -> str | None:
