@@ -8,13 +8,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from lpik.control.command import ClampedTarget, clamp_command
+from lpik.control.command import ClampedTarget, along_screw, clamp_command, commanded_displacement
 from lpik.control.log import SimulationLog
 from lpik.control.simulate import simulate
 from lpik.limits import EndStops, VelocityLimits
 from lpik.methods import ALL_METHODS, registry
 from lpik.paper.scenarios import get_scenario
 from lpik.robots.planar import planar_arm
+from lpik.robots.registry import home_configuration, load_robot
 from paper_runs import lp2_pull_in, run
 
 PULL_IN = get_scenario("pull-in")
@@ -60,6 +61,74 @@ def test_clamped_target_points_at_target_with_length_v_max_dt(paper_arm, paper_q
     np.testing.assert_allclose(dw / 0.005, to_target / np.linalg.norm(to_target))
     near = paper_arm.pose(paper_q0) + np.array([0.001, 0.0, 0.0])
     np.testing.assert_allclose(ClampedTarget(near, 0.5)(paper_arm, paper_q0, 0.01), [0.001, 0])
+
+
+@pytest.mark.parametrize("joint", range(7))
+def test_a_target_one_joints_turn_reaches_is_commanded_exactly(joint: int) -> None:
+    # Along the screw, the displacement to the pose one joint's turn reaches is that
+    # joint's Jacobian column times the angle, to rounding, on the numpy and compiled
+    # paths alike; the chord p_target - p is off by half the turn times the chord.
+    pytest.importorskip("numba")
+    from lpik.control.controller import Lp2Controller
+
+    panda = load_robot("panda", task="pose")
+    q = home_configuration("panda")
+    turned = q.copy()
+    turned[joint] += 3e-4
+    target = panda.pose(turned)
+    exact = panda.jacobian(q)[:, joint] * 3e-4
+    dw = commanded_displacement(panda, panda.pose(q), target, 0.5, 1.0, 1e-3)
+    np.testing.assert_allclose(dw, exact, rtol=0, atol=1e-15)
+    controller = Lp2Controller(panda, dt=1e-3)
+    np.testing.assert_allclose(controller.problem(q, target).dw, dw, rtol=0, atol=1e-18)
+    step = controller.step(q, target)
+    np.testing.assert_allclose(panda.jacobian(q) @ step.dq, dw, rtol=0, atol=1e-15)
+    if joint in (1, 3, 5):  # no self-motion moves this joint alone: the step is the turn
+        np.testing.assert_allclose(step.dq, turned - q, rtol=0, atol=1e-13)
+    chord = panda.difference(panda.pose(q), target)
+    assert np.abs(chord - exact).max() > 1e-9 or np.abs(exact[:3]).max() < 1e-12
+
+
+def test_along_screw_leaves_translations_and_tasks_without_both_kinds_of_rows() -> None:
+    e6 = np.array([0.3, -0.2, 0.1, 0.0, 0.0, 0.0])
+    out = e6.copy()
+    along_screw(out, np.arange(6.0))
+    np.testing.assert_array_equal(out, e6)  # no turn: the chord is the screw
+    turning = np.array([0.3, -0.2, 0.1, 0.2, -0.1, 0.4])
+    for rows in ([0.0, 1.0, 2.0], [3.0, 4.0, 5.0]):
+        out = turning.copy()
+        along_screw(out, np.array(rows))
+        np.testing.assert_array_equal(out, turning)
+    # rotation rows the task does not keep do not count: a turn about z alone
+    out = turning.copy()
+    along_screw(out, np.array([0.0, 1.0, 2.0, 5.0]))
+    expected = turning.copy()
+    expected[:3] = _screw_displacement(turning[:3], np.array([0.0, 0.0, 0.4]))
+    np.testing.assert_allclose(out, expected, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("angle", [1e-9, 1e-4, 2e-3, 0.5, 3.0])
+def test_along_screw_is_the_se3_logarithm_at_the_task_point(angle: float) -> None:
+    rng = np.random.default_rng(7)
+    axis = rng.normal(size=3)
+    phi = angle * axis / np.linalg.norm(axis)
+    dp = rng.normal(size=3)
+    out = np.concatenate([dp, phi])
+    along_screw(out, np.arange(6.0))
+    np.testing.assert_allclose(out[:3], _screw_displacement(dp, phi), rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(out[3:], phi)
+
+
+def _screw_displacement(dp: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """The independent form: the twist v with exp([v; phi]) translating by dp, V(phi) v = dp."""
+    t = np.linalg.norm(phi)
+    W = np.array([[0, -phi[2], phi[1]], [phi[2], 0, -phi[0]], [-phi[1], phi[0], 0]])
+    if t == 0.0:
+        return dp.copy()
+    a = 2 * np.sin(t / 2) ** 2 / t**2  # (1 - cos t) / t^2, without the cancellation
+    b = 1 / 6 - t**2 / 120 if t < 1e-3 else (t - np.sin(t)) / t**3
+    V = np.eye(3) + a * W + b * W @ W
+    return np.linalg.solve(V, dp)
 
 
 @pytest.mark.parametrize("v_max", [0.0, -1.0, float("nan"), float("inf")])

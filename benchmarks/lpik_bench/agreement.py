@@ -25,7 +25,7 @@ TOL_SAME_ALGORITHM = 1e-12  # rad: compiled vs numpy ratio test, batch vs single
 TOL_HIGHS = 1e-7  # relative: ratio test vs the HiGHS LP (HiGHS tolerances are 1e-10)
 TOL_DRAKE = 1e-8  # relative: Drake's QP (OSQP eps 1e-8) vs LP2 with M = I, no limit binding
 TOL_DRAKE_DEFAULT = 2e-2  # relative: the same with Drake's default OSQP tolerances (as timed)
-TOL_SE3_LOG = 5e-3  # relative: pink/mink's SE(3)-log error vs lpik's (dp, log R) error
+TOL_SE3_LOG = 1e-3  # relative: pink/mink's SE(3)-log task vs lpik's command along the screw
 
 
 @dataclass(frozen=True)
@@ -163,11 +163,14 @@ def agreement_checks(
       solver's accuracy: 1e-8 with OSQP solved to 1e-8; Drake's default OSQP
       tolerances (the timed step) are checked to 2e-2, counting the steps
       within 1e-8 in the note (the others have a bound within a fraction of a
-      percent of being active, where OSQP stops early). pink and mink solve
-      least squares on the SE(3) logarithm of the pose error in the frame's
-      local coordinates, which
-      differs from lpik's ``(dp, log(R_t R^T))`` at second order (relative
-      O(|dr|), |dr| <= 0.5 mrad here): tolerance 5e-3. The Robotics Toolbox's
+      percent of being active, where OSQP stops early). Drake and the
+      Robotics Toolbox command the chord ``p_target - p``, so they are held
+      to LP2 on that command; lpik commands the displacement along the screw
+      (:func:`lpik.control.command.along_screw`). pink and mink solve least
+      squares on the SE(3) logarithm of the pose error, the same screw, but
+      with the derivative of the logarithm as the task Jacobian, which differs
+      from ``J`` at first order in the error (relative O(|dr|), |dr| <= 0.5
+      mrad here): tolerance 1e-3. The Robotics Toolbox's
       damped least squares differs from ``J^+ dw`` by at most
       ``lambda^2 / sigma_min(J)^2`` relative, checked per step. Where a limit
       binds the libraries solve different problems and are not compared.
@@ -247,10 +250,23 @@ def agreement_checks(
     return out
 
 
+def _chord_step(controller: Any, q: FloatArray, target: FloatArray) -> FloatArray:
+    """LP2's step on the command Drake takes: the chord ``p_target - p``, not lpik's screw."""
+    from lpik.control.command import clamp_command
+    from lpik.methods.lp2 import lp2
+
+    model = controller.model
+    dw = np.array(model.difference(model.pose(q), target), dtype=np.float64)
+    clamp_command(dw, controller._row_index, controller.v_max, controller.w_max, controller.dt)
+    return lp2(controller.problem(q, target).replace(dw=dw)).dq
+
+
 def _peer_agreement(workload: Workload, controller: Any, peers: PeerSet) -> list[Agreement]:
     N = len(workload)
     results = [controller.step(workload.q[i], workload.targets[i]) for i in range(N)]
-    reference = np.array([r.dq for r in results])
+    screw = np.array([r.dq for r in results])
+    chord = np.array([_chord_step(controller, workload.q[i], workload.targets[i])
+                      for i in range(N)])  # fmt: skip
     free = np.array([r.binding is None and r.p >= 1.0 - 1e-9 for r in results])
     bound = int(N - free.sum())
     jacobians = None
@@ -263,7 +279,9 @@ def _peer_agreement(workload: Workload, controller: Any, peers: PeerSet) -> list
         checked.insert(at, drake_peer(workload, tight=True)[0])
     for peer in checked:
         dq = np.array([peer.step(workload.q[i], workload.targets[i]) for i in range(N)])
-        err = relative_errors(reference, dq)
+        # Drake's V and the Toolbox's error take the chord p_target - p; lpik, pink and
+        # mink command the screw (lpik.control.command.along_screw, the SE(3) logarithm)
+        err = relative_errors(chord if peer.library in ("drake", "rtb") else screw, dq)
         where = f"on the {int(free.sum())} of {N} steps where LP2 has p = 1"
         note = f"not compared: {bound} steps where a limit binds (different problems there)"
         if peer.library == "drake" and peer.method.endswith("(OSQP eps 1e-8)"):
@@ -278,7 +296,7 @@ def _peer_agreement(workload: Workload, controller: Any, peers: PeerSet) -> list
             )
         elif peer.library in ("pink", "mink"):
             tol = TOL_SE3_LOG
-            note += "; SE(3)-log error, second-order difference"
+            note += "; SE(3)-log error, as lpik's command along the screw"
         elif peer.library == "rtb":
             if jacobians is None:
                 jacobians = np.array([workload.model.jacobian(q) for q in workload.q])

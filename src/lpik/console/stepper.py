@@ -26,7 +26,7 @@ import numpy as np
 
 from lpik.collision.model import as_avoidance
 from lpik.console.robot import ConsoleRobot
-from lpik.control.command import clamp_command, task_rows
+from lpik.control.command import commanded_displacement
 from lpik.highs import HighsSolver
 from lpik.limits import AccelerationLimits, Limit, build_problem, standard_limits
 from lpik.methods.registry import METHODS, get_method
@@ -137,12 +137,11 @@ def _numpy(robot: ConsoleRobot, settings: Settings) -> Stepper:
     if settings.qdd_max is not None:
         limits.append(AccelerationLimits(settings.qdd_max))
     avoid = as_avoidance(model, robot.scene, robot.q0)
-    rows = task_rows(model)
     weights = {"joint_names": model.joint_names}
 
     def step(q: FloatArray, target: Any, q_prev: FloatArray | None) -> Result:
-        dw = np.array(model.difference(model.pose(q), target), dtype=np.float64)
-        clamp_command(dw, rows, settings.v_max, settings.w_max, dt)
+        dw = commanded_displacement(model, model.pose(q), target, settings.v_max,
+                                    settings.w_max, dt)  # fmt: skip
         J, step_limits, step_weights = model.jacobian(q), limits, weights
         if avoid is not None:
             step_limits = [*limits, *avoid.limits()]

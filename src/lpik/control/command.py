@@ -2,10 +2,20 @@
 
 One law serves every path: :func:`simulate`, the compiled
 :class:`~lpik.control.controller.Lp2Controller` (whose kernel compiles
-:func:`clamp_command` itself), the command line and the benchmarks. Toward a
-target, the step's displacement is ``dw = difference(pose(q), target)``,
-scaled down (as a whole, so that its direction is kept) until its linear part
-is at most ``v_max dt`` [m] and its angular part at most ``w_max dt`` [rad].
+:func:`along_screw` and :func:`clamp_command` themselves), the operator console,
+the command line and the benchmarks. Toward a target, the step's displacement
+is ``dw = difference(pose(q), target)``, scaled down (as a whole, so that its
+direction is kept) until its linear part is at most ``v_max dt`` [m] and its
+angular part at most ``w_max dt`` [rad].
+
+On a pose task that keeps position and rotation rows, the linear part is the
+task point's displacement along the screw that carries the pose to the target
+(:func:`along_screw`), not the chord between the two positions: the two differ
+by half the turn times the chord (second order in the step), which the next
+step would have to correct; near a singular configuration that correction
+takes large joint velocities (benchmarks/quality.py, scenario 5). Along the
+screw, a target that one joint's turn (or any motion of constant twist) reaches
+is commanded exactly: ``dw = J dq``.
 """
 
 from __future__ import annotations
@@ -18,6 +28,7 @@ import numpy as np
 
 from lpik.robots.base import TaskModel
 from lpik.robots.rotations import check_rotation
+from lpik.robots.tasks import pose_difference
 from lpik.types import FloatArray
 
 #: Default largest commanded linear speed of the task point [m/s].
@@ -63,6 +74,74 @@ def clamp_command(dw: FloatArray, rows: FloatArray, v_max: float, w_max: float, 
         scale = min(scale, w_max * dt / ang)
     for k in range(dw.shape[0]):
         dw[k] *= scale
+
+
+def along_screw(e6: FloatArray, rows: FloatArray) -> None:
+    """Turn a pose difference ``[dp; phi]`` (6,) into the displacement along its screw, in place.
+
+    ``dp`` becomes ``G(phi)^-1 dp``, the task point's displacement under the
+    constant twist that turns the frame by ``phi`` and carries the task point
+    by ``dp`` in unit time (the SE(3) logarithm taken at the task point: Lynch
+    and Park, *Modern Robotics*, 2017, sec. 3.3.3.2):
+    ``G^-1 = I - [phi]/2 + (1 - (t/2) cot(t/2)) / t^2 [phi]^2``, ``t = |phi|``.
+    Only the rotation rows the task keeps count in ``phi``; with none kept, or
+    no position row kept, ``e6`` is left as it is. Written in plain loops so
+    that :mod:`lpik.fast` compiles this very function.
+
+    Args:
+        e6: ``[p_target - p; log(R_target R^T)]``, (6,), changed in place.
+        rows: Index of each kept row in :data:`TASK_ROWS`, (m,).
+    """
+    wx, wy, wz, linear = 0.0, 0.0, 0.0, False
+    for k in range(rows.shape[0]):
+        row = int(rows[k])
+        if row < 3:
+            linear = True
+        elif row == 3:
+            wx = e6[3]
+        elif row == 4:
+            wy = e6[4]
+        else:
+            wz = e6[5]
+    t2 = wx * wx + wy * wy + wz * wz
+    if not linear or t2 == 0.0:
+        return
+    t = math.sqrt(t2)
+    if t < 1e-3:
+        c = 1.0 / 12.0 + t2 / 720.0
+    else:
+        half = 0.5 * t
+        c = (1.0 - half * math.cos(half) / math.sin(half)) / t2
+    dx, dy, dz = e6[0], e6[1], e6[2]
+    ax, ay, az = wy * dz - wz * dy, wz * dx - wx * dz, wx * dy - wy * dx  # phi x dp
+    bx, by, bz = wy * az - wz * ay, wz * ax - wx * az, wx * ay - wy * ax  # phi x (phi x dp)
+    e6[0] = dx - 0.5 * ax + c * bx
+    e6[1] = dy - 0.5 * ay + c * by
+    e6[2] = dz - 0.5 * az + c * bz
+
+
+def commanded_displacement(
+    model: TaskModel, pose: Any, target: Any, v_max: float, w_max: float, dt: float
+) -> FloatArray:
+    """The step's ``dw`` from the task value ``pose`` at ``q`` towards ``target`` (the law above).
+
+    Args:
+        model: The task model.
+        pose: ``model.pose(q)``.
+        target: The commanded task value (what ``model.pose`` returns).
+        v_max: Largest linear speed [m/s].
+        w_max: Largest angular speed [rad/s].
+        dt: Control period [s].
+    """
+    rows = task_rows(model)
+    if getattr(model, "KIND", None) == "pose":
+        full = pose_difference(pose, target)
+        along_screw(full, rows)
+        dw = full[rows.astype(np.intp)]
+    else:
+        dw = np.array(model.difference(pose, target), dtype=np.float64)
+    clamp_command(dw, rows, v_max, w_max, dt)
+    return dw
 
 
 class CommandLaw(Protocol):
@@ -118,6 +197,5 @@ class ClampedTarget:
 
     def __call__(self, model: TaskModel, q: FloatArray, dt: float) -> FloatArray:
         """The clamped displacement toward the target for one step of ``dt`` [s]."""
-        dw = np.array(model.difference(model.pose(q), self.target), dtype=np.float64)
-        clamp_command(dw, task_rows(model), self.v_max, self.w_max, dt)
-        return dw
+        return commanded_displacement(model, model.pose(q), self.target, self.v_max,
+                                      self.w_max, dt)  # fmt: skip

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik.control.backend_step import fuses_kinematics, step_functions
-from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, clamp_command, task_rows
+from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, commanded_displacement, task_rows
 from lpik.control.controller_steps import auto_bound_block, batch_steps, bounded_step, highs_step
 from lpik.control.inputs import (
     chain_arrays,
@@ -379,15 +379,16 @@ class Lp2Controller:
         """The step's :class:`~lpik.problem.Problem`, built by the pure-numpy layers.
 
         The command is the one law of :mod:`lpik.control.command`: the
-        difference to the target, clamped to ``v_max dt`` and ``w_max dt``.
+        displacement to the target (along the screw on a pose task), clamped
+        to ``v_max dt`` and ``w_max dt``.
         """
         q0 = np.asarray(q0, dtype=np.float64)
         for name, value in (("q0", q0), ("q_prev", q_prev), ("target", target)):
             if value is not None and not np.isfinite(np.asarray(value, dtype=np.float64)).all():
                 raise ValueError(f"{name}: contains NaN or inf")
         model = self.model
-        dw = np.array(model.difference(model.pose(q0), task_value(model, target)), dtype=float)
-        clamp_command(dw, self._row_index, self.v_max, self.w_max, self.dt)
+        dw = commanded_displacement(model, model.pose(q0), task_value(model, target), self.v_max,
+                                    self.w_max, self.dt)  # fmt: skip
         return self._problem(
             model.jacobian(q0),
             dw,

@@ -1,16 +1,17 @@
 """One fused LP2 control step, compiled: kinematics, command, limits and LP2 in one call.
 
-:func:`chain_step` does for a task over a :class:`~lpik.robots.chain.SerialChain`
-what :func:`lpik.limits.build_problem` and :func:`lpik.methods.lp2.lp2` do
-through the numpy layers: the pose and Jacobian at ``q0``, the commanded
-displacement ``dw`` of eq. 2 (clamped by :func:`lpik.control.command.clamp_command`,
-compiled here), the bounds on ``dq`` from end-stops, velocity and acceleration
-limits (eqs. 13-14), the criterion's ``c`` (eq. 3, sec. 3.1) and LP2's ratio
-test (eqs. 15-18), and under the automatic multiplier bound
-(:mod:`lpik.control.autobound`, sec. 3.2) what ``simulate`` does after an
-unbounded step with ``p < 1``: the rule, and LP2 again under its bound
-(:func:`bounded_again`). Everything it reads and writes lives in one state
-buffer (:mod:`lpik.fast.layout`).
+:func:`chain_step` does for a task over a
+:class:`~lpik.robots.chain.SerialChain` what :func:`lpik.limits.build_problem`
+and :func:`lpik.methods.lp2.lp2` do through the numpy layers: the pose and
+Jacobian at ``q0``, the commanded displacement ``dw`` of eq. 2 (the law of
+:mod:`lpik.control.command`: :func:`~lpik.control.command.along_screw` and
+:func:`~lpik.control.command.clamp_command`, compiled here), the bounds on
+``dq`` from end-stops, velocity and acceleration limits (eqs. 13-14), the
+criterion's ``c`` (eq. 3, sec. 3.1) and LP2's ratio test (eqs. 15-18), and
+under the automatic multiplier bound (:mod:`lpik.control.autobound`, sec. 3.2)
+what ``simulate`` does after an unbounded step with ``p < 1``: the rule, and
+LP2 again under its bound (:func:`bounded_again`). Everything it reads and
+writes lives in one state buffer (:mod:`lpik.fast.layout`).
 
 :func:`step_kernel` compiles the step on first use (or loads it from the disk
 cache) for its explicit signatures only: a call with other types raises
@@ -27,6 +28,7 @@ from typing import Any
 from numba import njit, prange
 
 from lpik import bands
+from lpik.control.command import along_screw as _along_screw
 from lpik.control.command import clamp_command as _clamp_command
 from lpik.fast import layout as L
 from lpik.fast.autobound import bound_in_state
@@ -41,6 +43,8 @@ BAD_INPUT = 4
 
 #: The one command law (:func:`lpik.control.command.clamp_command`), compiled.
 clamp_command = njit(cache=True)(_clamp_command)
+#: Its displacement along the screw (:func:`lpik.control.command.along_screw`), compiled.
+along_screw = njit(cache=True)(_along_screw)
 
 
 _yield_to = njit(cache=True)(bands.yield_to)
@@ -270,6 +274,7 @@ def task_step(state, q0, q_prev, target):
     e6 = L.vector(state, L.ERROR6)
     pose_error(T, goal, e6, L.vector(state, L.LOG_SCRATCH))
     rows = L.vector(state, L.ROW_INDEX)
+    along_screw(e6, rows)
     J = L.matrix_at(state, L.JACOBIAN, m, n)
     dw = L.vector(state, L.DW)
     for k in range(m):

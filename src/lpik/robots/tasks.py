@@ -216,9 +216,7 @@ class PoseTask(_Task):
 
     def difference(self, a: ArrayLike, b: ArrayLike) -> FloatArray:
         """Translation [m] then rotation vector [rad] from ``a`` to ``b``, kept rows."""
-        ta, tb = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-        full = np.concatenate((tb[:3, 3] - ta[:3, 3], log_so3(tb[:3, :3] @ ta[:3, :3].T)))
-        return self._select(full)
+        return self._select(pose_difference(a, b))
 
     def jacobian(self, q: ArrayLike) -> FloatArray:
         """World-aligned geometric Jacobian at the task point, kept rows, (m, n)."""
@@ -234,6 +232,12 @@ class PoseTask(_Task):
         phi = log_so3(pose[:3, :3] @ np.asarray(a, dtype=float)[:3, :3].T)
         full = np.vstack((jac[:3], left_jacobian_inverse(phi) @ jac[3:]))
         return self._select(full)
+
+
+def pose_difference(a: ArrayLike, b: ArrayLike) -> FloatArray:
+    """All six rows of :meth:`PoseTask.difference`: ``[p_b - p_a; log(R_b R_a^T)]``, (6,)."""
+    ta, tb = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return np.concatenate((tb[:3, 3] - ta[:3, 3], log_so3(tb[:3, :3] @ ta[:3, :3].T)))
 
 
 TASKS = {"position": PositionTask, "orientation": OrientationTask, "pose": PoseTask}
