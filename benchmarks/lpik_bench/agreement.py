@@ -25,7 +25,7 @@ TOL_SAME_ALGORITHM = 1e-12  # rad: compiled vs numpy ratio test, batch vs single
 TOL_HIGHS = 1e-7  # relative: ratio test vs the HiGHS LP (HiGHS tolerances are 1e-10)
 TOL_DRAKE = 1e-8  # relative: Drake's QP (OSQP eps 1e-8) vs LP2 with M = I, no limit binding
 TOL_DRAKE_DEFAULT = 2e-2  # relative: the same with Drake's default OSQP tolerances (as timed)
-TOL_SE3_LOG = 1e-3  # relative: pink/mink's SE(3)-log task vs lpik's command along the screw
+TOL_SE3_LOG = 5e-3  # relative: pink/mink's SE(3)-log task vs lpik's command along the screw
 
 
 @dataclass(frozen=True)
@@ -170,7 +170,7 @@ def agreement_checks(
       squares on the SE(3) logarithm of the pose error, the same screw, but
       with the derivative of the logarithm as the task Jacobian, which differs
       from ``J`` at first order in the error (relative O(|dr|), |dr| <= 0.5
-      mrad here): tolerance 1e-3. The Robotics Toolbox's
+      mrad here), and daqp stops at its own tolerance: 5e-3. The Robotics Toolbox's
       damped least squares differs from ``J^+ dw`` by at most
       ``lambda^2 / sigma_min(J)^2`` relative, checked per step. Where a limit
       binds the libraries solve different problems and are not compared.
