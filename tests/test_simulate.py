@@ -92,16 +92,16 @@ def test_a_target_one_joints_turn_reaches_is_commanded_exactly(joint: int) -> No
 def test_along_screw_leaves_translations_and_tasks_without_both_kinds_of_rows() -> None:
     e6 = np.array([0.3, -0.2, 0.1, 0.0, 0.0, 0.0])
     out = e6.copy()
-    along_screw(out, np.arange(6.0))
+    assert not along_screw(out, np.arange(6.0), 0.5)
     np.testing.assert_array_equal(out, e6)  # no turn: the chord is the screw
     turning = np.array([0.3, -0.2, 0.1, 0.2, -0.1, 0.4])
     for rows in ([0.0, 1.0, 2.0], [3.0, 4.0, 5.0]):
         out = turning.copy()
-        along_screw(out, np.array(rows))
+        assert not along_screw(out, np.array(rows), 1.0)
         np.testing.assert_array_equal(out, turning)
     # rotation rows the task does not keep do not count: a turn about z alone
     out = turning.copy()
-    along_screw(out, np.array([0.0, 1.0, 2.0, 5.0]))
+    assert along_screw(out, np.array([0.0, 1.0, 2.0, 5.0]), 1.0)
     expected = turning.copy()
     expected[:3] = _screw_displacement(turning[:3], np.array([0.0, 0.0, 0.4]))
     np.testing.assert_allclose(out, expected, rtol=0, atol=1e-15)
@@ -113,10 +113,36 @@ def test_along_screw_is_the_se3_logarithm_at_the_task_point(angle: float) -> Non
     axis = rng.normal(size=3)
     phi = angle * axis / np.linalg.norm(axis)
     dp = rng.normal(size=3)
-    out = np.concatenate([dp, phi])
-    along_screw(out, np.arange(6.0))
+    out = np.concatenate([dp, phi]) / 0.25
+    assert along_screw(out, np.arange(6.0), 0.25)  # the clamp's factor first, then the screw
     np.testing.assert_allclose(out[:3], _screw_displacement(dp, phi), rtol=1e-12, atol=1e-15)
-    np.testing.assert_array_equal(out[3:], phi)
+    np.testing.assert_allclose(out[3:], phi, rtol=1e-15, atol=0)
+
+
+def test_a_far_target_is_approached_along_the_chord_each_step_along_its_screw() -> None:
+    # Clamped, the step goes to the pose a clamped chord-and-turn reaches, along that
+    # step's own screw: far from the target the tool still heads straight for it.
+    panda = load_robot("panda", task="pose")
+    q = home_configuration("panda")
+    pose = panda.pose(q)
+    turned = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # 90 deg about z
+    target = pose.copy()
+    target[:3, :3] = turned @ pose[:3, :3]
+    target[:3, 3] += [0.3, -0.2, 0.1]
+    dw = commanded_displacement(panda, pose, target, 0.5, 1.0, 1e-3)
+    chord = panda.difference(pose, target)
+    np.testing.assert_allclose(
+        dw[3:] / np.linalg.norm(dw[3:]), chord[3:] / np.linalg.norm(chord[3:])
+    )
+    assert np.linalg.norm(dw[:3]) <= 0.5e-3 * (1 + 1e-12) and np.linalg.norm(dw[3:]) <= 1e-3
+    heading = dw[:3] @ chord[:3] / (np.linalg.norm(dw[:3]) * np.linalg.norm(chord[:3]))
+    assert 1 - heading < 1e-6  # within a milliradian-sized step's screw of the chord
+    full_screw = np.concatenate([chord[:3], chord[3:]])
+    assert along_screw(full_screw, np.arange(6.0), 1.0)  # the whole move's screw heads off
+    whole = (
+        full_screw[:3] @ chord[:3] / (np.linalg.norm(full_screw[:3]) * np.linalg.norm(chord[:3]))
+    )
+    assert 1 - whole > 1e-2
 
 
 def _screw_displacement(dp: np.ndarray, phi: np.ndarray) -> np.ndarray:

@@ -8,14 +8,16 @@ is ``dw = difference(pose(q), target)``, scaled down (as a whole, so that its
 direction is kept) until its linear part is at most ``v_max dt`` [m] and its
 angular part at most ``w_max dt`` [rad].
 
-On a pose task that keeps position and rotation rows, the linear part is the
-task point's displacement along the screw that carries the pose to the target
-(:func:`along_screw`), not the chord between the two positions: the two differ
-by half the turn times the chord (second order in the step), which the next
-step would have to correct; near a singular configuration that correction
-takes large joint velocities (benchmarks/quality.py, scenario 5). Along the
-screw, a target that one joint's turn (or any motion of constant twist) reaches
-is commanded exactly: ``dw = J dq``.
+On a pose task that keeps position and rotation rows, the step goes to that
+clamped pose (the chord and the turn scaled alike) along its own screw
+(:func:`along_screw`): the linear part is the task point's displacement under
+the constant twist that reaches it, not the chord, which is off by half the
+turn times the chord (second order in the step). The next step would have to
+correct that, and near a singular configuration the correction takes large
+joint velocities (benchmarks/quality.py, scenario 5). A target that one joint's
+turn (or any motion of constant twist) reaches within a step is thus commanded
+exactly, ``dw = J dq``, while a far target is still approached along the
+straight line (the chord, and the rotation vector) as the clamp leaves it.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ def task_rows(model: TaskModel) -> FloatArray:
     return np.array([TASK_ROWS.index(name) for name in names], dtype=np.float64)
 
 
-def clamp_command(dw: FloatArray, rows: FloatArray, v_max: float, w_max: float, dt: float) -> None:
+def clamp_command(dw: FloatArray, rows: FloatArray, v_max: float, w_max: float, dt: float) -> float:
     """Scale ``dw`` in place: linear part at most ``v_max dt``, angular part at most ``w_max dt``.
 
     The whole displacement is scaled by one factor, so that its direction is kept.
@@ -59,6 +61,9 @@ def clamp_command(dw: FloatArray, rows: FloatArray, v_max: float, w_max: float, 
         v_max: Largest linear speed [m/s].
         w_max: Largest angular speed [rad/s].
         dt: Control period [s].
+
+    Returns:
+        The factor, in (0, 1].
     """
     lin, ang = 0.0, 0.0
     for k in range(dw.shape[0]):
@@ -74,23 +79,29 @@ def clamp_command(dw: FloatArray, rows: FloatArray, v_max: float, w_max: float, 
         scale = min(scale, w_max * dt / ang)
     for k in range(dw.shape[0]):
         dw[k] *= scale
+    return scale
 
 
-def along_screw(e6: FloatArray, rows: FloatArray) -> None:
-    """Turn a pose difference ``[dp; phi]`` (6,) into the displacement along its screw, in place.
+def along_screw(e6: FloatArray, rows: FloatArray, scale: float) -> bool:
+    """The step ``scale [dp; phi]`` of a pose difference, along its own screw, in place.
 
-    ``dp`` becomes ``G(phi)^-1 dp``, the task point's displacement under the
-    constant twist that turns the frame by ``phi`` and carries the task point
-    by ``dp`` in unit time (the SE(3) logarithm taken at the task point: Lynch
-    and Park, *Modern Robotics*, 2017, sec. 3.3.3.2):
+    ``e6`` is scaled by ``scale`` (the command's clamp, :func:`clamp_command`),
+    and then ``dp`` becomes ``G(phi)^-1 dp``: the task point's displacement
+    under the constant twist that turns the frame by ``phi`` and carries the
+    task point by ``dp`` in unit time (the SE(3) logarithm taken at the task
+    point: Lynch and Park, *Modern Robotics*, 2017, sec. 3.3.3.2),
     ``G^-1 = I - [phi]/2 + (1 - (t/2) cot(t/2)) / t^2 [phi]^2``, ``t = |phi|``.
-    Only the rotation rows the task keeps count in ``phi``; with none kept, or
-    no position row kept, ``e6`` is left as it is. Written in plain loops so
-    that :mod:`lpik.fast` compiles this very function.
+    Only the rotation rows the task keeps count in ``phi``. Written in plain
+    loops so that :mod:`lpik.fast` compiles this very function.
 
     Args:
         e6: ``[p_target - p; log(R_target R^T)]``, (6,), changed in place.
         rows: Index of each kept row in :data:`TASK_ROWS`, (m,).
+        scale: The command's clamp factor.
+
+    Returns:
+        False, and ``e6`` unchanged, when the task keeps no position row or the
+        kept rows do not turn the frame: then the step's screw is its chord.
     """
     wx, wy, wz, linear = 0.0, 0.0, 0.0, False
     for k in range(rows.shape[0]):
@@ -105,7 +116,10 @@ def along_screw(e6: FloatArray, rows: FloatArray) -> None:
             wz = e6[5]
     t2 = wx * wx + wy * wy + wz * wz
     if not linear or t2 == 0.0:
-        return
+        return False
+    for a in range(6):
+        e6[a] *= scale
+    wx, wy, wz, t2 = scale * wx, scale * wy, scale * wz, scale * scale * t2
     t = math.sqrt(t2)
     if t < 1e-3:
         c = 1.0 / 12.0 + t2 / 720.0
@@ -118,6 +132,7 @@ def along_screw(e6: FloatArray, rows: FloatArray) -> None:
     e6[0] = dx - 0.5 * ax + c * bx
     e6[1] = dy - 0.5 * ay + c * by
     e6[2] = dz - 0.5 * az + c * bz
+    return True
 
 
 def commanded_displacement(
@@ -134,13 +149,15 @@ def commanded_displacement(
         dt: Control period [s].
     """
     rows = task_rows(model)
-    if getattr(model, "KIND", None) == "pose":
-        full = pose_difference(pose, target)
-        along_screw(full, rows)
-        dw = full[rows.astype(np.intp)]
-    else:
+    if getattr(model, "KIND", None) != "pose":
         dw = np.array(model.difference(pose, target), dtype=np.float64)
-    clamp_command(dw, rows, v_max, w_max, dt)
+        clamp_command(dw, rows, v_max, w_max, dt)
+        return dw
+    full, kept = pose_difference(pose, target), rows.astype(np.intp)
+    dw = full[kept]
+    if along_screw(full, rows, clamp_command(dw, rows, v_max, w_max, dt)):
+        dw = full[kept]
+        clamp_command(dw, rows, v_max, w_max, dt)  # the screw may lengthen dp by O(t^2)
     return dw
 
 

@@ -99,7 +99,7 @@ BLOCKS = (
     Block(GOAL, "goal", (4, 4), "the commanded pose"),
     Block(FRAME, "frame", (4, 4), "the task frame at q0"),
     Block(JACOBIAN6, "jacobian6", (6, "n"), "the world-aligned Jacobian [v; omega]"),
-    Block(ERROR6, "error6", (6,), "the pose error [dp; log(R_goal R^T)], dp along the screw"),
+    Block(ERROR6, "error6", (6,), "the pose error [dp; log(R_goal R^T)], then the step's screw"),
     Block(JACOBIAN, "jacobian", ("m", "n"), "the task rows of the Jacobian"),
     Block(JOINTS, "joints", (2, "n", 3), "each joint's position and world axis"),
     Block(LOG_SCRATCH, "log_scratch", (POSE_ERROR_SCRATCH,), "scratch of the pose error"),

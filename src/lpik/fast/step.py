@@ -274,7 +274,6 @@ def task_step(state, q0, q_prev, target):
     e6 = L.vector(state, L.ERROR6)
     pose_error(T, goal, e6, L.vector(state, L.LOG_SCRATCH))
     rows = L.vector(state, L.ROW_INDEX)
-    along_screw(e6, rows)
     J = L.matrix_at(state, L.JACOBIAN, m, n)
     dw = L.vector(state, L.DW)
     for k in range(m):
@@ -282,7 +281,11 @@ def task_step(state, q0, q_prev, target):
         dw[k] = e6[row]
         for i in range(n):
             J[k, i] = J6[row, i]
-    clamp_command(dw, rows, state[L.V_MAX], state[L.W_MAX], state[L.DT])
+    v_max, w_max, dt = state[L.V_MAX], state[L.W_MAX], state[L.DT]
+    if along_screw(e6, rows, clamp_command(dw, rows, v_max, w_max, dt)):
+        for k in range(m):  # the clamped step along its own screw (lpik.control.command)
+            dw[k] = e6[int(rows[k])]
+        clamp_command(dw, rows, v_max, w_max, dt)
     position = L.vector(state, L.POSITION)
     for a in range(3):
         position[a] = T[a, 3]
