@@ -130,6 +130,32 @@ def test_metrics_of_known_runs() -> None:
     far = np.array([model.pose(q[-1])] * n_steps)  # the target where the jump went
     m = scenario_metrics(model, (_leg(far, q0),), [still], dt, None)
     assert "acceleration" not in m.violations and m.frozen == n_steps
+    assert m.frozen_without_direction is None  # a peer's row: not asked
+
+
+def test_frozen_steps_without_an_exact_direction_are_those_where_lp1_has_p_0() -> None:
+    # The Panda in a vertical plane (joints 1, 3, 5 at 0) with joint 2 at its lower
+    # end-stop cannot move its tool along -x at all (LP1's p is 0: scenario 2's stall),
+    # but can along +z. A run that stands still is frozen on both targets, and only
+    # the first has no exact direction.
+    from lpik.control.controller import Lp2Controller
+    from lpik.methods.lp1 import lp1
+
+    model = load_robot("panda", task="pose")
+    controller = Lp2Controller(model, dt=1e-3)
+    q0 = np.array([0.0, model.q_min[1], 0.0, -2.48, 0.0, 0.72, 0.79])
+    stuck, free = model.pose(q0), model.pose(q0)
+    stuck[0, 3] -= 0.05
+    free[2, 3] += 0.05
+
+    def direction(q: np.ndarray, prev: np.ndarray, target: np.ndarray) -> float:
+        return float(lp1(controller.problem(q, target, prev)).p)
+
+    n_steps = 20
+    still = LegRun(np.array([q0] * (n_steps + 1)), np.ones(n_steps, dtype=np.int64))
+    m = scenario_metrics(model, (_leg(np.array([stuck] * 12 + [free] * 8), q0),), [still],
+                         1e-3, None, direction)  # fmt: skip
+    assert m.frozen == n_steps and m.frozen_without_direction == 12
 
 
 def test_docs_quality_is_generated_by_the_suite() -> None:

@@ -56,6 +56,9 @@ DEFAULT_VARIANT = "lp2s"
 
 #: ``step(q, q_prev, target) -> (dq, p, status, binding, ns)``: one timed step.
 StepCall = Callable[[FloatArray, FloatArray, FloatArray], tuple]
+#: ``direction(q, q_prev, target) -> p``: LP1's p on the step's problem, the largest
+#: fraction of the command that any step within the limits follows exactly.
+DirectionCall = Callable[[FloatArray, FloatArray, FloatArray], float]
 
 
 @dataclass(eq=False)
@@ -67,6 +70,8 @@ class Contender:
         step: One timed step (see :data:`StepCall`).
         acceleration_limited: Whether it claims to hold :data:`~lpik_bench.workload.QDD_MAX`.
         note: How it is set up.
+        direction: lpik's: the largest ``p`` of any step within the limits (LP1), for
+            the frozen steps (see :data:`DirectionCall`).
     """
 
     name: str
@@ -74,6 +79,7 @@ class Contender:
     step: StepCall
     acceleration_limited: bool = False
     note: str = ""
+    direction: DirectionCall | None = None
 
     @property
     def is_lpik(self) -> bool:
@@ -86,6 +92,7 @@ def lpik_contenders(
 ) -> tuple[list[Contender], list[str]]:
     """lpik's variants by name, and a note for each one the installed lpik cannot build."""
     from lpik.control.controller import Lp2Controller
+    from lpik.methods.lp1 import lp1
 
     out, notes = [], []
     for name in names:
@@ -102,8 +109,13 @@ def lpik_contenders(
             ns = time.perf_counter_ns() - t0
             return result.q - q, result.p, result.status, result.binding, ns
 
+        def direction(q: FloatArray, prev: FloatArray, target: FloatArray, c: Any = controller
+                      ) -> float:  # fmt: skip
+            return float(lp1(c.problem(q, target, prev)).p)
+
         args = ", ".join(f"{k}={v!r}" for k, v in kwargs.items()) or "default arguments"
-        out.append(Contender(name, "lpik", step, "qdd_max" in kwargs, f"Lp2Controller({args})"))
+        out.append(Contender(name, "lpik", step, "qdd_max" in kwargs, f"Lp2Controller({args})",
+                             direction))  # fmt: skip
     return out, notes
 
 
@@ -227,7 +239,7 @@ def run_suite(
             runs = [run_leg(c, leg) for leg in scenario.legs]
             check = c.acceleration_limited or scenario.acceleration_checked
             result.rows[c.name] = scenario_metrics(
-                model, scenario.legs, runs, dt, QDD_MAX if check else None
+                model, scenario.legs, runs, dt, QDD_MAX if check else None, c.direction
             )
             if c.is_lpik:
                 result.lpik.add(c.name)

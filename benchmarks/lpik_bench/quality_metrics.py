@@ -21,13 +21,17 @@ every library is measured by the same code:
 - recovery (runs with a final hold): whether the error stays within
   :data:`TRACK_TOL` over the last :data:`RECOVERY_WINDOW` steps, how long after
   the target's return it got there, and the jitter while the target was out of reach;
-- lpik only: ``p`` (mean, share of ``p = 0``), statuses, binding limits;
+- lpik only: ``p`` (mean, share of ``p = 0``), statuses, binding limits, and
+  how many frozen steps have no exact direction at all (LP1's ``p``, the
+  largest of any step within the limits, is 0: a step that keeps the command's
+  direction cannot move there);
 - the time of each step call [us].
 """
 
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -95,6 +99,7 @@ class Metrics:
     acc_max: float = 0.0
     violations: dict[str, tuple[int, float]] = field(default_factory=dict)
     frozen: int = 0
+    frozen_without_direction: int | None = None
     failed: int = 0
     first_failure: str | None = None
     recoveries: list[Recovery] = field(default_factory=list)
@@ -173,7 +178,12 @@ def _violations(
 
 
 def scenario_metrics(
-    model: PoseTask, legs: tuple[Leg, ...], runs: list[LegRun], dt: float, qdd: float | None
+    model: PoseTask,
+    legs: tuple[Leg, ...],
+    runs: list[LegRun],
+    dt: float,
+    qdd: float | None,
+    direction: Callable[[FloatArray, FloatArray, FloatArray], float] | None = None,
 ) -> Metrics:
     """The metrics of one library over the legs of a scenario.
 
@@ -182,8 +192,11 @@ def scenario_metrics(
         legs: The scenario's legs. runs: The library's run of each.
         dt: Control period [s].
         qdd: Acceleration limit to check [rad/s^2], or None.
+        direction: ``direction(q, q_prev, target)``, the largest ``p`` of any step
+            within the limits (lpik's rows); the frozen steps where it is 0 are
+            counted in :attr:`Metrics.frozen_without_direction`.
     """
-    m = Metrics()
+    m = Metrics(frozen_without_direction=None if direction is None else 0)
     pos_all, ori_all, times, ps = [], [], [], []
     high = total = 0.0
     statuses: Counter[str] = Counter()
@@ -208,7 +221,12 @@ def scenario_metrics(
             m.violations[kind] = (old[0] + count, max(old[1], worst))
         moving = np.abs(dq).max(axis=1) > FROZEN_DQ
         far = (before[0] > TRACK_TOL[0]) | (before[1] > TRACK_TOL[1])
-        m.frozen += int((ok & far & ~moving).sum())
+        frozen = np.flatnonzero(ok & far & ~moving)
+        m.frozen += int(frozen.size)
+        if direction is not None:  # the run starts at rest: q_prev of step 0 is q(0)
+            m.frozen_without_direction += sum(
+                direction(q[k], q[max(k - 1, 0)], leg.targets[k]) <= 0.0 for k in frozen
+            )
         m.failed += run.failed
         m.first_failure = m.first_failure or run.first_failure
         if leg.settle_from is not None:

@@ -170,8 +170,9 @@ def scenario_table(result: ScenarioResult) -> list[str]:
 def lpik_table(result: ScenarioResult) -> list[str]:
     """lpik's variants: mean p, share of p = 0, statuses, the binding limits seen most."""
     lines = [
-        "| lpik variant | mean p | p = 0 [%] | statuses | binding limits (top 3, steps) |",
-        "|---|---:|---:|---|---|",
+        "| lpik variant | mean p | p = 0 [%] | frozen, no exact direction | statuses "
+        "| binding limits (top 3, steps) |",
+        "|---|---:|---:|---:|---|---|",
     ]
     for name in result.rows:
         if name not in result.lpik:
@@ -179,7 +180,9 @@ def lpik_table(result: ScenarioResult) -> list[str]:
         m = result.rows[name]
         statuses = ", ".join(f"{s} {c:,}" for s, c in m.statuses.items())
         bindings = "; ".join(f"{b} ({c:,})" for b, c in m.bindings) or "none"
-        lines.append(f"| {name} | {m.p_mean:.3f} | {fmt(m.p_zero)} | {statuses} | {bindings} |")
+        none = "-" if m.frozen_without_direction is None else f"{m.frozen_without_direction:,}"
+        lines.append(f"| {name} | {m.p_mean:.3f} | {fmt(m.p_zero)} | {none} of {m.frozen:,} "
+                     f"| {statuses} | {bindings} |")  # fmt: skip
     return lines
 
 
@@ -377,7 +380,11 @@ def intro(suite: SuiteResult) -> list[str]:
         f"{FROZEN_DQ:g} rad. **Recovered** (scenario 2): within those tolerances over the "
         f"last {RECOVERY_WINDOW} steps of the final hold.",
         "- **lpik**: `p` (mean, share of steps with p = 0), statuses and the binding limits "
-        "seen most. **Step time**: the library's step call alone, median / p99 / max [us]. "
+        "seen most; of the frozen steps, those with no exact direction at all: LP1's `p` (the "
+        "largest fraction of the command that any step within the limits follows exactly) is "
+        "0 there, so no step that keeps the commanded direction can move, and only leaving it "
+        "(the opt-in `on_stall` progress step) makes progress. **Step time**: the library's "
+        "step call alone, median / p99 / max [us]. "
         "The machine is a shared 2-core virtual machine on which other work ran at the same "
         "time: step times are noisy (the max most of all) and only their order of magnitude "
         "is a finding here; docs/benchmarks.md has careful timings.",
