@@ -2,7 +2,7 @@
 
 One law serves every path: :func:`simulate`, the compiled
 :class:`~lpik.control.controller.Lp2Controller` (whose kernel compiles
-:func:`along_screw` and :func:`clamp_command` themselves), the operator console,
+:func:`command_rows` itself), the operator console,
 the command line and the benchmarks. Toward a target, the step's displacement
 is ``dw = difference(pose(q), target)``, scaled down (as a whole, so that its
 direction is kept) until its linear part is at most ``v_max dt`` [m] and its
@@ -135,6 +135,31 @@ def along_screw(e6: FloatArray, rows: FloatArray, scale: float) -> bool:
     return True
 
 
+def command_rows(
+    e6: FloatArray, rows: FloatArray, dw: FloatArray, v_max: float, w_max: float, dt: float
+) -> None:
+    """``dw``: the kept rows of the pose difference ``e6``, clamped, along the step's own screw.
+
+    The whole law on a pose difference, in plain loops: the fused step
+    compiles this very function (with :func:`clamp_command` and
+    :func:`along_screw` compiled), and :func:`commanded_displacement` runs it.
+
+    Args:
+        e6: ``[p_target - p; log(R_target R^T)]``, (6,); changed in place.
+        rows: Index of each kept row in :data:`TASK_ROWS`, (m,).
+        dw: Receives the commanded displacement, (m,).
+        v_max: Largest linear speed [m/s].
+        w_max: Largest angular speed [rad/s].
+        dt: Control period [s].
+    """
+    for k in range(rows.shape[0]):
+        dw[k] = e6[int(rows[k])]
+    if along_screw(e6, rows, clamp_command(dw, rows, v_max, w_max, dt)):
+        for k in range(rows.shape[0]):
+            dw[k] = e6[int(rows[k])]
+        clamp_command(dw, rows, v_max, w_max, dt)  # the screw may lengthen dp by O(t^2)
+
+
 def commanded_displacement(
     model: TaskModel, pose: Any, target: Any, v_max: float, w_max: float, dt: float
 ) -> FloatArray:
@@ -153,11 +178,8 @@ def commanded_displacement(
         dw = np.array(model.difference(pose, target), dtype=np.float64)
         clamp_command(dw, rows, v_max, w_max, dt)
         return dw
-    full, kept = pose_difference(pose, target), rows.astype(np.intp)
-    dw = full[kept]
-    if along_screw(full, rows, clamp_command(dw, rows, v_max, w_max, dt)):
-        dw = full[kept]
-        clamp_command(dw, rows, v_max, w_max, dt)  # the screw may lengthen dp by O(t^2)
+    dw = np.empty(rows.size)
+    command_rows(pose_difference(pose, target), rows, dw, v_max, w_max, dt)
     return dw
 
 

@@ -4,14 +4,14 @@
 :class:`~lpik.robots.chain.SerialChain` what :func:`lpik.limits.build_problem`
 and :func:`lpik.methods.lp2.lp2` do through the numpy layers: the pose and
 Jacobian at ``q0``, the commanded displacement ``dw`` of eq. 2 (the law of
-:mod:`lpik.control.command`: :func:`~lpik.control.command.along_screw` and
-:func:`~lpik.control.command.clamp_command`, compiled here), the bounds on
-``dq`` from end-stops, velocity and acceleration limits (eqs. 13-14), the
-criterion's ``c`` (eq. 3, sec. 3.1) and LP2's ratio test (eqs. 15-18), and
-under the automatic multiplier bound (:mod:`lpik.control.autobound`, sec. 3.2)
-what ``simulate`` does after an unbounded step with ``p < 1``: the rule, and
-LP2 again under its bound (:func:`bounded_again`). Everything it reads and
-writes lives in one state buffer (:mod:`lpik.fast.layout`).
+:mod:`lpik.control.command`: :func:`~lpik.control.command.command_rows`,
+compiled here), the bounds on ``dq`` from end-stops, velocity and acceleration
+limits (eqs. 13-14), the criterion's ``c`` (eq. 3, sec. 3.1) and LP2's ratio
+test (eqs. 15-18), and under the automatic multiplier bound
+(:mod:`lpik.control.autobound`, sec. 3.2) what ``simulate`` does after an
+unbounded step with ``p < 1``: the rule, and LP2 again under its bound
+(:func:`bounded_again`). Everything it reads and writes lives in one state
+buffer (:mod:`lpik.fast.layout`).
 
 :func:`step_kernel` compiles the step on first use (or loads it from the disk
 cache) for its explicit signatures only: a call with other types raises
@@ -28,8 +28,7 @@ from typing import Any
 from numba import njit, prange
 
 from lpik import bands
-from lpik.control.command import along_screw as _along_screw
-from lpik.control.command import clamp_command as _clamp_command
+from lpik.control import command
 from lpik.fast import layout as L
 from lpik.fast.autobound import bound_in_state
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
@@ -41,10 +40,12 @@ from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION
 #: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
 BAD_INPUT = 4
 
-#: The one command law (:func:`lpik.control.command.clamp_command`), compiled.
-clamp_command = njit(cache=True)(_clamp_command)
-#: Its displacement along the screw (:func:`lpik.control.command.along_screw`), compiled.
-along_screw = njit(cache=True)(_along_screw)
+#: The one command law (:func:`lpik.control.command.command_rows`), compiled as it is.
+command_rows = compiled_twin(
+    command.command_rows,
+    clamp_command=njit(cache=True)(command.clamp_command),
+    along_screw=njit(cache=True)(command.along_screw),
+)
 
 
 _yield_to = njit(cache=True)(bands.yield_to)
@@ -278,14 +279,9 @@ def task_step(state, q0, q_prev, target):
     dw = L.vector(state, L.DW)
     for k in range(m):
         row = int(rows[k])
-        dw[k] = e6[row]
         for i in range(n):
             J[k, i] = J6[row, i]
-    v_max, w_max, dt = state[L.V_MAX], state[L.W_MAX], state[L.DT]
-    if along_screw(e6, rows, clamp_command(dw, rows, v_max, w_max, dt)):
-        for k in range(m):  # the clamped step along its own screw (lpik.control.command)
-            dw[k] = e6[int(rows[k])]
-        clamp_command(dw, rows, v_max, w_max, dt)
+    command_rows(e6, rows, dw, state[L.V_MAX], state[L.W_MAX], state[L.DT])
     position = L.vector(state, L.POSITION)
     for a in range(3):
         position[a] = T[a, 3]
