@@ -252,12 +252,12 @@ def agreement_checks(
 
 def _chord_step(controller: Any, q: FloatArray, target: FloatArray) -> FloatArray:
     """LP2's step on the command Drake takes: the chord ``p_target - p``, not lpik's screw."""
-    from lpik.control.command import clamp_command
+    from lpik.control.command import clamp_command, task_rows
     from lpik.methods.lp2 import lp2
 
     model = controller.model
     dw = np.array(model.difference(model.pose(q), target), dtype=np.float64)
-    clamp_command(dw, controller._row_index, controller.v_max, controller.w_max, controller.dt)
+    clamp_command(dw, task_rows(model), controller.v_max, controller.w_max, controller.dt)
     return lp2(controller.problem(q, target).replace(dw=dw)).dq
 
 
