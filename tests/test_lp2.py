@@ -382,6 +382,38 @@ def test_zero_command_keeps_the_criterion_step() -> None:
     np.testing.assert_allclose(res.dq, [0.1, -0.1], atol=1e-12)
 
 
+_HELD = {
+    "criterion": {"f": [0.0, 0.03125]},
+    "smoothing pull and a row": {"Lambda": [[1.0, 0.0], [0.0, 0.0]], "q_ref": [-0.5, 0.0078125],
+                                 "G": [[0.0, -1.0]], "h": [-0.0078125]},
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("extra", _HELD.values(), ids=list(_HELD))
+def test_a_joint_held_at_its_end_stop_by_an_ill_conditioned_square_jacobian_stays_put(
+    extra: dict,
+) -> None:
+    # Found by the thorough hypothesis profile. J is square (no redundancy) with
+    # cond(J) ~ 700, joint 2 sits at its upper end-stop and dw = 0: the step is dq = 0
+    # exactly, whatever pulls the joints (f, or sec. 3.1's pull). Before affine_solution
+    # refined its answer, the numpy ratio test's a_q put joint 2 1e-12 past the stop
+    # (rounding of eps cond(S) |H^-1 c|, cond(S) ~ 5e5), beyond SLACK_TOL, and called the
+    # step infeasible while the compiled path and HiGHS solved it.
+    J = [[1.99212347, 1.25583635], [1.29305413, 0.82028961]]
+    P = Problem(J=J, dw=[0.0, 0.0], q0=[-1.0, 0.0078125], q_min=[-1.0, -np.inf],
+                q_max=[0.0, 0.0078125], dq_min=[-0.125, -0.125], dq_max=[0.125, 0.125],
+                **extra)  # fmt: skip
+    assert np.linalg.cond(P.J) > 500
+    aff = affine_solution(P)
+    assert aff is not None
+    assert np.abs(aff.a_q).max() < 1e-20  # the exact answer is 0
+    res = assert_paths_agree(P)
+    compiled = lp2(P, path="compiled")
+    for r in (res, compiled):
+        assert r.status == "optimal" and r.p == 1.0
+        np.testing.assert_allclose(r.dq, [0.0, 0.0], rtol=0, atol=1e-20)
+
+
 def test_unknown_path_is_refused() -> None:
     P = Problem(J=[[1.0, 1.0]], dw=[1.0], q0=[0.0, 0.0])
     with pytest.raises(ValueError, match="^path:"):

@@ -63,3 +63,45 @@ def cho_solve2(L, b, c, x, y):
             t -= L[k, i] * y[k]
         d = L[i, i]
         x[i], y[i] = s / d, t / d
+
+
+@njit(cache=True)
+def refine(J, H, h_diag, c, lower, upper, LH, LS, HinvJt, a_q, a_l, r_q, t_q, r_l, d_l):
+    """One pass of iterative refinement of a solution ``(a_q, a_l)`` of LP2's rows, in place.
+
+    :func:`lpik.methods.kkt.affine_solution`'s pass, in loops, for the step at
+    ``p = 0`` (``c`` = ``f``) and the smoothing pull's share (``c`` = ``c_ref``):
+    the residual of ``H dq + J^T lam = c`` on the free joints (a pinned joint's
+    row holds exactly) and of ``J dq = 0`` (the pinned joints' share included),
+    solved with the factors ``LH`` of ``H'`` (unless ``h_diag``) and ``LS`` of
+    ``S``, and ``HinvJt``. ``r_q``, ``t_q`` (n) and ``r_l``, ``d_l`` (m) are scratch.
+    """
+    m, n = J.shape
+    for i in range(n):
+        if lower[i] == upper[i]:
+            r_q[i] = 0.0
+            continue
+        s = c[i]
+        for j in range(n):
+            s -= H[i, j] * a_q[j]
+        for k in range(m):
+            s -= J[k, i] * a_l[k]
+        r_q[i] = s
+    if h_diag:
+        for i in range(n):
+            t_q[i] = r_q[i] / H[i, i] if lower[i] != upper[i] else 0.0
+    else:
+        cho_solve(LH, r_q, t_q)
+    for k in range(m):
+        s = 0.0
+        for i in range(n):
+            s += J[k, i] * (a_q[i] + (t_q[i] if lower[i] != upper[i] else 0.0))
+        r_l[k] = s
+    cho_solve(LS, r_l, d_l)
+    for k in range(m):
+        a_l[k] += d_l[k]
+    for i in range(n):
+        s = t_q[i]
+        for k in range(m):
+            s -= HinvJt[i, k] * d_l[k]
+        a_q[i] += s

@@ -22,7 +22,7 @@ from numba import njit, prange
 
 from lpik.check import loop_check
 from lpik.fast.jacobi import jacobi_svd
-from lpik.fast.linalg import cho_solve, cho_solve2, cholesky
+from lpik.fast.linalg import cho_solve, cho_solve2, cholesky, refine
 from lpik.fast.ratio import limit_code, slacks
 from lpik.fast.smoothing import add_smoothing
 from lpik.fast.twins import compiled_twin
@@ -236,6 +236,7 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             sb -= HinvJt[i, k] * b_l[k]
         a_q[i] = sa
         b_q[i] = sb
+    refine(J, H, h_diag, c, lower, upper, LH, LS, HinvJt, a_q, a_l, col, out, rhs, rhs2)
     # --- sec. 3.1's pull, scaled (lpik.methods.kkt.smoothing_scale) ---
     smooth = False
     for i in range(n):
@@ -243,7 +244,7 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             smooth = True
     if smooth:
         add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, lam_min, lam_max, a_q,
-                      a_l, (col, Hinvr, e_q), (rhs3, e_l))  # fmt: skip
+                      a_l, (col, Hinvr, e_q, out), (rhs3, e_l, rhs, rhs2))  # fmt: skip
     # --- ratio test over joints, multipliers, rows ---
     for i in range(n):
         av[i], bv[i], lo[i], hi[i] = a_q[i], b_q[i], lower[i], upper[i]

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from lpik.fast.linalg import cho_solve
+from lpik.fast.linalg import cho_solve, refine
 from lpik.methods.pull import pull_room
 
 _pull_room = njit(cache=True)(pull_room)
@@ -22,11 +22,12 @@ def add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, lam_min, la
     Called when ``c_ref = Lambda (q_ref - q0)`` pulls a free joint; pinned joints
     (``lower == upper``) take no pull. ``LH`` (unless ``h_diag``) and ``LS`` are
     the Cholesky factors of ``H'`` and ``S`` the kernel computed; ``n_scratch``
-    holds three and ``m_scratch`` two work vectors.
+    and ``m_scratch`` hold four work vectors each. The share is refined
+    (:func:`refine`) before it is scaled, as the numpy path refines it.
     """
     m, n = J.shape
-    col, Hinvr, e_q = n_scratch
-    rhs3, e_l = m_scratch
+    col, Hinvr, e_q, t_q = n_scratch
+    rhs3, e_l, r_l, d_l = m_scratch
     for i in range(n):
         col[i] = 0.0 if lower[i] == upper[i] else c_ref[i]
     if h_diag:
@@ -45,6 +46,7 @@ def add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, lam_min, la
         for k in range(m):
             s -= HinvJt[i, k] * e_l[k]
         e_q[i] = s
+    refine(J, H, h_diag, c_ref, lower, upper, LH, LS, HinvJt, e_q, e_l, col, t_q, r_l, d_l)
     # the numpy path's rule (lpik.methods.kkt.smoothing_scale): joints, then multipliers
     scale = _pull_room(a_l, e_l, lam_min, lam_max, _pull_room(a_q, e_q, lower, upper, 1.0))
     for i in range(n):

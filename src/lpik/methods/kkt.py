@@ -105,8 +105,17 @@ def affine_solution(
         return None
     rhs = np.column_stack([J @ Hinvc[:, 0] + w_fixed, J @ Hinvc[:, 1], -problem.dw])
     lam = sla.cho_solve(S_factor, rhs)
-    a_l, e_l, b_l = lam[:, 0], lam[:, 1], lam[:, 2]
-    a_q, e_q = Hinvc[:, 0] - HinvJt @ a_l, Hinvc[:, 1] - HinvJt @ e_l
+    X_l = lam[:, :2]
+    X_q = Hinvc - HinvJt @ X_l
+    # One pass of iterative refinement of the step at p = 0 and of the pull's share: their
+    # residuals in the rows H' dq + J'^T lam = c' (resp. c_ref) and J' dq = -w_fixed
+    # (resp. 0), solved with the same factors. Where S is ill-conditioned, rounding of
+    # eps cond(S) |H^-1 c| would otherwise carry a joint that sits at its end-stop past it
+    # by more than SLACK_TOL, and the ratio test would call a feasible step infeasible.
+    T = sla.cho_solve(H_factor, np.column_stack([c - c_ref, c_ref]) - H @ X_q - J.T @ X_l)
+    D = sla.cho_solve(S_factor, J @ (X_q + T) + np.column_stack([w_fixed, np.zeros_like(w_fixed)]))
+    X_q, X_l = X_q + T - HinvJt @ D, X_l + D
+    a_q, e_q, a_l, e_l, b_l = X_q[:, 0], X_q[:, 1], X_l[:, 0], X_l[:, 1], lam[:, 2]
     lower, upper = problem.step_bounds()[:2]
     s = smoothing_scale(a_q, e_q, lower, upper, (a_l, e_l, problem.lam_min, problem.lam_max))
     return AffineSolution(a_q=a_q + s * e_q, b_q=-HinvJt @ b_l, a_l=a_l + s * e_l, b_l=b_l,
