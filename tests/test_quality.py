@@ -101,6 +101,20 @@ def test_the_report_names_every_scenario_and_judges_the_goal(suite) -> None:
     assert "Produced by `python -m lpik_bench.quality --max-steps 300 --peers`" in text
 
 
+def test_the_goal_takes_tracking_errors_below_the_resolution_as_equal() -> None:
+    from lpik_bench.quality_report import ERROR_RESOLUTION, METRICS, meets
+
+    error = next(m for m in METRICS if m.key == "ori_max")
+    jitter = next(m for m in METRICS if m.key == "jitter")
+    # rounding against rounding: equal, however far apart their ratio
+    assert meets(error, ERROR_RESOLUTION / 10, ERROR_RESOLUTION / 1000)
+    # above the resolution the 10 % margin holds as before
+    assert meets(error, 1.05e-3, 1e-3) and not meets(error, 1.2e-3, 1e-3)
+    assert not meets(error, 1e-3, ERROR_RESOLUTION / 10)
+    # jitter and the other metrics have no such floor
+    assert not meets(jitter, 1e-12, 1e-13)
+
+
 def _leg(targets: np.ndarray, q0: np.ndarray, settle_from: int | None = None) -> Leg:
     return Leg("test", q0, targets, np.ones(len(targets), dtype=bool), settle_from)
 
