@@ -406,7 +406,8 @@ def _closed_loop_matches(controller, q, target, steps: int) -> dict[str, int]:
         np.testing.assert_allclose(fast.q, ref.q, atol=tol, rtol=0)
         if fast.lam is not None:
             np.testing.assert_allclose(fast.lam, ref.lam, atol=100 * tol, rtol=100 * tol)
-            assert abs(fast.residual - task_residual(problem, fast.dq, fast.p)) <= 1e-15
+            # (1e-14: the two paths' second-order terms of the command differ by rounding)
+            assert abs(fast.residual - task_residual(problem, fast.dq, fast.p)) <= 1e-14
         seen["compiled"] += fast.path == "compiled"
         seen["binding"] += fast.binding is not None
         seen["infeasible"] += fast.status == INFEASIBLE

@@ -80,7 +80,8 @@ def test_on_stall_gets_the_arm_unstuck_alike_on_both_paths(robot: str) -> None:
     assert gap < np.linalg.norm(stuck.position_end[:2] - target[:2])
     controller = setup.controller()
     controller = type(controller)(setup.model, dt=setup.dt, v_max=setup.v_max, w_max=setup.w_max,
-                                  on_stall=20, saturate=False, **dict(setup.weights))  # fmt: skip
+                                  on_stall=20, saturate=False, second_order=False,
+                                  **dict(setup.weights))  # fmt: skip
     q, prev = setup.q0.copy(), None
     for k in range(setup.steps):
         res = controller.step(q, setup.target, prev)

@@ -26,7 +26,7 @@ import numpy as np
 
 from lpik.collision.model import as_avoidance
 from lpik.console.robot import ConsoleRobot
-from lpik.control.command import commanded_displacement
+from lpik.control.command import commanded_displacement, second_order_term
 from lpik.highs import HighsSolver
 from lpik.limits import AccelerationLimits, Limit, build_problem, standard_limits
 from lpik.methods.registry import METHODS, get_method
@@ -142,6 +142,8 @@ def _numpy(robot: ConsoleRobot, settings: Settings) -> Stepper:
     def step(q: FloatArray, target: Any, q_prev: FloatArray | None) -> Result:
         dw = commanded_displacement(model, model.pose(q), target, settings.v_max,
                                     settings.w_max, dt)  # fmt: skip
+        if q_prev is not None:  # as Lp2Controller and simulate command it
+            dw -= second_order_term(model, q_prev, q)
         J, step_limits, step_weights = model.jacobian(q), limits, weights
         if avoid is not None:
             step_limits = [*limits, *avoid.limits()]

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from lpik.fast import layout
+from lpik.fast.command_law import held_at, needs_previous
 from lpik.fast.step import BAD_INPUT, chain_step_batch, step_kernel, task_step_kernel
 from lpik.robots.base import TaskModel
 from lpik.robots.chain import SerialChain
@@ -45,7 +46,9 @@ class BackendKinematicsStep:
     C-contiguous float64 arrays (anything else raises ``TypeError``, which the
     controller answers by converting them): the backend's pose (4, 4) and
     Jacobian (6, n) at ``q0`` go into the ``frame`` and ``jacobian6`` blocks of
-    ``state``; :func:`lpik.fast.step.task_step` does the rest.
+    ``state`` (and, where the command takes off the second-order term and the
+    state does not hold them, those at ``q_prev`` into the ``prev_*`` blocks);
+    :func:`lpik.fast.step.task_step` does the rest.
 
     Args:
         kinematics: The backend (anything with ``fk`` and ``jacobian``, and
@@ -61,6 +64,9 @@ class BackendKinematicsStep:
         frame, jac = int(state[layout.FRAME]), int(state[layout.JACOBIAN6])
         self._frame = slice(frame, frame + 16)
         self._jacobian = slice(jac, jac + 6 * self._n)
+        frame, jac = int(state[layout.PREV_FRAME]), int(state[layout.PREV_JACOBIAN6])
+        self._prev_frame = slice(frame, frame + 16)
+        self._prev_jacobian = slice(jac, jac + 6 * self._n)
         self._kernel = task_step_kernel()
 
     def __call__(self, state: FloatArray, q0: Any, q_prev: Any, target: Any) -> int:
@@ -72,6 +78,12 @@ class BackendKinematicsStep:
         pose, jacobian = self._both(q0)  # NaN in q0: the compiled rest answers BAD_INPUT
         state[self._frame] = np.ravel(pose)
         state[self._jacobian] = np.ravel(jacobian)
+        if (type(q_prev) is np.ndarray and q_prev.shape == q0.shape
+                and needs_previous(state, q0, q_prev)):  # fmt: skip
+            pose, jacobian = self._both(q_prev)  # the kinematics at q_prev, for the command
+            state[self._prev_frame] = np.ravel(pose)
+            state[self._prev_jacobian] = np.ravel(jacobian)
+            held_at(state, q_prev)
         return int(self._kernel(state, q0, q_prev, target))
 
     def batch(

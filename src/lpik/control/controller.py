@@ -21,8 +21,19 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik.control.backend_step import fuses_kinematics, step_functions
-from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, commanded_displacement, task_rows
-from lpik.control.controller_steps import auto_bound_block, batch_steps, bounded_step, highs_step
+from lpik.control.command import (
+    DEFAULT_V_MAX,
+    DEFAULT_W_MAX,
+    commanded_displacement,
+    second_order_term,
+    task_rows,
+)
+from lpik.control.controller_steps import (
+    auto_bound_block,
+    batch_steps,
+    bounded_step,
+    not_optimal_step,
+)
 from lpik.control.inputs import (
     chain_arrays,
     controller_limits,
@@ -34,9 +45,7 @@ from lpik.control.inputs import (
 )
 from lpik.fast import layout
 from lpik.fast.batch import BatchResult
-from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
-from lpik.fast.step import BAD_INPUT
 from lpik.labels import step_label_table
 from lpik.limits import AutomaticMultiplierBounds, Limit, MultiplierBounds, build_problem
 from lpik.methods.assembly import is_diagonal
@@ -44,7 +53,7 @@ from lpik.methods.lp2 import lp2
 from lpik.methods.lp2s import lp2s
 from lpik.methods.progress import StallWatch
 from lpik.problem import Problem, reference_configuration
-from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
+from lpik.result import OPTIMAL, Result
 from lpik.robots.base import TaskModel
 from lpik.robots.tasks import as_task_model
 from lpik.tolerances import FULL_P
@@ -87,6 +96,11 @@ class Lp2Controller:
             at the first bound it meets.
         on_stall: Opt-in progress step (:mod:`lpik.methods.progress`, status
             ``off_direction``) after this many steps with ``p = 0``; ``None``: never.
+        second_order: Take off each step's command the second-order term of the
+            last step's task motion (:func:`lpik.control.command.second_order_term`,
+            from ``q_prev`` to ``q0``; the default): the error each step leaves on a
+            curved path is then third order in the step, not second. ``False``:
+            the command law alone, as the paper's runs command it.
 
     Raises:
         ValueError: For a model the compiled path does not support, or bad limits/weights.
@@ -112,6 +126,7 @@ class Lp2Controller:
         row_labels: Any = None,
         saturate: bool = True,
         on_stall: int | None = None,
+        second_order: bool = True,
     ) -> None:
         self.model = model = as_task_model(model)
         self.dt = positive_number("dt", dt)
@@ -121,6 +136,10 @@ class Lp2Controller:
         if not isinstance(saturate, bool | np.bool_):
             raise ValueError(f"saturate: must be True or False, got {saturate!r}")
         self.method = "lp2s" if saturate else "lp2"
+        if not isinstance(second_order, bool | np.bool_):
+            raise ValueError(f"second_order: must be True or False, got {second_order!r}")
+        #: Whether the command takes off the last step's second-order term.
+        self.second_order = bool(second_order)
         self._stall = StallWatch(on_stall)
         self._bound: FloatArray | None = None  # the automatic bound of a step under it
         self._fallback = lp2s if saturate else partial(lp2, path="highs")
@@ -159,6 +178,7 @@ class Lp2Controller:
             limits=bounds, criterion=H, f_ref=np.vstack([template.f, ref]),
             Lambda=template.Lambda, lam_bounds=np.vstack([template.lam_min, template.lam_max]),
             G=template.G, h=template.h, auto_bound=auto_bound_block(self.automatic_bound, model),
+            second_order=[float(self.second_order), 0.0],
         )  # fmt: skip
         #: The fields of an optimal compiled step that are the same on every step.
         self._optimal_fields = {"status": OPTIMAL, "method": self.method, "path": "compiled"}
@@ -326,30 +346,8 @@ class Lp2Controller:
         return batch_steps(self, q0, targets, q_prev)
 
     def _not_optimal(self, code: int, q0: Any, target: Any, q_prev: Any, start: float) -> Result:
-        """The Result of a kernel outcome other than OK: infeasible, bad input or the HiGHS path."""
-        outside = int(self._out.item(self._outside))
-        if code in (OK, KERNEL_INFEASIBLE):  # from outside the limits, or the safe step
-            out, moved = self._out.copy(), code == OK
-            label = outside if outside >= 0 else int(out.item(self._label_at))
-            return Result.trusted(
-                {
-                    "q": out[self._q],
-                    "dq": out[self._dq],
-                    "p": out.item(self._p) if moved else 0.0,
-                    "lam": out[self._lam] if moved else None,
-                    "status": RECOVERING if outside >= 0 else INFEASIBLE,
-                    "binding": self._labels[label].outside()
-                    if outside >= 0
-                    else self._labels[label],
-                    "method": self.method,
-                    "solve_time": perf_counter() - start,
-                    "residual": out.item(self._residual),
-                    "path": "compiled",
-                }
-            )
-        if code == BAD_INPUT:
-            self._converted(q0, target, q_prev, check_finite=True)  # raises, naming the input
-        return highs_step(self, q0, target, q_prev)
+        """The Result of a kernel outcome other than OK (:func:`not_optimal_step`)."""
+        return not_optimal_step(self, code, q0, target, q_prev, start)
 
     def _bounded(self, q0: Any, target: Any, q_prev: Any, unbounded: Result) -> Result:
         """The automatic multiplier bound where the kernel did not apply it (a backend, HiGHS)."""
@@ -380,7 +378,8 @@ class Lp2Controller:
 
         The command is the one law of :mod:`lpik.control.command`: the
         displacement to the target (along the screw on a pose task), clamped
-        to ``v_max dt`` and ``w_max dt``.
+        to ``v_max dt`` and ``w_max dt``, less the last step's second-order
+        term where ``second_order`` is on.
         """
         q0 = np.asarray(q0, dtype=np.float64)
         for name, value in (("q0", q0), ("q_prev", q_prev), ("target", target)):
@@ -389,6 +388,8 @@ class Lp2Controller:
         model = self.model
         dw = commanded_displacement(model, model.pose(q0), task_value(model, target), self.v_max,
                                     self.w_max, self.dt)  # fmt: skip
+        if self.second_order and q_prev is not None:
+            dw -= second_order_term(model, q_prev, q0)
         return self._problem(
             model.jacobian(q0),
             dw,

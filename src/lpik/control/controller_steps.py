@@ -8,6 +8,7 @@ kinematics (the rule's probe needs them) and after HiGHS took the unbounded step
 
 from __future__ import annotations
 
+from time import perf_counter
 from typing import TYPE_CHECKING, Any
 
 import numba
@@ -24,13 +25,45 @@ from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.step import BAD_INPUT
 from lpik.limits import AutomaticMultiplierBounds
-from lpik.result import Result
+from lpik.result import INFEASIBLE, RECOVERING, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import FULL_P
 from lpik.types import FloatArray
 
 if TYPE_CHECKING:
     from lpik.control.controller import Lp2Controller
+
+
+def not_optimal_step(
+    c: Lp2Controller, code: int, q0: Any, target: Any, q_prev: Any, start: float
+) -> Result:
+    """The Result of a kernel outcome other than OK: infeasible, bad input or the HiGHS path.
+
+    A step from outside the limits (``recovering``) and the kernel's safe step
+    (``infeasible``) are read from the state's out blocks; bad input raises a
+    ValueError naming it; anything else goes to :func:`highs_step`.
+    """
+    outside = int(c._out.item(c._outside))
+    if code in (OK, KERNEL_INFEASIBLE):  # from outside the limits, or the safe step
+        out, moved = c._out.copy(), code == OK
+        label = outside if outside >= 0 else int(out.item(c._label_at))
+        return Result.trusted(
+            {
+                "q": out[c._q],
+                "dq": out[c._dq],
+                "p": out.item(c._p) if moved else 0.0,
+                "lam": out[c._lam] if moved else None,
+                "status": RECOVERING if outside >= 0 else INFEASIBLE,
+                "binding": c._labels[label].outside() if outside >= 0 else c._labels[label],
+                "method": c.method,
+                "solve_time": perf_counter() - start,
+                "residual": out.item(c._residual),
+                "path": "compiled",
+            }
+        )
+    if code == BAD_INPUT:
+        c._converted(q0, target, q_prev, check_finite=True)  # raises, naming the input
+    return highs_step(c, q0, target, q_prev)
 
 
 def batch_steps(

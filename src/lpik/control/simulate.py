@@ -2,10 +2,15 @@
 
 One control step::
 
-    dw = command(model, q, dt)                      # lpik.control.command
+    dw = command(model, q, dt) - rho(q_prev, q)     # lpik.control.command
     problem = build_problem(J(q), dw, q, limits, dt=dt, q_prev=q_prev, **weights)
     result = method(problem)                        # lpik.methods
     q_prev, q = q, applied(result)
+
+``rho`` is the last step's second-order term
+(:func:`lpik.control.command.second_order_term`; 0 on the first step), which
+``Lp2Controller`` takes off its command too; ``second_order=False`` commands
+the law alone, as the paper's runs do.
 
 What the loop applies, and why:
 
@@ -35,7 +40,7 @@ from numpy.typing import NDArray
 
 from lpik.collision.model import as_avoidance
 from lpik.control.autobound import bound_for_step
-from lpik.control.command import CommandLaw, task_rows
+from lpik.control.command import CommandLaw, second_order_term, task_rows
 from lpik.control.log import SimulationLog
 from lpik.highs import HighsSolver
 from lpik.limits import AutomaticMultiplierBounds, Limit, build_problem, standard_limits
@@ -81,6 +86,7 @@ def simulate(
     progress: Progress | None = None,
     on_stall: int | None = None,
     scene: Any = None,
+    second_order: bool = True,
 ) -> SimulationLog:
     """Run the closed loop for ``steps`` control steps and return the log.
 
@@ -110,6 +116,10 @@ def simulate(
             damper's rows, self-collision included) or a
             :class:`~lpik.collision.CollisionAvoidance` (rows, field or both). The log
             then records each step's smallest distance and its pair.
+        second_order: Take off each step's command the second-order term of the
+            last step's task motion (:func:`lpik.control.command.second_order_term`),
+            as :class:`~lpik.control.controller.Lp2Controller` does by default.
+            ``False``: the command law alone (the paper's runs).
 
     Returns:
         The :class:`SimulationLog` of the run.
@@ -141,6 +151,8 @@ def simulate(
     q_prev: FloatArray | None = None
     for k in range(steps):
         dw = command(model, q, float(dt))
+        if second_order and q_prev is not None:
+            dw = dw - second_order_term(model, q_prev, q)
         J, step_limits, step_weights = model.jacobian(q), limits, weights
         if avoid is not None:
             closest.append(avoid.closest(q))

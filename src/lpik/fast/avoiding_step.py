@@ -29,6 +29,7 @@ from numba import njit
 
 from lpik.collision.avoidance import INACTIVE_RHS, damper_row, damper_share
 from lpik.fast import layout as L
+from lpik.fast.command_law import previous_kinematics
 from lpik.fast.distances import (
     FOUND,
     capsule_box,
@@ -248,6 +249,7 @@ def avoiding_step(capsules, obstacles, pairs, damper, frames, ends, found, scrat
     joint_frames(origins, axes, revolute, q0, frames)
     place_capsules(capsules, frames, ends)
     distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scratch, state, q0)
+    previous_kinematics(state, q0, q_prev)
     return task_step(state, q0, q_prev, target)
 
 

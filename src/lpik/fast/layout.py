@@ -10,8 +10,10 @@ target``); ``state`` holds all the rest, so that the step allocates nothing:
   starts (slot :data:`END`: the buffer's length);
 - the blocks of :data:`BLOCKS`, in that order: the chain's geometry and the
   constants of the step (limits, criterion, rows, the automatic multiplier
-  bound), then :data:`OUT_BLOCKS` (what the step reports), then the step's
-  scratch.
+  bound, whether the command takes off the second-order term), then
+  :data:`OUT_BLOCKS` (what the step reports), then the step's scratch, and
+  last the kinematics of the last step's ``q0`` (kept from one step to the
+  next, so that the next step, whose ``q_prev`` it is, need not compute them).
 
 :func:`pack` builds a buffer; a kernel reads a block through :func:`vector`,
 :func:`matrix_at` or :func:`tensor_at` with the block's constant; Python reads
@@ -39,13 +41,16 @@ N, M, R, H_DIAG, DT, V_MAX, W_MAX, SATURATE = range(8)
 # the chain and the constants of the step
 REVOLUTE, ROW_INDEX, ORIGINS, AXES, TIP = range(8, 13)
 LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H, AUTO_BOUND = range(13, 21)
+SECOND_ORDER = 21
 # out: what a step reports
-Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, BOUND, BOUNDED, OUTSIDE = range(21, 32)
+Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, BOUND, BOUNDED, OUTSIDE = range(22, 33)
 # scratch of the step
-GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(32, 39)
-LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(39, 47)
+GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(33, 40)
+LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(40, 48)
+# the kinematics at the last step's q0, and the second-order term
+PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(48, 52)
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 47
+END = 52
 #: Length of the header.
 HEADER = END + 1
 
@@ -85,6 +90,12 @@ BLOCKS = (
     Block(ROWS_G, "G", ("r", "n"), "extra rows G q <= h"),
     Block(ROWS_H, "h", ("r",), "their right-hand side"),
     Block(AUTO_BOUND, "auto_bound", (5,), "1: the step applies the auto bound, its parameters"),
+    Block(
+        SECOND_ORDER,
+        "second_order",
+        (2,),
+        "1: the command takes off the second-order term; 1: prev_* hold prev_q's kinematics",
+    ),
     Block(Q, "q", ("n",), "the new joint coordinates q0 + dq"),
     Block(DQ, "dq", ("n",), "the step"),
     Block(LAM, "lam", ("m",), "the multipliers"),
@@ -111,6 +122,10 @@ BLOCKS = (
     Block(G_RHS, "g", ("r",), "the rows' right-hand side in dq: h - G q0"),
     Block(LP2_WS, "lp2_ws", (workspace_size,), "the LP2 kernel's workspace"),
     Block(SATURATION, "saturation", (lambda n, m, r: n + m,), "the best pass's dq and lam"),
+    Block(PREV_Q, "prev_q", ("n",), "the joint coordinates of the kinematics below"),
+    Block(PREV_FRAME, "prev_frame", (4, 4), "the task frame at prev_q"),
+    Block(PREV_JACOBIAN6, "prev_jacobian6", (6, "n"), "the world-aligned Jacobian at prev_q"),
+    Block(RHO, "rho", (2, "m"), "J(q_prev) (q0 - q_prev), and the second-order term"),
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.
 OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "bound", "bounded",

@@ -5,8 +5,10 @@
 and :func:`lpik.methods.lp2.lp2` do through the numpy layers: the pose and
 Jacobian at ``q0``, the commanded displacement ``dw`` of eq. 2 (the law of
 :mod:`lpik.control.command`: :func:`~lpik.control.command.command_rows`,
-compiled here), the bounds on ``dq`` from end-stops, velocity and acceleration
-limits (eqs. 13-14), the criterion's ``c`` (eq. 3, sec. 3.1) and LP2's ratio
+compiled in :mod:`lpik.fast.command_law`, less the last step's second-order
+term where the controller asks for it), the bounds on ``dq`` from end-stops,
+velocity and acceleration limits (eqs. 13-14), the criterion's ``c`` (eq. 3, sec. 3.1)
+and LP2's ratio
 test (eqs. 15-18), and under the automatic multiplier bound
 (:mod:`lpik.control.autobound`, sec. 3.2) what ``simulate`` does after an
 unbounded step with ``p < 1``: the rule, and LP2 again under its bound
@@ -28,9 +30,9 @@ from typing import Any
 from numba import njit, prange
 
 from lpik import bands
-from lpik.control import command
 from lpik.fast import layout as L
 from lpik.fast.autobound import bound_in_state
+from lpik.fast.command_law import command_rows, previous_kinematics, take_off_second_order
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
 from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core
 from lpik.fast.saturation import lp2s_core
@@ -39,14 +41,6 @@ from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION
 
 #: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
 BAD_INPUT = 4
-
-#: The one command law (:func:`lpik.control.command.command_rows`), compiled as it is.
-command_rows = compiled_twin(
-    command.command_rows,
-    clamp_command=njit(cache=True)(command.clamp_command),
-    along_screw=njit(cache=True)(command.along_screw),
-)
-
 
 _yield_to = njit(cache=True)(bands.yield_to)
 rate_band = compiled_twin(
@@ -248,6 +242,7 @@ def chain_step(state, q0, q_prev, target):
         L.matrix_at(state, L.FRAME, 4, 4), L.matrix_at(state, L.JACOBIAN6, 6, n),
         L.tensor_at(state, L.JOINTS, 2, n, 3),
     )  # fmt: skip
+    previous_kinematics(state, q0, q_prev)
     return task_step(state, q0, q_prev, target)
 
 
@@ -259,7 +254,10 @@ def task_step(state, q0, q_prev, target):
     world-aligned Jacobian from ``jacobian6`` (6, n), as :func:`chain_step`
     leaves them, or as a kinematics backend (Pinocchio, MuJoCo) writes them
     (:mod:`lpik.control.backend_step`); then the pose error to the target,
-    the task rows, the clamped command, the bounds and LP2, and, where the
+    the task rows, the clamped command (less the last step's second-order
+    term where the ``second_order`` block says so: the ``prev_*`` blocks then
+    hold the kinematics at ``q_prev``, as :func:`previous_kinematics` and the
+    backend step leave them), the bounds and LP2, and, where the
     state's ``auto_bound`` block says so, :func:`bounded_again`.
 
     Returns:
@@ -282,6 +280,8 @@ def task_step(state, q0, q_prev, target):
         for i in range(n):
             J[k, i] = J6[row, i]
     command_rows(e6, rows, dw, state[L.V_MAX], state[L.W_MAX], state[L.DT])
+    if L.vector(state, L.SECOND_ORDER)[0] != 0.0:
+        take_off_second_order(state, q0, q_prev, rows, J6, dw)
     position = L.vector(state, L.POSITION)
     for a in range(3):
         position[a] = T[a, 3]

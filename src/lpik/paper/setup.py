@@ -77,6 +77,7 @@ class Setup:
         on_stall: int | None = None,
         qdd_max: float | None = None,
         scene: Any = None,
+        second_order: bool = False,
     ) -> SimulationLog:
         """Simulate this setup with one method (:func:`lpik.control.simulate.simulate`).
 
@@ -86,6 +87,9 @@ class Setup:
                 (:mod:`lpik.control.autobound`); a number: symmetric bound on every
                 multiplier (sec. 3.2); ``None``: unbounded (the paper's runs).
             qdd_max: Acceleration limit of every joint [rad/s^2]; ``None``: none.
+            second_order: Take off each command the last step's second-order term,
+                as a deployed ``Lp2Controller`` does; ``False`` (default): the
+                paper's command law alone.
             steps: Number of steps; default the scenario's.
             dt: Control period [s]; default the scenario's.
             warm_start: Reuse one HiGHS instance across steps.
@@ -115,6 +119,7 @@ class Setup:
             progress=progress,
             on_stall=on_stall,
             scene=self.scene if scene is None else scene,
+            second_order=second_order,
         )
 
     def controller(
@@ -122,11 +127,13 @@ class Setup:
     ) -> Lp2Controller:
         """The compiled LP2 controller with this setup's limits, command law and weights.
 
-        ``saturate``: LP2 with saturation in the null space (``lp2s``).
+        ``saturate``: LP2 with saturation in the null space (``lp2s``). The command
+        is the paper's law alone (``second_order=False``), as :meth:`run` commands it.
         """
         from lpik.control.controller import Lp2Controller
 
         return Lp2Controller(
             self.model, dt=self.dt, v_max=self.v_max, w_max=self.w_max,
-            lambda_bound=lambda_bound, saturate=saturate, **dict(self.weights),
+            lambda_bound=lambda_bound, saturate=saturate, second_order=False,
+            **dict(self.weights),
         )  # fmt: skip

@@ -1,0 +1,113 @@
+"""The command law, compiled: the clamped step along its screw, and the second-order term.
+
+:func:`command_rows` and :func:`second_order_rows` are the plain-loop
+functions of :mod:`lpik.control.command`, compiled as they are. The
+second-order term needs the task frame and Jacobian at ``q_prev``: the state
+keeps those of the last step's ``q0`` (blocks ``prev_*`` of
+:mod:`lpik.fast.layout`), which in a control loop is the next step's
+``q_prev``, so that a loop computes the kinematics once per step;
+:func:`previous_kinematics` computes them where the state does not hold them.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from lpik.control import command
+from lpik.fast import layout as L
+from lpik.fast.kinematics import chain_fk_jacobian, pose_error
+from lpik.fast.twins import compiled_twin
+
+#: The one command law (:func:`lpik.control.command.command_rows`), compiled as it is.
+command_rows = compiled_twin(
+    command.command_rows,
+    clamp_command=njit(cache=True)(command.clamp_command),
+    along_screw=njit(cache=True)(command.along_screw),
+)
+#: The last step's second-order term (:func:`lpik.control.command.second_order_rows`).
+second_order_rows = compiled_twin(command.second_order_rows, command_rows=command_rows)
+
+
+@njit(cache=True)
+def needs_previous(state, q0, q_prev):
+    """Whether the step needs the kinematics at ``q_prev`` and the state does not hold them.
+
+    Only where the command takes off the second-order term and the robot moved
+    (``q_prev != q0``); the state holds the kinematics of the last step's
+    ``q0`` (blocks ``prev_*``), which is the next step's ``q_prev`` in a loop.
+    """
+    flags = L.vector(state, L.SECOND_ORDER)
+    if flags[0] == 0.0 or not _moved(q0, q_prev):
+        return False
+    if flags[1] == 0.0:
+        return True
+    prev_q = L.vector(state, L.PREV_Q)
+    for i in range(q_prev.shape[0]):
+        if prev_q[i] != q_prev[i]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def previous_kinematics(state, q0, q_prev):
+    """The chain's frame and Jacobian at ``q_prev`` into the ``prev_*`` blocks, where needed."""
+    if not needs_previous(state, q0, q_prev):
+        return
+    n = int(state[L.N])
+    chain_fk_jacobian(
+        L.tensor_at(state, L.ORIGINS, n, 4, 4), L.matrix_at(state, L.AXES, n, 3),
+        L.vector(state, L.REVOLUTE), L.matrix_at(state, L.TIP, 4, 4), q_prev,
+        L.matrix_at(state, L.PREV_FRAME, 4, 4), L.matrix_at(state, L.PREV_JACOBIAN6, 6, n),
+        L.tensor_at(state, L.JOINTS, 2, n, 3),
+    )  # fmt: skip
+    held_at(state, q_prev)
+
+
+@njit(cache=True)
+def held_at(state, q):
+    """Record that the ``prev_*`` blocks hold the kinematics at ``q``."""
+    prev_q = L.vector(state, L.PREV_Q)
+    for i in range(q.shape[0]):
+        prev_q[i] = q[i]
+    L.vector(state, L.SECOND_ORDER)[1] = 1.0
+
+
+@njit(cache=True)
+def _moved(q0, q_prev):
+    for i in range(q0.shape[0]):
+        if q0[i] != q_prev[i]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def take_off_second_order(state, q0, q_prev, rows, J6, dw):
+    """``dw -= rho``, the last step's second-order term; then keep q0's kinematics for the next.
+
+    The term is :func:`lpik.control.command.second_order_rows` of the motion
+    from the frame at ``q_prev`` (``prev_frame``) to the frame at ``q0``, with
+    ``J(q_prev) (q0 - q_prev)`` from ``prev_jacobian6``; 0 at rest.
+    """
+    n, m = q0.shape[0], dw.shape[0]
+    T = L.matrix_at(state, L.FRAME, 4, 4)
+    if _moved(q0, q_prev):
+        J6_prev = L.matrix_at(state, L.PREV_JACOBIAN6, 6, n)
+        jdq_rho = L.matrix_at(state, L.RHO, 2, m)
+        for k in range(m):
+            row, s = int(rows[k]), 0.0
+            for i in range(n):
+                s += J6_prev[row, i] * (q0[i] - q_prev[i])
+            jdq_rho[0, k] = s
+        e6 = L.vector(state, L.ERROR6)
+        pose_error(L.matrix_at(state, L.PREV_FRAME, 4, 4), T, e6, L.vector(state, L.LOG_SCRATCH))
+        second_order_rows(e6, rows, jdq_rho[0], jdq_rho[1])
+        for k in range(m):
+            dw[k] -= jdq_rho[1, k]
+    frame, jac = L.matrix_at(state, L.PREV_FRAME, 4, 4), L.matrix_at(state, L.PREV_JACOBIAN6, 6, n)
+    for a in range(4):
+        for b in range(4):
+            frame[a, b] = T[a, b]
+    for a in range(6):
+        for i in range(n):
+            jac[a, i] = J6[a, i]
+    held_at(state, q0)
