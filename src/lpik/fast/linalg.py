@@ -66,6 +66,21 @@ def cho_solve2(L, b, c, x, y):
 
 
 @njit(cache=True)
+def solve_free(H, h_diag, LH, lower, upper, b, x):
+    """``x = H'^-1 b`` over the free joints, 0 on the pinned ones (``lower == upper``).
+
+    ``b`` must be 0 on the pinned joints. ``H`` diagonal (``h_diag``): one
+    division per joint; else through ``LH``, the Cholesky factor of ``H'``
+    (the identity on the pinned joints: :func:`lpik.methods.kkt.pinned_system`).
+    """
+    if h_diag:
+        for i in range(b.shape[0]):
+            x[i] = b[i] / H[i, i] if lower[i] != upper[i] else 0.0
+    else:
+        cho_solve(LH, b, x)
+
+
+@njit(cache=True)
 def refine(J, H, h_diag, c, lower, upper, LH, LS, HinvJt, a_q, a_l, r_q, t_q, r_l, d_l):
     """One pass of iterative refinement of a solution ``(a_q, a_l)`` of LP2's rows, in place.
 
@@ -87,15 +102,11 @@ def refine(J, H, h_diag, c, lower, upper, LH, LS, HinvJt, a_q, a_l, r_q, t_q, r_
         for k in range(m):
             s -= J[k, i] * a_l[k]
         r_q[i] = s
-    if h_diag:
-        for i in range(n):
-            t_q[i] = r_q[i] / H[i, i] if lower[i] != upper[i] else 0.0
-    else:
-        cho_solve(LH, r_q, t_q)
+    solve_free(H, h_diag, LH, lower, upper, r_q, t_q)
     for k in range(m):
         s = 0.0
         for i in range(n):
-            s += J[k, i] * (a_q[i] + (t_q[i] if lower[i] != upper[i] else 0.0))
+            s += J[k, i] * (a_q[i] + t_q[i])
         r_l[k] = s
     cho_solve(LS, r_l, d_l)
     for k in range(m):

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from lpik.fast.linalg import cho_solve, refine
+from lpik.fast.linalg import cho_solve, refine, solve_free
 from lpik.methods.pull import pull_room
 
 _pull_room = njit(cache=True)(pull_room)
@@ -30,11 +30,7 @@ def add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, lam_min, la
     rhs3, e_l, r_l, d_l = m_scratch
     for i in range(n):
         col[i] = 0.0 if lower[i] == upper[i] else c_ref[i]
-    if h_diag:
-        for i in range(n):
-            Hinvr[i] = col[i] / H[i, i] if lower[i] != upper[i] else 0.0
-    else:
-        cho_solve(LH, col, Hinvr)
+    solve_free(H, h_diag, LH, lower, upper, col, Hinvr)
     for a in range(m):
         s = 0.0
         for i in range(n):
