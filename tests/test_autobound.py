@@ -1,4 +1,4 @@
-"""The automatic multiplier bound (lpik.control.autobound): no chatter, no trap, exact elsewhere."""
+"""The automatic multiplier bound (lpik.methods.autobound): no chatter, no trap, exact elsewhere."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from cli_documents import LPIK
-from lpik.control.autobound import automatic_bound, bound_for_step, parameters
-from lpik.control.command import ClampedTarget, task_rows
+from lpik.command import ClampedTarget, task_rows
 from lpik.control.simulate import simulate
 from lpik.limits import AutomaticMultiplierBounds, standard_limits
+from lpik.methods.autobound import automatic_bound, bound_for_step, parameters
 from lpik.paper.scenarios import get_scenario
 from lpik.result import Result
 
@@ -128,7 +128,7 @@ def test_the_bound_follows_its_formula_and_vanishes_at_the_floor() -> None:
 
 
 def test_the_fused_step_compiles_the_one_rule() -> None:
-    """lpik.fast.autobound compiles lpik.control.autobound.automatic_bound's own code."""
+    """lpik.fast.autobound compiles lpik.methods.autobound.automatic_bound's own code."""
     pytest.importorskip("numba")
     from lpik.fast import autobound as compiled
 

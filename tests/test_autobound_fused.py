@@ -2,7 +2,7 @@
 
 Each fused step of the default controller is held to the step taken in pieces
 as the controller took it before (its fused unbounded step, the numpy rule
-:func:`lpik.control.autobound.bound_for_step` on it, the fused step again
+:func:`lpik.methods.autobound.bound_for_step` on it, the fused step again
 under that bound as a fixed one) and to the numpy layers throughout (LP2 or
 lp2s on the step's problem, the rule, LP2 again on the problem with the
 bound, as ``simulate`` takes it), at and near the Panda's singular
@@ -18,11 +18,11 @@ import pytest
 
 pytest.importorskip("numba")
 
-from lpik.control.autobound import bound_for_step  # noqa: E402
-from lpik.control.command import task_rows  # noqa: E402
+from lpik.command import task_rows  # noqa: E402
 from lpik.control.controller import Lp2Controller  # noqa: E402
 from lpik.fast import layout  # noqa: E402
 from lpik.limits import MultiplierBounds  # noqa: E402
+from lpik.methods.autobound import bound_for_step  # noqa: E402
 from lpik.methods.lp2 import lp2  # noqa: E402
 from lpik.methods.lp2s import lp2s  # noqa: E402
 from lpik.result import RECOVERING, Result  # noqa: E402

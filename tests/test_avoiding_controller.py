@@ -79,9 +79,9 @@ def test_the_automatic_bound_is_applied_inside_the_avoiding_step(compiled: bool)
     """At and near the Panda's singular configurations in its shelf: the default bound, in the
     fused step, equals the numpy rule on the unbounded step and the step under that bound."""
     pytest.importorskip("numba")
-    from lpik.control.autobound import bound_for_step
-    from lpik.control.command import task_rows
+    from lpik.command import task_rows
     from lpik.limits import MultiplierBounds
+    from lpik.methods.autobound import bound_for_step
     from lpik_bench.singular import singular_workload
 
     work = singular_workload(bases=1, seed=4)

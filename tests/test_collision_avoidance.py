@@ -13,7 +13,7 @@ from tests.core_reference import hard_violation, lp1_reference, lp2_reference
 
 from lpik.collision import DistanceRows, collision_avoidance, field_force, repulsion
 from lpik.collision.avoidance import field_scale
-from lpik.control.command import ClampedTarget
+from lpik.command import ClampedTarget
 from lpik.control.simulate import simulate
 from lpik.limits import build_problem, standard_limits
 from lpik.methods import solve

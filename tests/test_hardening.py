@@ -336,7 +336,7 @@ BAD_ROTATIONS = {
 
 @pytest.mark.parametrize("case", list(BAD_ROTATIONS))
 def test_a_target_that_is_no_rotation_is_refused_alike_everywhere(case: str) -> None:
-    from lpik.control.command import ClampedTarget
+    from lpik.command import ClampedTarget
 
     panda, q, controller = _panda_case()
     make, says = BAD_ROTATIONS[case]
@@ -398,7 +398,7 @@ def test_an_orientation_target_is_checked_too() -> None:
 
 
 def test_clamped_target_names_a_target_that_is_not_numbers() -> None:
-    from lpik.control.command import ClampedTarget
+    from lpik.command import ClampedTarget
 
     with pytest.raises(ValueError, match="^target: must be numbers"):
         ClampedTarget("home")

@@ -24,6 +24,7 @@ LAYERS = (
     ("lpik.problem", "lpik.result", "lpik.check", "lpik.limits", "lpik.highs", "lpik.methods",
      "lpik.problem_json"),
     ("lpik.robots",),
+    ("lpik.command",),
     ("lpik.collision",),
     ("lpik.control",),
     ("lpik.fast",),

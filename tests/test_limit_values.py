@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from lpik.cli.main import main
-from lpik.control.command import ClampedTarget
+from lpik.command import ClampedTarget
 from lpik.control.inputs import rate_limits
 from lpik.control.simulate import simulate
 from lpik.limits import (

@@ -2,7 +2,7 @@
 
 ``Lp2Controller(second_order=True)`` (the default) takes off each step's command
 the second-order term of the last step's task motion
-(:func:`lpik.control.command.second_order_term`). These tests hold the term to
+(:func:`lpik.command.second_order_term`). These tests hold the term to
 its purpose (it predicts the next step's miss to third order), the compiled
 step to the numpy problem on every path (the fused chain, a Python kinematics
 backend, a batch; the kinematics kept from the last step or computed anew),
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lpik.control.command import second_order_term, task_rows
+from lpik.command import second_order_term, task_rows
 from lpik.robots.registry import home_configuration, load_chain, load_robot
 from lpik.robots.tasks import PoseTask, pose_difference
 
@@ -30,7 +30,7 @@ def panda() -> PoseTask:
 
 def _miss(model: PoseTask, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
     """What the step ``dq`` from ``q`` missed of its task motion: measured after the fact."""
-    from lpik.control.command import command_rows
+    from lpik.command import command_rows
 
     e6 = pose_difference(model.pose(q), model.pose(q + dq))
     screw = np.empty(6)

@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from lpik.control.command import ClampedTarget, along_screw, clamp_command, commanded_displacement
+from lpik.command import ClampedTarget, along_screw, clamp_command, commanded_displacement
 from lpik.control.log import SimulationLog
 from lpik.control.simulate import simulate
 from lpik.limits import EndStops, VelocityLimits

@@ -166,7 +166,7 @@ def agreement_checks(
       percent of being active, where OSQP stops early). Drake and the
       Robotics Toolbox command the chord ``p_target - p``, so they are held
       to LP2 on that command; lpik commands the displacement along the screw
-      (:func:`lpik.control.command.along_screw`). pink and mink solve least
+      (:func:`lpik.command.along_screw`). pink and mink solve least
       squares on the SE(3) logarithm of the pose error, the same screw, but
       with the derivative of the logarithm as the task Jacobian, which differs
       from ``J`` at first order in the error (relative O(|dr|), |dr| <= 0.5
@@ -252,7 +252,7 @@ def agreement_checks(
 
 def _chord_step(controller: Any, q: FloatArray, target: FloatArray) -> FloatArray:
     """LP2's step on the command Drake takes: the chord ``p_target - p``, not lpik's screw."""
-    from lpik.control.command import clamp_command, task_rows
+    from lpik.command import clamp_command, task_rows
     from lpik.methods.lp2 import lp2
 
     model = controller.model
@@ -280,7 +280,7 @@ def _peer_agreement(workload: Workload, controller: Any, peers: PeerSet) -> list
     for peer in checked:
         dq = np.array([peer.step(workload.q[i], workload.targets[i]) for i in range(N)])
         # Drake's V and the Toolbox's error take the chord p_target - p; lpik, pink and
-        # mink command the screw (lpik.control.command.along_screw, the SE(3) logarithm)
+        # mink command the screw (lpik.command.along_screw, the SE(3) logarithm)
         err = relative_errors(chord if peer.library in ("drake", "rtb") else screw, dq)
         where = f"on the {int(free.sum())} of {N} steps where LP2 has p = 1"
         note = f"not compared: {bound} steps where a limit binds (different problems there)"

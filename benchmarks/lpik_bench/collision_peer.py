@@ -5,7 +5,7 @@
 The same run for every variant: from the Panda's home configuration the tool
 point moves straight to ``SHELF_TARGET`` at ``v_max`` with its orientation
 held (``lpik simulate reach``), each step commanding the clamped pose
-(:mod:`lpik.control.command`), among the obstacles of
+(:mod:`lpik.command`), among the obstacles of
 ``lpik/data/scenes/panda-shelf.json`` and with self-collision between
 non-neighbouring links. The robot's bodies are the same capsules in every
 variant (:func:`lpik.collision.default_capsules`), added to mink's MuJoCo model

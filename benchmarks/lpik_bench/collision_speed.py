@@ -15,7 +15,7 @@ run only warms up. Variants:
 * ``AvoidingLp2Controller.step``: distances, rows and LP2 in one compiled call
   (:mod:`lpik.fast.avoiding_step`), and its ``step_into`` (no Result);
 * ``AvoidingLp2Controller.step, lambda_bound=None``: without the automatic
-  multiplier bound (:mod:`lpik.control.autobound`), which on a step with
+  multiplier bound (:mod:`lpik.methods.autobound`), which on a step with
   ``p < 1`` looks for a bound inside the compiled step and may solve LP2 again;
 * ``AvoidingLp2Controller.step, coal``: ``compiled_distances=False``, the
   distances through coal in Python and the rows written in before the

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX
+from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik_bench.quality import DEFAULT_VARIANT, ScenarioResult, SuiteResult
 from lpik_bench.quality_metrics import (
     FROZEN_DQ,

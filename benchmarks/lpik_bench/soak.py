@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lpik.control.command import ClampedTarget
+from lpik.command import ClampedTarget
 from lpik.limits import AccelerationLimits, build_problem, standard_limits
 from lpik.methods.lp2 import lp2
 from lpik.result import RECOVERING

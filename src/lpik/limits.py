@@ -168,7 +168,7 @@ class MultiplierBounds:
 
 @dataclass(frozen=True, eq=False)
 class AutomaticMultiplierBounds:
-    """Multiplier bounds (sec. 3.2) chosen per step where they help (:mod:`lpik.control.autobound`).
+    """Multiplier bounds (sec. 3.2) chosen per step where they help (:mod:`lpik.methods.autobound`).
 
     A problem alone carries no bound from it (:meth:`apply` adds nothing): the
     closed loop (:func:`lpik.control.simulate.simulate`) and

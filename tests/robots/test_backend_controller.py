@@ -112,7 +112,7 @@ def test_a_chain_alone_is_its_pose_task_and_bad_input_is_named(name, backend) ->
 
 
 def test_a_bare_serial_chain_is_accepted_by_the_controller_and_simulate() -> None:
-    from lpik.control.command import ClampedTarget
+    from lpik.command import ClampedTarget
     from lpik.control.simulate import simulate
     from lpik.robots.planar import planar_chain
 

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from lpik.collision import LinkCapsule, Scene, default_capsules, frame_capsules, load_scene
-from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX
+from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik.paper.scenarios import PLANAR, get_scenario
 from lpik.robots.base import TaskModel
 from lpik.robots.registry import home_configuration, load_robot

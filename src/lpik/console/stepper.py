@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from lpik.collision.model import as_avoidance
+from lpik.command import commanded_displacement, second_order_term
 from lpik.console.robot import ConsoleRobot
-from lpik.control.command import commanded_displacement, second_order_term
 from lpik.highs import HighsSolver
 from lpik.limits import AccelerationLimits, Limit, build_problem, standard_limits
 from lpik.methods.registry import METHODS, get_method

@@ -1,6 +1,6 @@
 """Control: the command law, the closed loop, and the controller a 1 kHz loop calls.
 
-- :mod:`lpik.control.command`: the one command law (``v_max`` linear, ``w_max`` angular);
+- :mod:`lpik.command`: the one command law (``v_max`` linear, ``w_max`` angular);
 - :mod:`lpik.control.simulate` and :mod:`lpik.control.log`: the closed loop and its record;
 - :mod:`lpik.control.controller`: :class:`Lp2Controller`, the fused compiled LP2
   step (needs numba: ``pip install "lpik[fast]"``; imported on first use).
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX, ClampedTarget, CommandLaw
+from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX, ClampedTarget, CommandLaw
 from lpik.control.log import RunMetrics, SimulationLog
 from lpik.control.simulate import Progress, simulate
 

@@ -20,14 +20,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.control.backend_step import fuses_kinematics, step_functions
-from lpik.control.command import (
+from lpik.command import (
     DEFAULT_V_MAX,
     DEFAULT_W_MAX,
     commanded_displacement,
     second_order_term,
     task_rows,
 )
+from lpik.control.backend_step import fuses_kinematics, step_functions
 from lpik.control.controller_steps import (
     auto_bound_block,
     batch_steps,
@@ -79,7 +79,7 @@ class Lp2Controller:
         qdd_max: Symmetric joint acceleration limits [rad/s^2] (scalar or (n,)); none when None.
         velocity_limits: Without ``limits``: whether the model's ``qd_max`` bounds each step.
         lambda_bound: ``"auto"`` (default): bounds chosen per step where they
-            help (:mod:`lpik.control.autobound`); a bound ``B`` on every
+            help (:mod:`lpik.methods.autobound`); a bound ``B`` on every
             multiplier (``|lam_i| <= B``) or a :class:`~lpik.limits.MultiplierBounds`
             (sec. 3.2); ``None``: unbounded (the paper's LP2 as stated).
         M: Weight matrix of the criterion (eq. 3), as in :class:`~lpik.problem.Problem`.
@@ -97,7 +97,7 @@ class Lp2Controller:
         on_stall: Opt-in progress step (:mod:`lpik.methods.progress`, status
             ``off_direction``) after this many steps with ``p = 0``; ``None``: never.
         second_order: Take off each step's command the second-order term of the
-            last step's task motion (:func:`lpik.control.command.second_order_term`,
+            last step's task motion (:func:`lpik.command.second_order_term`,
             from ``q_prev`` to ``q0``; the default): the error each step leaves on a
             curved path is then third order in the step, not second. ``False``:
             the command law alone, as the paper's runs command it.
@@ -166,7 +166,7 @@ class Lp2Controller:
             template.q_min, template.q_max, np.full(n, np.nan))  # fmt: skip
         # (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max.
         bounds = np.vstack([template.q_min, template.q_max, rate_limits(self.limits, n)])
-        #: The automatic multiplier bound in force (lpik.control.autobound), or None.
+        #: The automatic multiplier bound in force (lpik.methods.autobound), or None.
         self.automatic_bound = next(
             (lim for lim in self.limits if isinstance(lim, AutomaticMultiplierBounds)), None
         )
@@ -368,7 +368,7 @@ class Lp2Controller:
         self, J: FloatArray, dw: FloatArray, q0: FloatArray, q_prev: FloatArray | None
     ) -> Problem:
         P = build_problem(J, dw, q0, self.limits, dt=self.dt, q_prev=q_prev, **self._weights)
-        if self._bound is None:  # (else a step under the automatic bound: lpik.control.autobound)
+        if self._bound is None:  # (else a step under the automatic bound: lpik.methods.autobound)
             return P
         return P.replace(lam_min=np.maximum(P.lam_min, -self._bound),
                          lam_max=np.minimum(P.lam_max, self._bound))  # fmt: skip
@@ -376,7 +376,7 @@ class Lp2Controller:
     def problem(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Problem:
         """The step's :class:`~lpik.problem.Problem`, built by the pure-numpy layers.
 
-        The command is the one law of :mod:`lpik.control.command`: the
+        The command is the one law of :mod:`lpik.command`: the
         displacement to the target (along the screw on a pose task), clamped
         to ``v_max dt`` and ``w_max dt``, less the last step's second-order
         term where ``second_order`` is on.

@@ -15,7 +15,6 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.control.autobound import bound_for_step
 from lpik.control.backend_step import fuses_kinematics
 from lpik.control.inputs import TARGET_SHAPES, stacked_rows
 from lpik.fast import layout
@@ -25,6 +24,7 @@ from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.step import BAD_INPUT
 from lpik.limits import AutomaticMultiplierBounds
+from lpik.methods.autobound import bound_for_step
 from lpik.result import INFEASIBLE, RECOVERING, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import FULL_P
@@ -131,9 +131,9 @@ def bounded_step(
     """``controller``'s step again under the automatic multiplier bound, where it applies.
 
     For the steps the fused step did not decide (module docstring). The rule
-    is :func:`lpik.control.autobound.automatic_bound`: compiled over a
+    is :func:`lpik.methods.autobound.automatic_bound`: compiled over a
     SerialChain (:func:`lpik.fast.autobound.bound_in_state`), else through
-    the numpy :func:`~lpik.control.autobound.bound_for_step`. The bound is
+    the numpy :func:`~lpik.methods.autobound.bound_for_step`. The bound is
     written into the state's multiplier bounds for one compiled step (the
     step's own rule switched off, and into the problem
     :meth:`~lpik.control.controller.Lp2Controller.problem` builds, for its

@@ -2,13 +2,13 @@
 
 One control step::
 
-    dw = command(model, q, dt) - rho(q_prev, q)     # lpik.control.command
+    dw = command(model, q, dt) - rho(q_prev, q)     # lpik.command
     problem = build_problem(J(q), dw, q, limits, dt=dt, q_prev=q_prev, **weights)
     result = method(problem)                        # lpik.methods
     q_prev, q = q, applied(result)
 
 ``rho`` is the last step's second-order term
-(:func:`lpik.control.command.second_order_term`; 0 on the first step), which
+(:func:`lpik.command.second_order_term`; 0 on the first step), which
 ``Lp2Controller`` takes off its command too; ``second_order=False`` commands
 the law alone, as the paper's runs do.
 
@@ -39,11 +39,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lpik.collision.model import as_avoidance
-from lpik.control.autobound import bound_for_step
-from lpik.control.command import CommandLaw, second_order_term, task_rows
+from lpik.command import CommandLaw, second_order_term, task_rows
 from lpik.control.log import SimulationLog
 from lpik.highs import HighsSolver
 from lpik.limits import AutomaticMultiplierBounds, Limit, build_problem, standard_limits
+from lpik.methods.autobound import bound_for_step
 from lpik.methods.progress import StallWatch
 from lpik.methods.registry import get_method
 from lpik.problem import Problem
@@ -93,7 +93,7 @@ def simulate(
     Args:
         model: The task model (pose, difference, jacobian, position), or a chain
             alone (its pose task: :func:`lpik.robots.tasks.as_task_model`).
-        command: The command law (e.g. :class:`~lpik.control.command.ClampedTarget`).
+        command: The command law (e.g. :class:`~lpik.command.ClampedTarget`).
         q0: Start configuration, shape (n,) [rad or m].
         steps: Number of control steps (> 0).
         method: A name from :data:`lpik.methods.METHODS`.
@@ -117,7 +117,7 @@ def simulate(
             :class:`~lpik.collision.CollisionAvoidance` (rows, field or both). The log
             then records each step's smallest distance and its pair.
         second_order: Take off each step's command the second-order term of the
-            last step's task motion (:func:`lpik.control.command.second_order_term`),
+            last step's task motion (:func:`lpik.command.second_order_term`),
             as :class:`~lpik.control.controller.Lp2Controller` does by default.
             ``False``: the command law alone (the paper's runs).
 
@@ -161,7 +161,7 @@ def simulate(
         problem = build_problem(J, dw, q, step_limits, dt=dt, q_prev=q_prev, **step_weights)
         start = time.perf_counter()
         result = step_fn(problem)
-        if auto is not None:  # the automatic multiplier bound (lpik.control.autobound)
+        if auto is not None:  # the automatic multiplier bound (lpik.methods.autobound)
             bound = bound_for_step(auto, model.jacobian, q, J, task, float(dt), result)
             if bound is not None:
                 problem = problem.replace(lam_min=np.maximum(problem.lam_min, -bound),

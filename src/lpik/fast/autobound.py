@@ -1,6 +1,6 @@
 """The automatic multiplier bound (sec. 3.2), compiled for the fused step.
 
-:func:`lpik.control.autobound.automatic_bound` is the rule; :data:`automatic_bound`
+:func:`lpik.methods.autobound.automatic_bound` is the rule; :data:`automatic_bound`
 is that very function compiled (:func:`lpik.fast.twins.compiled_twin`), with
 the one-sided Jacobi SVD of :mod:`lpik.fast.jacobi` for its singular values
 and the chain's kinematics from the state buffer (:func:`state_jacobian`) for
@@ -14,12 +14,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from lpik.control import autobound
 from lpik.fast import layout as L
 from lpik.fast.jacobi import singular_values
 from lpik.fast.kinematics import chain_fk_jacobian
 from lpik.fast.twins import compiled_twin
 from lpik.limits import AutomaticMultiplierBounds
+from lpik.methods import autobound
 
 __all__ = ["automatic_bound", "bound_in_state", "settings", "state_jacobian"]
 
@@ -40,7 +40,7 @@ def state_jacobian(state, q):
     return J
 
 
-#: :func:`lpik.control.autobound.automatic_bound`, compiled as it is.
+#: :func:`lpik.methods.autobound.automatic_bound`, compiled as it is.
 automatic_bound = compiled_twin(
     autobound.automatic_bound, _singular_values=singular_values, _task_jacobian=state_jacobian
 )
@@ -64,7 +64,7 @@ def settings(limit: AutomaticMultiplierBounds | None, fused: bool) -> np.ndarray
 
     ``fused``: whether the step applies the rule itself (a chain whose
     kinematics it compiles, so that it can take the probe); else 0, and the
-    caller applies it (:func:`lpik.control.autobound.bound_for_step`).
+    caller applies it (:func:`lpik.methods.autobound.bound_for_step`).
     """
     if limit is None:
         return np.zeros(5)

@@ -1,7 +1,7 @@
 """The command law, compiled: the clamped step along its screw, and the second-order term.
 
 :func:`command_rows` and :func:`second_order_rows` are the plain-loop
-functions of :mod:`lpik.control.command`, compiled as they are. The
+functions of :mod:`lpik.command`, compiled as they are. The
 second-order term needs the task frame and Jacobian at ``q_prev``: the state
 keeps those of the last step's ``q0`` (blocks ``prev_*`` of
 :mod:`lpik.fast.layout`), which in a control loop is the next step's
@@ -13,18 +13,18 @@ from __future__ import annotations
 
 from numba import njit
 
-from lpik.control import command
+from lpik import command
 from lpik.fast import layout as L
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error
 from lpik.fast.twins import compiled_twin
 
-#: The one command law (:func:`lpik.control.command.command_rows`), compiled as it is.
+#: The one command law (:func:`lpik.command.command_rows`), compiled as it is.
 command_rows = compiled_twin(
     command.command_rows,
     clamp_command=njit(cache=True)(command.clamp_command),
     along_screw=njit(cache=True)(command.along_screw),
 )
-#: The last step's second-order term (:func:`lpik.control.command.second_order_rows`).
+#: The last step's second-order term (:func:`lpik.command.second_order_rows`).
 second_order_rows = compiled_twin(command.second_order_rows, command_rows=command_rows)
 
 
@@ -84,7 +84,7 @@ def _moved(q0, q_prev):
 def take_off_second_order(state, q0, q_prev, rows, J6, dw):
     """``dw -= rho``, the last step's second-order term; then keep q0's kinematics for the next.
 
-    The term is :func:`lpik.control.command.second_order_rows` of the motion
+    The term is :func:`lpik.command.second_order_rows` of the motion
     from the frame at ``q_prev`` (``prev_frame``) to the frame at ``q0``, with
     ``J(q_prev) (q0 - q_prev)`` from ``prev_jacobian6``; 0 at rest.
     """

@@ -4,13 +4,13 @@
 :class:`~lpik.robots.chain.SerialChain` what :func:`lpik.limits.build_problem`
 and :func:`lpik.methods.lp2.lp2` do through the numpy layers: the pose and
 Jacobian at ``q0``, the commanded displacement ``dw`` of eq. 2 (the law of
-:mod:`lpik.control.command`: :func:`~lpik.control.command.command_rows`,
+:mod:`lpik.command`: :func:`~lpik.command.command_rows`,
 compiled in :mod:`lpik.fast.command_law`, less the last step's second-order
 term where the controller asks for it), the bounds on ``dq`` from end-stops,
 velocity and acceleration limits (eqs. 13-14), the criterion's ``c`` (eq. 3, sec. 3.1)
 and LP2's ratio
 test (eqs. 15-18), and under the automatic multiplier bound
-(:mod:`lpik.control.autobound`, sec. 3.2) what ``simulate`` does after an
+(:mod:`lpik.methods.autobound`, sec. 3.2) what ``simulate`` does after an
 unbounded step with ``p < 1``: the rule, and LP2 again under its bound
 (:func:`bounded_again`). Everything it reads and writes lives in one state
 buffer (:mod:`lpik.fast.layout`).
@@ -184,7 +184,7 @@ def bounded_again(state, q0, q_prev, J, dw):
     """After an unbounded step with ``p < 1``: the automatic multiplier bound (sec. 3.2).
 
     The rule (:func:`lpik.fast.autobound.bound_in_state`, that of
-    :mod:`lpik.control.autobound`) on the step :func:`limit_and_solve` left in
+    :mod:`lpik.methods.autobound`) on the step :func:`limit_and_solve` left in
     ``state``; where it bounds the multipliers, :func:`limit_and_solve` again
     with ``|lam_k| <= B_k`` added to the state's multiplier bounds, which are
     then restored. Returns the outcome of the step that stands.

@@ -2,7 +2,7 @@
 
 On a bundled 3-D arm (pose task) the target is the home pose with its
 position moved to the point: the tool point moves straight toward it at
-``v_max`` (:data:`lpik.control.command.DEFAULT_V_MAX`) with the orientation
+``v_max`` (:data:`lpik.command.DEFAULT_V_MAX`) with the orientation
 held. On the paper's planar arm (:data:`~lpik.paper.scenarios.PLANAR`; the
 position task) the start is the paper's ``q0`` and the target an (x, y) point.
 """
@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from lpik.control.command import DEFAULT_V_MAX, DEFAULT_W_MAX
+from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik.paper.scenarios import PLANAR, PaperArm, Setup
 from lpik.robots.planar import planar_arm
 from lpik.robots.registry import home_configuration, load_robot

@@ -2,7 +2,7 @@
 
 Seven runs of the two scenarios (:mod:`lpik.paper.scenarios`), two of them
 beyond the paper (saturation in the null space; the automatic multiplier
-bound of :mod:`lpik.control.autobound`, which needs no run to derive it), and,
+bound of :mod:`lpik.methods.autobound`, which needs no run to derive it), and,
 beyond it too, the 3-D runs of :func:`reproduce_3d` and the
 collision-avoidance runs and Figs. 11-12 of :mod:`lpik.paper.collision_runs`:
 

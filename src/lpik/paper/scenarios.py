@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from lpik.control.command import DEFAULT_W_MAX
+from lpik.command import DEFAULT_W_MAX
 from lpik.naming import lookup
 from lpik.paper.setup import Setup
 from lpik.robots.base import TaskModel

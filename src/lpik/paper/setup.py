@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from lpik.control.command import ClampedTarget
+from lpik.command import ClampedTarget
 from lpik.limits import AccelerationLimits, Limit, standard_limits
 from lpik.robots.base import TaskModel
 from lpik.types import FloatArray
@@ -84,7 +84,7 @@ class Setup:
         Args:
             method: A name from :data:`lpik.methods.METHODS`.
             lambda_bound: ``"auto"`` (default): the automatic bound
-                (:mod:`lpik.control.autobound`); a number: symmetric bound on every
+                (:mod:`lpik.methods.autobound`); a number: symmetric bound on every
                 multiplier (sec. 3.2); ``None``: unbounded (the paper's runs).
             qdd_max: Acceleration limit of every joint [rad/s^2]; ``None``: none.
             second_order: Take off each command the last step's second-order term,
