@@ -113,6 +113,7 @@ class Setup:
             method=method,
             dt=self.dt if dt is None else dt,
             limits=self.limits(lambda_bound, qdd_max),
+            lambda_bound=None,  # (the limits hold lambda_bound's)
             weights=self.weights,
             name=label,
             warm_start=warm_start,
