@@ -192,7 +192,6 @@ def controller_limits(
     if G is not None or h is not None:
         G, h = extra_rows(G, h, n)
         held.append(LinearRows(G, h, row_names(row_labels)))
-    rate_limits(held, n)  # refuses, naming it, a limit the compiled step cannot hold
     return tuple(held)
 
 

@@ -1,10 +1,10 @@
 """Closed-loop simulation: the stepping loop over a task model, a command law and a method.
 
-One control step::
+One control step is one :meth:`lpik.control.stepper.Stepper.step`::
 
     dw = command(model, q, dt) - rho(q_prev, q)     # lpik.command
     problem = build_problem(J(q), dw, q, limits, dt=dt, q_prev=q_prev, **weights)
-    result = method(problem)                        # lpik.methods
+    result = method(problem)                        # lpik.methods (+ the bound policy, on_stall)
     q_prev, q = q, applied(result)
 
 ``rho`` is the last step's second-order term
@@ -32,22 +32,16 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from functools import partial
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from lpik.collision.model import as_avoidance
-from lpik.command import CommandLaw, second_order_term, task_rows
+from lpik.command import CommandLaw
 from lpik.control.log import SimulationLog
-from lpik.highs import HighsSolver
-from lpik.limits import AutomaticMultiplierBounds, Limit, build_problem, standard_limits
-from lpik.methods.autobound import bound_for_step
-from lpik.methods.progress import StallWatch
-from lpik.methods.registry import get_method
-from lpik.problem import Problem
-from lpik.result import VIOLATES_LIMITS, Result
+from lpik.control.stepper import DEFAULT_METHOD, Stepper
+from lpik.limits import Limit
+from lpik.result import Result
 from lpik.robots.base import TaskModel
 from lpik.robots.tasks import as_task_model
 from lpik.types import FloatArray
@@ -60,26 +54,17 @@ def _nan_if_none(values: FloatArray | None, size: int) -> FloatArray:
     return np.full(size, np.nan) if values is None else np.asarray(values, dtype=np.float64)
 
 
-def _method_function(
-    method: str, model: TaskModel, solver: HighsSolver | None
-) -> Callable[[Problem], Result]:
-    spec = get_method(method)
-    if spec.needs_model:
-        return partial(spec.function, model=model)
-    if spec.takes_solver:
-        return partial(spec.function, solver=solver)
-    return spec.function
-
-
 def simulate(
     model: TaskModel,
     command: CommandLaw,
     q0: Sequence[float] | FloatArray,
     steps: int,
     *,
-    method: str = "lp2",
+    method: str = DEFAULT_METHOD,
     dt: float,
     limits: Sequence[Limit] | None = None,
+    lambda_bound: float | str | None = "auto",
+    qdd_max: Any = None,
     weights: Mapping[str, Any] | None = None,
     name: str = "",
     warm_start: bool = True,
@@ -90,16 +75,24 @@ def simulate(
 ) -> SimulationLog:
     """Run the closed loop for ``steps`` control steps and return the log.
 
+    Each step is one :meth:`lpik.control.stepper.Stepper.step` (the numpy
+    engine); ``Lp2Controller`` runs the same stages compiled.
+
     Args:
         model: The task model (pose, difference, jacobian, position), or a chain
             alone (its pose task: :func:`lpik.robots.tasks.as_task_model`).
         command: The command law (e.g. :class:`~lpik.command.ClampedTarget`).
         q0: Start configuration, shape (n,) [rad or m].
         steps: Number of control steps (> 0).
-        method: A name from :data:`lpik.methods.METHODS`.
+        method: A name from :data:`lpik.methods.METHODS` (default ``lp2s``).
         dt: Control period [s] (> 0).
         limits: Limits in force (:mod:`lpik.limits`); default the model's end-stops and
             velocity limits. Acceleration limits receive the previous configuration.
+        lambda_bound: ``"auto"`` (default): the automatic multiplier bound unless
+            ``limits`` bound the multipliers; a number ``B`` (``|lam_i| <= B``, sec.
+            3.2); ``None``: unbounded (the paper's LP2). Methods without
+            multipliers ignore ``"auto"``.
+        qdd_max: Symmetric joint acceleration limits [rad/s^2]; None: none (beyond ``limits``).
         weights: ``M``, ``f``, ``Lambda``, ``q_ref``, ``k`` of every step's problem.
         name: Name recorded in the log.
         warm_start: For ``lp1``, ``l1``, ``lp2``: reuse one HiGHS instance across the
@@ -118,8 +111,8 @@ def simulate(
             then records each step's smallest distance and its pair.
         second_order: Take off each step's command the second-order term of the
             last step's task motion (:func:`lpik.command.second_order_term`),
-            as :class:`~lpik.control.controller.Lp2Controller` does by default.
-            ``False``: the command law alone (the paper's runs).
+            the default of every way to take a step. ``False``: the command law
+            alone (the paper's runs).
 
     Returns:
         The :class:`SimulationLog` of the run.
@@ -136,72 +129,80 @@ def simulate(
     n = model.n_joints
     if q.shape != (n,) or not np.isfinite(q).all():
         raise ValueError(f"q0: must be {n} finite joint coordinates, got {q0!r}")
-    step_fn = _method_function(method, model, HighsSolver() if warm_start else None)
-    stall = StallWatch(on_stall)
-    limits = list(standard_limits(model) if limits is None else limits)
-    auto = next((lim for lim in limits if isinstance(lim, AutomaticMultiplierBounds)), None)
-    auto = auto if get_method(method).bounds_multipliers else None
-    task = task_rows(model) if auto is not None else None
-    weights = dict(weights or {})
-    weights.setdefault("joint_names", model.joint_names)
-    m = model.task_dim
-    rows: dict[str, list[Any]] = {k: [] for k in ("q", "pos", "p", "lam", "st", "bd", "pa", "cl")}
-    avoid, closest = as_avoidance(model, scene, q), []
-    times = np.empty(steps)
+    stepper = Stepper(
+        model,
+        dt=float(dt),
+        method=method,
+        limits=limits,
+        weights=weights,
+        lambda_bound=lambda_bound,
+        qdd_max=qdd_max,
+        scene=scene,
+        home=q,
+        second_order=second_order,
+        on_stall=on_stall,
+        warm_start=warm_start,
+    )
+    log = _LogRows(model, stepper)
     q_prev: FloatArray | None = None
     for k in range(steps):
-        dw = command(model, q, float(dt))
-        if second_order and q_prev is not None:
-            dw = dw - second_order_term(model, q_prev, q)
-        J, step_limits, step_weights = model.jacobian(q), limits, weights
-        if avoid is not None:
-            closest.append(avoid.closest(q))
-            step_limits = [*limits, *avoid.limits()]
-            step_weights = avoid.weights(weights, q, float(dt), J)
-        problem = build_problem(J, dw, q, step_limits, dt=dt, q_prev=q_prev, **step_weights)
         start = time.perf_counter()
-        result = step_fn(problem)
-        if auto is not None:  # the automatic multiplier bound (lpik.methods.autobound)
-            bound = bound_for_step(auto, model.jacobian, q, J, task, float(dt), result)
-            if bound is not None:
-                problem = problem.replace(lam_min=np.maximum(problem.lam_min, -bound),
-                                          lam_max=np.minimum(problem.lam_max, bound))  # fmt: skip
-                result = step_fn(problem)
-        result = stall.check(result, lambda problem=problem: problem)
-        times[k] = time.perf_counter() - start
-        q_next, clamped = _applied(problem, result)
+        result = stepper.step(q, command, q_prev)
+        log.add(q, result, stepper.clamped, time.perf_counter() - start)
+        q_prev, q = q, np.asarray(result.q, dtype=np.float64).copy()
+        if progress is not None:
+            progress(k + 1, steps)
+    return log.finished(q, name=name, dt=float(dt), warm_start=warm_start)
+
+
+class _LogRows:
+    """The rows of a run's log, one per step: the state before it and the step's answer."""
+
+    def __init__(self, model: TaskModel, stepper: Stepper) -> None:
+        self.model, self.stepper = model, stepper
+        self.rows: dict[str, list[Any]] = {
+            k: [] for k in ("q", "pos", "p", "lam", "st", "bd", "pa", "cl", "t", "near")
+        }
+
+    def add(self, q: FloatArray, result: Result, clamped: bool, seconds: float) -> None:
+        rows, avoid = self.rows, self.stepper.avoidance
+        if avoid is not None:
+            rows["near"].append(avoid.closest(q))
         rows["q"].append(q)
-        rows["pos"].append(np.asarray(model.position(q), dtype=np.float64))
+        rows["pos"].append(np.asarray(self.model.position(q), dtype=np.float64))
         rows["p"].append(result.p if result.moved else 0.0)
-        rows["lam"].append(_nan_if_none(result.lam if result.moved else None, m))
+        rows["lam"].append(_nan_if_none(result.lam if result.moved else None,
+                                        self.model.task_dim))  # fmt: skip
         rows["st"].append(result.status)
         rows["bd"].append(result.binding)
         rows["pa"].append(result.path)
         rows["cl"].append(clamped)
-        q_prev, q = q, q_next
-        if progress is not None:
-            progress(k + 1, steps)
-    return SimulationLog(
-        method=method,
-        dt=float(dt),
-        t=np.arange(steps) * float(dt),
-        q=np.array(rows["q"]),
-        position=np.array(rows["pos"]),
-        p=np.array(rows["p"], dtype=np.float64),
-        lam=np.array(rows["lam"]).reshape(steps, m),
-        status=np.array(rows["st"], dtype=str),
-        binding=_object_array(rows["bd"]),
-        path=np.array(rows["pa"], dtype=str),
-        clamped=np.array(rows["cl"], dtype=bool),
-        solve_time=times,
-        q_end=q,
-        position_end=np.asarray(model.position(q), dtype=np.float64),
-        joint_names=tuple(model.joint_names),
-        name=name,
-        warm_start=warm_start,
-        min_distance=None if avoid is None else np.array([d for d, _ in closest]),
-        closest=None if avoid is None else np.array([c for _, c in closest], dtype=str),
-    )
+        rows["t"].append(seconds)
+
+    def finished(self, q: FloatArray, *, name: str, dt: float, warm_start: bool) -> SimulationLog:
+        rows, model, steps = self.rows, self.model, len(self.rows["q"])
+        near = rows["near"] if self.stepper.avoidance is not None else None
+        return SimulationLog(
+            method=self.stepper.method,
+            dt=dt,
+            t=np.arange(steps) * dt,
+            q=np.array(rows["q"]),
+            position=np.array(rows["pos"]),
+            p=np.array(rows["p"], dtype=np.float64),
+            lam=np.array(rows["lam"]).reshape(steps, model.task_dim),
+            status=np.array(rows["st"], dtype=str),
+            binding=_object_array(rows["bd"]),
+            path=np.array(rows["pa"], dtype=str),
+            clamped=np.array(rows["cl"], dtype=bool),
+            solve_time=np.array(rows["t"]),
+            q_end=q,
+            position_end=np.asarray(model.position(q), dtype=np.float64),
+            joint_names=tuple(model.joint_names),
+            name=name,
+            warm_start=warm_start,
+            min_distance=None if near is None else np.array([d for d, _ in near]),
+            closest=None if near is None else np.array([c for _, c in near], dtype=str),
+        )
 
 
 def _object_array(values: list[Any]) -> NDArray[np.object_]:
@@ -209,11 +210,3 @@ def _object_array(values: list[Any]) -> NDArray[np.object_]:
     out = np.empty(len(values), dtype=object)
     out[:] = values
     return out
-
-
-def _applied(problem: Problem, result: Result) -> tuple[FloatArray, bool]:
-    """The configuration the machine reaches, and whether it was clamped to the end-stops."""
-    if result.status == VIOLATES_LIMITS:
-        q = np.clip(result.q, problem.q_min, problem.q_max)
-        return q, bool(np.any(q != result.q))
-    return np.asarray(result.q, dtype=np.float64).copy(), False

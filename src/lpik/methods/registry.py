@@ -83,6 +83,9 @@ METHODS: dict[str, MethodSpec] = {
 
 #: Every method name.
 ALL_METHODS = tuple(METHODS)
+#: The method every way of taking a step uses unless told otherwise: LP2 with
+#: saturation in the null space. The paper's runs name ``lp2`` explicitly.
+DEFAULT_METHOD = "lp2s"
 
 
 def get_method(name: Any, *, field: str = "method") -> MethodSpec:
@@ -95,12 +98,12 @@ def get_method(name: Any, *, field: str = "method") -> MethodSpec:
         ) from None
 
 
-def solve(problem: Problem, method: str = "lp2", *, model: TaskModel | None = None) -> Result:
+def solve(problem: Problem, method: str = DEFAULT_METHOD, *, model: TaskModel | None = None) -> Result:
     """Solve one step with the named method.
 
     Args:
         problem: The validated step problem.
-        method: A name from :data:`METHODS`.
+        method: A name from :data:`METHODS` (default :data:`DEFAULT_METHOD`).
         model: The task model; required by methods that need it (``"nlp"``),
             ignored by the others.
 

@@ -1,0 +1,282 @@
+"""One control step, one pipeline: the stages every way of taking a step runs.
+
+A step goes through named stages, each written once::
+
+    kinematics   w0 = phi(q0), J(q0)                       (eqs. 1-2; the task model)
+    command      dw = law(q0) - rho(q_prev, q0)            (lpik.command; rho: second-order term)
+    limits       problem = build_problem(J, dw, q0, ...)   (eqs. 13-14, sec. 3.2; scene rows too)
+    method       result = method(problem)                  (lpik.methods, eqs. 7-19)
+    bound policy result under the automatic multiplier bound where it applies (sec. 3.2)
+    stall        the progress step once p = 0 has lasted (on_stall)
+    applied      a classical step clamped to the end-stops the machine cannot pass
+
+:class:`Stepper` runs them with the numpy layers (the *numpy engine*).
+:class:`~lpik.control.controller.Lp2Controller` is the *compiled engine*: it
+fuses kinematics, command, limits, method and bound policy into one compiled
+call over the same limits and weights, and hands every step the kernel does
+not answer to this stepper's stages (tests hold the two engines equal).
+``simulate``, ``lpik simulate``, the console and the batch are users of one
+or the other. The defaults (:data:`DEFAULT_METHOD`, the automatic multiplier
+bound, the second-order command) are the same for every user; the paper's
+runs name the paper's settings explicitly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
+from functools import partial
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from lpik.collision.model import as_avoidance
+from lpik.command import (
+    DEFAULT_V_MAX,
+    DEFAULT_W_MAX,
+    commanded_displacement,
+    second_order_term,
+    task_rows,
+)
+from lpik.control.inputs import controller_limits, positive_number, task_value
+from lpik.highs import HighsSolver
+from lpik.limits import AutomaticMultiplierBounds, Limit, MultiplierBounds, build_problem
+from lpik.methods.autobound import bound_for_step
+from lpik.methods.progress import StallWatch
+from lpik.methods.registry import DEFAULT_METHOD, MethodSpec, get_method
+from lpik.problem import Problem
+from lpik.result import VIOLATES_LIMITS, Result
+from lpik.robots.base import TaskModel
+from lpik.robots.tasks import as_task_model
+from lpik.types import FloatArray
+
+__all__ = ["DEFAULT_METHOD", "Stepper"]
+
+
+def _flag(name: str, value: Any) -> bool:
+    if not isinstance(value, bool | np.bool_):
+        raise ValueError(f"{name}: must be True or False, got {value!r}")
+    return bool(value)
+
+
+class Stepper:
+    """One control step of a task model through the stages of the module docstring.
+
+    Args:
+        model: A task model (or a chain alone: its pose task).
+        dt: Control period [s].
+        method: A name of :data:`lpik.methods.registry.METHODS` (default ``lp2s``).
+        limits: The limits as :func:`~lpik.limits.build_problem` takes them; default
+            the model's end-stops and (``velocity_limits``) velocity limits. The
+            keywords ``qdd_max``, ``lambda_bound`` and ``rows`` add to them.
+        weights: ``M``, ``f``, ``Lambda``, ``q_ref``, ``k`` of every step's problem.
+        v_max: Largest commanded linear speed [m/s] of a target's command.
+        w_max: Largest commanded angular speed [rad/s] of a target's command.
+        lambda_bound: ``"auto"`` (default): the automatic multiplier bound
+            (:mod:`lpik.methods.autobound`) unless ``limits`` bound the multipliers;
+            a number ``B`` (``|lam_i| <= B``) or a :class:`~lpik.limits.MultiplierBounds`
+            (sec. 3.2); ``None``: unbounded. Only for methods that bound their
+            multipliers; the others ignore ``"auto"``.
+        qdd_max: Symmetric joint acceleration limits [rad/s^2] (scalar or (n,)).
+        velocity_limits: Without ``limits``: whether the model's ``qd_max`` bounds each step.
+        rows: Extra rows ``(G, h, row_labels)`` of ``G q <= h``, or None.
+        scene: Obstacles to keep clear of: a :class:`~lpik.collision.Scene` (the
+            velocity damper's rows) or a :class:`~lpik.collision.CollisionAvoidance`.
+        home: Configuration at which touching self-collision pairs are dropped.
+        second_order: Take off each command the last step's second-order term
+            (:func:`lpik.command.second_order_term`); ``False``: the law alone.
+        on_stall: The progress step after this many steps with ``p = 0``; None: never.
+        warm_start: Reuse one HiGHS instance across the steps of the LP methods.
+
+    Raises:
+        ValueError: Naming the argument that is wrong.
+    """
+
+    def __init__(
+        self,
+        model: TaskModel,
+        *,
+        dt: float,
+        method: str = DEFAULT_METHOD,
+        limits: Sequence[Limit] | None = None,
+        weights: Mapping[str, Any] | None = None,
+        v_max: float = DEFAULT_V_MAX,
+        w_max: float = DEFAULT_W_MAX,
+        lambda_bound: float | str | MultiplierBounds | None = "auto",
+        qdd_max: ArrayLike | None = None,
+        velocity_limits: bool = True,
+        rows: tuple[Any, Any, Any] = (None, None, None),
+        scene: Any = None,
+        home: ArrayLike | None = None,
+        second_order: bool = True,
+        on_stall: int | None = None,
+        warm_start: bool = True,
+    ) -> None:
+        self.model = model = as_task_model(model)
+        self.dt = positive_number("dt", dt)
+        self.v_max, self.w_max = positive_number("v_max", v_max), positive_number("w_max", w_max)
+        self.spec: MethodSpec = get_method(method)
+        self.method = self.spec.name
+        self.second_order = _flag("second_order", second_order)
+        velocity_limits = _flag("velocity_limits", velocity_limits)
+        if not self.spec.bounds_multipliers and lambda_bound == "auto":
+            lambda_bound = None
+        #: The limits every step holds (the scene's rows come on top, per step).
+        self.limits = tuple(
+            lim
+            for lim in controller_limits(model, limits, velocity_limits=velocity_limits,
+                                         qdd_max=qdd_max, lambda_bound=lambda_bound, rows=rows)
+            if self.spec.bounds_multipliers or not isinstance(lim, AutomaticMultiplierBounds)
+        )  # fmt: skip
+        #: The automatic multiplier bound in force, or None.
+        self.automatic_bound = next(
+            (lim for lim in self.limits if isinstance(lim, AutomaticMultiplierBounds)), None
+        )
+        self.weights = dict(weights or {})
+        self.weights.setdefault("joint_names", model.joint_names)
+        home_q = None if home is None else np.asarray(home, dtype=np.float64)
+        #: The scene's collision avoidance, or None.
+        self.avoidance = as_avoidance(model, scene, home_q)
+        self.stall_watch = StallWatch(on_stall)
+        self._solver = HighsSolver() if _flag("warm_start", warm_start) else None
+        self._task_rows = task_rows(model)
+        #: Whether the last :meth:`step` clamped a classical step to the end-stops.
+        self.clamped = False
+
+    # -- the stages ---------------------------------------------------------------------
+
+    def command(self, q0: FloatArray, target: Any, q_prev: FloatArray | None) -> FloatArray:
+        """The step's commanded displacement ``dw`` (eq. 2, :mod:`lpik.command`).
+
+        ``target`` is a task value (moved to at ``v_max``, ``w_max``) or a command
+        law (:class:`~lpik.command.CommandLaw`); less the second-order term of the
+        motion ``q_prev -> q0`` where ``second_order`` is on.
+        """
+        model = self.model
+        if callable(target):
+            dw = np.array(target(model, q0, self.dt), dtype=np.float64)
+        else:
+            dw = commanded_displacement(model, model.pose(q0), task_value(model, target),
+                                        self.v_max, self.w_max, self.dt)  # fmt: skip
+        if self.second_order and q_prev is not None:
+            dw -= second_order_term(model, q_prev, q0)
+        return dw
+
+    def problem(
+        self,
+        q0: ArrayLike,
+        target: Any,
+        q_prev: ArrayLike | None = None,
+        *,
+        bound: FloatArray | None = None,
+    ) -> Problem:
+        """Kinematics, command and limits: the step's validated :class:`~lpik.problem.Problem`.
+
+        ``bound``: multiplier bounds ``|lam_k| <= bound_k`` to add (the automatic
+        bound's second solve).
+        """
+        q = np.asarray(q0, dtype=np.float64)
+        prev = None if q_prev is None else np.asarray(q_prev, dtype=np.float64)
+        J = self.model.jacobian(q)
+        return self.limited(q, self.command(q, target, prev), prev, J, bound=bound)
+
+    def limited(
+        self,
+        q0: FloatArray,
+        dw: FloatArray,
+        q_prev: FloatArray | None,
+        J: FloatArray,
+        *,
+        bound: FloatArray | None = None,
+    ) -> Problem:
+        """The limits stage: ``build_problem`` with the scene's rows and field on top."""
+        limits, weights = self.limits, self.weights
+        if self.avoidance is not None:
+            limits = (*limits, *self.avoidance.limits())
+            weights = self.avoidance.weights(weights, q0, self.dt, J)
+        P = build_problem(J, dw, q0, limits, dt=self.dt, q_prev=q_prev, **weights)
+        if bound is None:
+            return P
+        return P.replace(lam_min=np.maximum(P.lam_min, -bound),
+                         lam_max=np.minimum(P.lam_max, bound))  # fmt: skip
+
+    def solve(self, problem: Problem, *, path: str | None = None) -> Result:
+        """The method stage: the method on the problem (``path``: LP2's path, if it has one)."""
+        return self._method(path)(problem)
+
+    def bounded(self, problem: Problem, result: Result, *, path: str | None = None) -> Result:
+        """The bound policy: the step again under the automatic multiplier bound where it applies.
+
+        The rule is :func:`lpik.methods.autobound.bound_for_step` (sec. 3.2 chosen
+        per step: bounded only where the unbounded step races towards a singularity).
+        """
+        bound = self.bound_of(problem.q0, problem.J, result)
+        if bound is None:
+            return result
+        return self.solve(problem.replace(lam_min=np.maximum(problem.lam_min, -bound),
+                                          lam_max=np.minimum(problem.lam_max, bound)),
+                          path=path)  # fmt: skip
+
+    def bound_of(self, q0: FloatArray, J: FloatArray, result: Result) -> FloatArray | None:
+        """The automatic bound's ``B`` for this step, or None where the step stays unbounded."""
+        if self.automatic_bound is None:
+            return None
+        return bound_for_step(self.automatic_bound, self.model.jacobian, q0, J, self._task_rows,
+                              self.dt, result)  # fmt: skip
+
+    def stalled(self, result: Result, problem_of: Callable[[], Problem]) -> Result:
+        """The stall stage: the progress step once ``p = 0`` has lasted ``on_stall`` steps."""
+        return self.stall_watch.check(result, problem_of)
+
+    def applied(self, problem: Problem, result: Result) -> Result:
+        """The applied stage: a classical step that breaks an end-stop, clamped to it.
+
+        Sets :attr:`clamped`. The status (``violates_limits``) and binding stay.
+        """
+        self.clamped = False
+        if result.status != VIOLATES_LIMITS:
+            return result
+        q = np.clip(result.q, problem.q_min, problem.q_max)
+        self.clamped = bool(np.any(q != result.q))
+        return replace(result, q=q, dq=q - problem.q0) if self.clamped else result
+
+    # -- the whole step -----------------------------------------------------------------
+
+    def step(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Result:
+        """One control step from ``q0`` towards ``target``: every stage in turn.
+
+        Args:
+            q0: Joint coordinates now, (n,).
+            target: The commanded task value (xyz (3,), a rotation (3, 3) or a pose
+                (4, 4)) or a command law.
+            q_prev: Joint coordinates one period ago; ``None``: at rest.
+
+        Raises:
+            ValueError: For a ``q0``, ``q_prev`` or ``target`` of the wrong shape or
+                with values that are not finite.
+        """
+        q = self._joints("q0", q0)
+        prev = None if q_prev is None else self._joints("q_prev", q_prev)
+        problem = self.problem(q, target, prev)
+        result = self.bounded(problem, self.solve(problem))
+        result = self.stalled(result, lambda: problem)
+        return self.applied(problem, result)
+
+    def _joints(self, name: str, value: ArrayLike) -> FloatArray:
+        q = np.array(value, dtype=np.float64)
+        n = self.model.n_joints
+        if q.shape != (n,) or not np.isfinite(q).all():
+            raise ValueError(f"{name}: must be {n} finite joint coordinates, got {value!r}")
+        return q
+
+    def _method(self, path: str | None) -> Callable[[Problem], Result]:
+        spec = self.spec
+        if spec.needs_model:
+            return partial(spec.function, model=self.model)
+        options: dict[str, Any] = {}
+        if spec.takes_solver:
+            options["solver"] = self._solver
+        if path is not None:
+            options["path"] = path
+        return partial(spec.function, **options) if options else spec.function
