@@ -9,9 +9,10 @@ and its settings into a function ``step(q, target, q_prev) -> Result``:
   :class:`~lpik.control.avoiding_controller.AvoidingLp2Controller` with a scene),
   the path a 1 kHz loop is made for;
 * every other method of :data:`lpik.methods.registry.METHODS` runs the numpy
-  path of :func:`lpik.control.simulate.simulate` (build the problem, solve it,
-  clamp a classical step to the end-stops), slower than real time at 1 kHz for
-  the LP methods on some machines: the console shows the real-time factor.
+  engine, :class:`lpik.control.stepper.Stepper` (the stages ``simulate`` runs:
+  build the problem, solve it, clamp a classical step to the end-stops),
+  slower than real time at 1 kHz for the LP methods on some machines: the
+  console shows the real-time factor.
 """
 
 from __future__ import annotations
@@ -19,18 +20,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from functools import partial
 from typing import Any
 
-import numpy as np
-
-from lpik.collision.model import as_avoidance
-from lpik.command import commanded_displacement, second_order_term
+from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik.console.robot import ConsoleRobot
-from lpik.highs import HighsSolver
-from lpik.limits import AccelerationLimits, Limit, build_problem, standard_limits
-from lpik.methods.registry import METHODS, get_method
-from lpik.result import VIOLATES_LIMITS, Result
+from lpik.control.stepper import Stepper as PipelineStepper
+from lpik.methods.registry import DEFAULT_METHOD, METHODS, get_method
+from lpik.result import Result
 from lpik.types import FloatArray
 
 #: A control step: ``step(q, target, q_prev) -> Result``.
@@ -59,9 +55,9 @@ class Settings:
         qdd_max: Acceleration limit of every joint [rad/s^2], or None (off).
     """
 
-    method: str = "lp2s"
-    v_max: float = 0.5
-    w_max: float = 1.0
+    method: str = DEFAULT_METHOD
+    v_max: float = DEFAULT_V_MAX
+    w_max: float = DEFAULT_W_MAX
     lambda_bound: float | str | None = "auto"
     qdd_max: float | None = None
 
@@ -98,61 +94,26 @@ def _in_range(key: str, value: Any, low: float, high: float) -> None:
 def make_stepper(robot: ConsoleRobot, settings: Settings) -> Stepper:
     """The control step that ``settings`` select for ``robot``.
 
+    ``lp2`` and ``lp2s`` run the compiled engine, every other method the
+    numpy engine (:class:`lpik.control.stepper.Stepper`): the same stages and
+    defaults either way.
+
     Raises:
         ValueError: For settings or a scene the robot cannot take.
     """
-    if settings.method in COMPILED:
-        return _compiled(robot, settings)
-    return _numpy(robot, settings)
-
-
-def _compiled(robot: ConsoleRobot, settings: Settings) -> Stepper:
-    from lpik.control.avoiding_controller import AvoidingLp2Controller
-    from lpik.control.controller import Lp2Controller
-
-    options = {
+    options: dict[str, Any] = {
         "v_max": settings.v_max,
         "w_max": settings.w_max,
         "lambda_bound": settings.lambda_bound,
         "qdd_max": settings.qdd_max,
-        "saturate": settings.method == "lp2s",
     }
+    if settings.method not in COMPILED:
+        return PipelineStepper(robot.model, dt=robot.dt, method=settings.method,
+                               scene=robot.scene, home=robot.q0, **options).step  # fmt: skip
+    from lpik.control.avoiding_controller import AvoidingLp2Controller
+    from lpik.control.controller import Lp2Controller
+
+    options["saturate"] = settings.method == "lp2s"
     if robot.scene is None:
         return Lp2Controller(robot.model, dt=robot.dt, **options).step
     return AvoidingLp2Controller(robot.model, robot.scene, robot.q0, dt=robot.dt, **options).step
-
-
-def _numpy(robot: ConsoleRobot, settings: Settings) -> Stepper:
-    model, dt = robot.model, robot.dt
-    spec = get_method(settings.method)
-    solve: Callable[..., Result] = spec.function
-    if spec.needs_model:
-        solve = partial(spec.function, model=model)
-    elif spec.takes_solver:
-        solve = partial(spec.function, solver=HighsSolver())
-    bound = settings.lambda_bound
-    if bound == "auto" or not spec.bounds_multipliers:  # the closed loop applies "auto"
-        bound = None
-    limits: list[Limit] = list(standard_limits(model, lambda_bound=bound))
-    if settings.qdd_max is not None:
-        limits.append(AccelerationLimits(settings.qdd_max))
-    avoid = as_avoidance(model, robot.scene, robot.q0)
-    weights = {"joint_names": model.joint_names}
-
-    def step(q: FloatArray, target: Any, q_prev: FloatArray | None) -> Result:
-        dw = commanded_displacement(model, model.pose(q), target, settings.v_max,
-                                    settings.w_max, dt)  # fmt: skip
-        if q_prev is not None:  # as Lp2Controller and simulate command it
-            dw -= second_order_term(model, q_prev, q)
-        J, step_limits, step_weights = model.jacobian(q), limits, weights
-        if avoid is not None:
-            step_limits = [*limits, *avoid.limits()]
-            step_weights = avoid.weights(weights, q, dt, J)
-        problem = build_problem(J, dw, q, step_limits, dt=dt, q_prev=q_prev, **step_weights)
-        result = solve(problem)
-        if result.status == VIOLATES_LIMITS:  # the machine cannot pass its end-stops
-            q_next = np.clip(result.q, problem.q_min, problem.q_max)
-            result = replace(result, q=q_next, dq=q_next - q)
-        return result
-
-    return step
