@@ -8,8 +8,8 @@ import pytest
 
 pytest.importorskip("numba")
 
+from lpik.cli.compile import compile_kernels  # noqa: E402
 from lpik.cli.main import main  # noqa: E402
-from lpik.fast.precompile import compile_kernels  # noqa: E402
 
 NAMES = [
     "fused step, serial chain",

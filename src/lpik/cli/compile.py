@@ -1,18 +1,118 @@
 """``lpik compile``: compile every kernel of the compiled path now (or load it from the cache).
 
+A cold compile of the compiled path is slow (see the first-call table of
+``docs/benchmarks.md``); the kernels are then cached on disk. Run
+``lpik compile`` (or :func:`compile_kernels`) once where lpik is deployed, for
+example while building a container image, so that a controller's first start
+loads them from the cache instead of compiling them.
+
 Prints one line per kernel: what it does, where it came from (``compiled``,
 ``disk cache`` or ``in memory``) and the seconds it took, then numba's cache
 folder. ``lpik compile --json`` prints a JSON list of objects with the keys
-``name``, ``source``, ``seconds`` and ``cache_path``. Run it once where lpik
-is deployed (e.g. while building a container image) so that a controller's
-first start does not wait for the compiler.
+``name``, ``source``, ``seconds`` and ``cache_path``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import asdict
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class KernelLoad:
+    """How one kernel came to be ready.
+
+    Attributes:
+        name: What the kernel does.
+        seconds: Wall time of the call that readied it [s].
+        source: ``"compiled"``, ``"disk cache"`` or ``"in memory"`` (already
+            loaded in this process).
+        cache_path: numba's cache folder for the kernel.
+    """
+
+    name: str
+    seconds: float
+    source: str
+    cache_path: str
+
+
+def _counts(dispatcher: Any) -> tuple[int, int]:
+    """Cache misses and hits of a numba dispatcher so far."""
+    stats = dispatcher.stats
+    return sum(stats.cache_misses.values()), sum(stats.cache_hits.values())
+
+
+def compile_kernels() -> list[KernelLoad]:
+    """Ready every kernel: the fused step, its batch, LP2 alone and batched.
+
+    Returns:
+        One :class:`KernelLoad` per kernel, in the order they were readied.
+
+    Raises:
+        MissingBackendError: When numba is not installed.
+    """
+    import numpy as np
+
+    from lpik.control.controller import Lp2Controller
+    from lpik.fast import lp2_kernel, step
+    from lpik.fast.autobound import bound_in_state
+    from lpik.fast.avoiding_step import avoiding_kernel, loaded_avoiding_kernel
+    from lpik.fast.batch import lp2_batch
+    from lpik.methods.lp2 import lp2
+    from lpik.problem import Problem
+    from lpik.robots.registry import home_configuration, load_robot
+
+    loads: list[KernelLoad] = []
+
+    def ready(name: str, call: Callable[[], Any], kernel: Any = None) -> None:
+        """Time ``call``, which readies ``kernel`` (``None``: the dispatcher ``call`` returns)."""
+        misses, hits = _counts(kernel) if kernel is not None else (0, 0)
+        start = time.perf_counter()
+        returned = call()
+        seconds = time.perf_counter() - start
+        kernel = returned if kernel is None else kernel
+        now_misses, now_hits = _counts(kernel)
+        if now_misses > misses:
+            source = "compiled"
+        elif now_hits > hits:
+            source = "disk cache"
+        else:
+            source = "in memory"
+        loads.append(KernelLoad(name, seconds, source, str(kernel.stats.cache_path)))
+
+    # The step kernel compiles (or loads) when step_kernel first asks for it.
+    ready("fused step, serial chain", step.step_kernel, step.loaded_step_kernel())
+    ready("fused step, a backend's kinematics", step.task_step_kernel,
+          step.loaded_task_step_kernel())  # fmt: skip
+    ready("fused step with distance rows (AvoidingLp2Controller)", avoiding_kernel,
+          loaded_avoiding_kernel())  # fmt: skip
+    panda = load_robot("panda", task="pose")
+    q = home_configuration("panda")
+    pose = panda.pose(q)
+    controller = Lp2Controller(panda, dt=1e-3, qdd_max=10.0)
+    problem = Problem(J=panda.jacobian(q), dw=np.full(6, 1e-4), q0=q,
+                      q_min=panda.q_min, q_max=panda.q_max)  # fmt: skip
+    ready(
+        "fused step batch, serial chain",
+        lambda: controller.step_batch(q[None], pose[None], q[None]),
+        step.chain_step_batch,
+    )
+    ready(
+        "the automatic multiplier bound's rule, after a step on the HiGHS path",
+        lambda: bound_in_state(controller._state, q, np.ones(q.size)),
+        bound_in_state,
+    )
+    ready(
+        'LP2 ratio test (lp2, path="compiled")',
+        lambda: lp2(problem, path="compiled"),
+        lp2_kernel.lp2_kernel,
+    )
+    ready("LP2 batch (lp2_batch)", lambda: lp2_batch([problem]), lp2_kernel.lp2_batch_kernel)
+    return loads
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -30,9 +130,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 def run(args: argparse.Namespace) -> int:
     """Ready the kernels and report them; exit status 0."""
-    from lpik.fast.precompile import compile_kernels  # without numba: one line, exit 2
-
-    loads = compile_kernels()
+    loads = compile_kernels()  # without numba: MissingBackendError, one line, exit 2
     if args.json:
         print(json.dumps([asdict(load) for load in loads], indent=2))
         return 0

@@ -11,7 +11,7 @@ same answers as the pure-numpy path of :func:`lpik.methods.lp2.lp2`.
   with the automatic multiplier bound (sec. 3.2) of :mod:`lpik.fast.autobound`;
 - :mod:`lpik.fast.arrays` and :mod:`lpik.fast.batch`: one problem
   (``lp2(problem, path="compiled")``) and batches of problems (:func:`lp2_batch`);
-- :mod:`lpik.fast.precompile`: every kernel readied at once (``lpik compile``).
+- ``lpik compile`` (:mod:`lpik.cli.compile`): every kernel readied at once.
 """
 
 from __future__ import annotations
