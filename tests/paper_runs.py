@@ -9,7 +9,7 @@ from __future__ import annotations
 import functools
 
 from lpik.control.simulate import SimulationLog
-from lpik.paper.reproduce import choose_lambda_bound
+from lpik.paper.runs import choose_lambda_bound
 from lpik.paper.scenarios import get_scenario
 
 

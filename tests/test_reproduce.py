@@ -11,13 +11,8 @@ from lpik.cli.main import main
 from lpik.exceptions import MissingBackendError
 from lpik.paper import figures as plots
 from lpik.paper import style
-from lpik.paper.reproduce import (
-    FIGURES,
-    SWEEP_BOUNDS,
-    choose_lambda_bound,
-    reproduce,
-    round_up_1sig,
-)
+from lpik.paper.reproduce import reproduce
+from lpik.paper.runs import FIGURES, SWEEP_BOUNDS, choose_lambda_bound, round_up_1sig
 from paper_runs import edge_unbounded, lp2_pull_in
 
 RUNS = (

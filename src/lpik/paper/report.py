@@ -7,7 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from lpik.control.log import RunMetrics, SimulationLog
-from lpik.paper.reproduce import BOUND_MARGIN, FIGURES, BoundChoice
+from lpik.paper.runs import BOUND_MARGIN, FIGURES, BoundChoice
 from lpik.paper.scenarios import get_scenario
 from lpik.tolerances import FULL_P
 
