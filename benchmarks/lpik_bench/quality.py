@@ -28,7 +28,7 @@ import platform
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -38,8 +38,13 @@ import numpy as np
 from lpik.robots.registry import load_robot
 from lpik.robots.tasks import PoseTask
 from lpik.types import FloatArray
-from lpik_bench.quality_metrics import LegRun, Metrics, scenario_metrics
-from lpik_bench.quality_scenarios import SCENARIOS, Leg, Scenario
+from lpik_bench.quality_metrics import (
+    LegRun,
+    ScenarioResult,
+    SuiteResult,
+    scenario_metrics,
+)
+from lpik_bench.quality_scenarios import SCENARIOS, Leg
 from lpik_bench.workload import DT, QDD_MAX
 
 #: lpik's variants: name -> keyword arguments of Lp2Controller (besides ``model`` and ``dt``).
@@ -51,8 +56,6 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "lp2s unbounded": {"lambda_bound": None},
     "lp2 unbounded": {"saturate": False, "lambda_bound": None},
 }
-#: The variant the goal names ("lpik's default controller").
-DEFAULT_VARIANT = "lp2s"
 
 #: ``step(q, q_prev, target) -> (dq, p, status, binding, ns)``: one timed step.
 StepCall = Callable[[FloatArray, FloatArray, FloatArray], tuple]
@@ -175,27 +178,6 @@ def run_leg(contender: Contender, leg: Leg) -> LegRun:
     if p is None:
         return LegRun(qs, ns, failed, first_failure=first_failure)
     return LegRun(qs, ns, failed, p, status, binding, first_failure)
-
-
-@dataclass(eq=False)
-class ScenarioResult:
-    """One scenario's rows: contender name -> metrics, in the order run."""
-
-    scenario: Scenario
-    rows: dict[str, Metrics] = field(default_factory=dict)
-    lpik: set[str] = field(default_factory=set)
-    wall_s: float = 0.0
-
-
-@dataclass(eq=False)
-class SuiteResult:
-    """The whole run: scenario results, contenders' notes, skipped ones, the environment."""
-
-    scenarios: list[ScenarioResult]
-    notes: dict[str, str]
-    skipped: list[str]
-    environment: dict[str, Any]
-    wall_s: float = 0.0
 
 
 def run_suite(

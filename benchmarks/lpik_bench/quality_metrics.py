@@ -26,6 +26,9 @@ every library is measured by the same code:
   largest of any step within the limits, is 0: a step that keeps the command's
   direction cannot move there);
 - the time of each step call [us].
+
+A whole run of the suite is a :class:`SuiteResult`: one :class:`ScenarioResult`
+(the metrics of every library on one scenario) per scenario.
 """
 
 from __future__ import annotations
@@ -33,13 +36,14 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from lpik.robots.tasks import PoseTask
 from lpik.types import FloatArray
-from lpik_bench.quality_scenarios import Leg
+from lpik_bench.quality_scenarios import Leg, Scenario
 from lpik_bench.soak import STEP_TOL, STOP_TOL
 
 #: Frequency above which joint-velocity energy counts as high-frequency [Hz].
@@ -264,3 +268,24 @@ def _recovery(
     out = ~leg.reachable
     chatter = float(change[1:][out[1:] & out[:-1]].sum())
     return Recovery(leg.label, recovered, after_ms, chatter, 1e3 * float(after[0][-1]))
+
+
+@dataclass(eq=False)
+class ScenarioResult:
+    """One scenario's rows: contender name -> metrics, in the order run."""
+
+    scenario: Scenario
+    rows: dict[str, Metrics] = field(default_factory=dict)
+    lpik: set[str] = field(default_factory=set)
+    wall_s: float = 0.0
+
+
+@dataclass(eq=False)
+class SuiteResult:
+    """The whole run: scenario results, contenders' notes, skipped ones, the environment."""
+
+    scenarios: list[ScenarioResult]
+    notes: dict[str, str]
+    skipped: list[str]
+    environment: dict[str, Any]
+    wall_s: float = 0.0

@@ -13,7 +13,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
-from lpik_bench.quality import DEFAULT_VARIANT, ScenarioResult, SuiteResult
 from lpik_bench.quality_metrics import (
     FROZEN_DQ,
     HIGH_HZ,
@@ -21,11 +20,16 @@ from lpik_bench.quality_metrics import (
     RECOVERY_WINDOW,
     TRACK_TOL,
     Metrics,
+    ScenarioResult,
+    SuiteResult,
 )
 from lpik_bench.quality_reach import REACH_TOL, SAMPLE_EVERY
 from lpik_bench.soak import STEP_TOL, STOP_TOL
 from lpik_bench.workload import QDD_MAX
 
+#: The variant the goal names ("lpik's default controller"), a key of
+#: :data:`lpik_bench.quality.VARIANTS`.
+DEFAULT_VARIANT = "lp2s"
 #: "At least as good as the best peer within 10 %".
 MARGIN = 0.10
 #: Tracking errors at or below this [mm, mrad] are rounding, not motion: equal for the goal.
