@@ -175,10 +175,20 @@ def agreement_checks(
       ``lambda^2 / sigma_min(J)^2`` relative, checked per step. Where a limit
       binds the libraries solve different problems and are not compared.
     """
-    from lpik.fast import lp2_batch
+    plain, acc = C.controllers(workload)
+    return [
+        *_fused_agreement(workload, plain, acc),
+        _step_batch_agreement(workload, acc),
+        _highs_agreement(problems),
+        _lp2_batch_agreement(problems, batch),
+        *_peer_agreement(workload, plain, peers),
+    ]
+
+
+def _fused_agreement(workload: Workload, plain: Any, acc: Any) -> list[Agreement]:
+    """The fused step against ``build_problem`` + numpy's ``lp2``, without and with ``qdd_max``."""
     from lpik.methods.lp2 import lp2
 
-    plain, acc = C.controllers(workload)
     N = len(workload)
     out = []
     limits = (("end-stops, velocity", plain, None), ("+ acceleration", acc, workload.q_prev))
@@ -201,53 +211,64 @@ def agreement_checks(
                 TOL_SAME_ALGORITHM,
             )
         )
+    return out
+
+
+def _step_batch_agreement(workload: Workload, acc: Any) -> Agreement:
+    """``Lp2Controller.step_batch`` against ``step`` row by row (with acceleration limits)."""
+    N = len(workload)
     rows = acc.step_batch(workload.q, workload.targets, workload.q_prev)
     err = np.empty(N)
     for i in range(N):
         one = acc.step(workload.q[i], workload.targets[i], workload.q_prev[i])
         same = (rows.status_of(i), rows.binding_of(i)) == (one.status, one.binding)
         err[i] = np.abs(rows.dq[i] - one.dq).max() if same else np.inf
-    out.append(
-        check_agreement(
-            "lpik",
-            "lp2 fused step_batch (compiled)",
-            "max |dq_batch - dq_step| [rad] vs Lp2Controller.step row by row (+ acceleration); "
-            "a different status or binding label counts as inf",
-            err,
-            np.ones(N, bool),
-            TOL_SAME_ALGORITHM,
-        )
+    return check_agreement(
+        "lpik",
+        "lp2 fused step_batch (compiled)",
+        "max |dq_batch - dq_step| [rad] vs Lp2Controller.step row by row (+ acceleration); "
+        "a different status or binding label counts as inf",
+        err,
+        np.ones(N, bool),
+        TOL_SAME_ALGORITHM,
     )
+
+
+def _highs_agreement(problems: Sequence[Any]) -> Agreement:
+    """LP2's ratio test against the general HiGHS LP on every step."""
+    from lpik.methods.lp2 import lp2
+
     ratio = [lp2(p) for p in problems]
     highs = [lp2(p, path="highs") for p in problems]
     err = relative_errors([r.dq for r in ratio], [h.dq for h in highs])
     p_err = np.abs(np.array([r.p for r in ratio]) - np.array([h.p for h in highs]))
-    out.append(
-        check_agreement(
-            "lpik",
-            "lp2 (ratio test)",
-            "relative |dq_ratio - dq_highs|_2 vs the HiGHS LP, every step",
-            err,
-            np.ones(len(problems), bool),
-            TOL_HIGHS,
-            note=f"max |p_ratio - p_highs| = {p_err.max():.2e}",
-        )
+    return check_agreement(
+        "lpik",
+        "lp2 (ratio test)",
+        "relative |dq_ratio - dq_highs|_2 vs the HiGHS LP, every step",
+        err,
+        np.ones(len(problems), bool),
+        TOL_HIGHS,
+        note=f"max |p_ratio - p_highs| = {p_err.max():.2e}",
     )
+
+
+def _lp2_batch_agreement(problems: Sequence[Any], batch: Any) -> Agreement:
+    """:func:`lpik.fast.lp2_batch` against ``lp2(problem, path="compiled")`` one by one."""
+    from lpik.fast import lp2_batch
+    from lpik.methods.lp2 import lp2
+
     single = np.array([lp2(p, path="compiled").dq for p in problems])
     result = lp2_batch(batch)
     B = len(problems)
-    out.append(
-        check_agreement(
-            "lpik",
-            "lp2_batch (compiled)",
-            'max |dq_batch - dq_single| [rad] vs lp2(path="compiled") one by one',
-            np.abs(result.dq[:B] - single).max(axis=1),
-            np.ones(B, bool),
-            TOL_SAME_ALGORITHM,
-        )
+    return check_agreement(
+        "lpik",
+        "lp2_batch (compiled)",
+        'max |dq_batch - dq_single| [rad] vs lp2(path="compiled") one by one',
+        np.abs(result.dq[:B] - single).max(axis=1),
+        np.ones(B, bool),
+        TOL_SAME_ALGORITHM,
     )
-    out += _peer_agreement(workload, plain, peers)
-    return out
 
 
 def _chord_step(controller: Any, q: FloatArray, target: FloatArray) -> FloatArray:

@@ -199,17 +199,36 @@ def fk_cases(workload: Workload) -> list[Case]:
 
 def step_cases(workload: Workload, planar: PlanarWorkload) -> list[Case]:
     """Full steps: fused (with and without acceleration limits, planar, batched), numpy layers."""
-    import numba
-
     plain, acc = controllers(workload)
-    q, prev, targets = workload.q, workload.q_prev, workload.targets
-    N = len(workload)
+    planar_case = _planar_case(planar)
+    return [
+        *_fused_cases(workload, plain, acc),
+        planar_case,
+        *_fused_acc_output_cases(workload, acc),
+        _numpy_layers_case(workload, plain),
+    ]
+
+
+def _planar_case(planar: PlanarWorkload) -> Case:
+    """The fused step on the paper's planar arm, pulling in."""
     pc = planar.controller()
     pq, pprev, ptarget = planar.q, planar.q_prev, planar.target
     P = len(pq)
     planar_note = f"the paper's pull-in, {P} steps of {planar.dt:g} s; " + outcomes(
         [pc.step(pq[k], ptarget, pprev[k]) for k in range(P)]
     )
+
+    def fused_planar(i: int) -> object:
+        k = i % P
+        return pc.step(pq[k], ptarget, pprev[k])
+
+    return Case("lpik", "lp2 fused (compiled)", PLANAR_STEP, fused_planar, note=planar_note)
+
+
+def _fused_cases(workload: Workload, plain: Lp2Controller, acc: Lp2Controller) -> list[Case]:
+    """``Lp2Controller.step`` without and with acceleration limits."""
+    q, prev, targets = workload.q, workload.q_prev, workload.targets
+    N = len(workload)
 
     def fused(i: int) -> object:
         return plain.step(q[i % N], targets[i % N])
@@ -218,10 +237,20 @@ def step_cases(workload: Workload, planar: PlanarWorkload) -> list[Case]:
         k = i % N
         return acc.step(q[k], targets[k], prev[k])
 
-    def fused_planar(i: int) -> object:
-        k = i % P
-        return pc.step(pq[k], ptarget, pprev[k])
+    plain_note = "Lp2Controller.step; " + outcomes([fused(i) for i in range(N)])
+    acc_note = "Lp2Controller.step; " + outcomes([fused_acc(i) for i in range(N)])
+    return [
+        Case("lpik", "lp2 fused (compiled)", FULL_STEP, fused, note=plain_note),
+        Case("lpik", "lp2 fused (compiled)", FULL_STEP_ACC, fused_acc, note=acc_note),
+    ]
 
+
+def _fused_acc_output_cases(workload: Workload, acc: Lp2Controller) -> list[Case]:
+    """The fused step with acceleration limits into a preallocated array, and batched."""
+    import numba
+
+    q, prev, targets = workload.q, workload.q_prev, workload.targets
+    N = len(workload)
     q_next = np.empty(workload.n)
 
     def fused_into(i: int) -> object:
@@ -231,22 +260,7 @@ def step_cases(workload: Workload, planar: PlanarWorkload) -> list[Case]:
     def fused_batch(i: int) -> object:
         return acc.step_batch(q, targets, prev)
 
-    def numpy_layers(i: int) -> object:
-        k = i % N
-        return lp2(plain.problem(q[k], targets[k]))
-
-    plain_note = "Lp2Controller.step; " + outcomes([fused(i) for i in range(N)])
-    acc_note = "Lp2Controller.step; " + outcomes([fused_acc(i) for i in range(N)])
     return [
-        Case("lpik", "lp2 fused (compiled)", FULL_STEP, fused, note=plain_note),
-        Case("lpik", "lp2 fused (compiled)", FULL_STEP_ACC, fused_acc, note=acc_note),
-        Case(
-            "lpik",
-            "lp2 fused (compiled)",
-            PLANAR_STEP,
-            fused_planar,
-            note=planar_note,
-        ),
         Case(
             "lpik",
             "lp2 fused step_into (compiled)",
@@ -263,14 +277,25 @@ def step_cases(workload: Workload, planar: PlanarWorkload) -> list[Case]:
             note="Lp2Controller.step_batch over every (q, target, q_prev) of the workload, "
             f"{numba.get_num_threads()} numba threads",
         ),
-        Case(
-            "lpik",
-            "lp2 (numpy layers)",
-            FULL_STEP,
-            numpy_layers,
-            note="TaskModel + build_problem + lp2",
-        ),
     ]
+
+
+def _numpy_layers_case(workload: Workload, plain: Lp2Controller) -> Case:
+    """The same step through the numpy layers: the task model, ``build_problem``, ``lp2``."""
+    q, targets = workload.q, workload.targets
+    N = len(workload)
+
+    def numpy_layers(i: int) -> object:
+        k = i % N
+        return lp2(plain.problem(q[k], targets[k]))
+
+    return Case(
+        "lpik",
+        "lp2 (numpy layers)",
+        FULL_STEP,
+        numpy_layers,
+        note="TaskModel + build_problem + lp2",
+    )
 
 
 def solve_cases(workload: Workload, problems: list[Problem]) -> list[Case]:

@@ -32,13 +32,14 @@ import tempfile
 import time
 from collections.abc import Callable, Sequence
 from importlib import metadata
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik_bench import cases as C
 from lpik_bench.agreement import agreement_checks
-from lpik_bench.peers import ADAPTERS, PEER_PACKAGES, load_peers
+from lpik_bench.peers import ADAPTERS, PEER_PACKAGES, PeerSet, load_peers
 from lpik_bench.records import Record
 from lpik_bench.singular import singular_cases, singular_workload
 from lpik_bench.workload import Workload, make_workload
@@ -335,15 +336,8 @@ def run_benchmark(
     Raises:
         ValueError: Unknown robot or peer, or rounds < 1.
     """
-    settings = dict(QUICK if quick else FULL)
-    if rounds is not None:
-        if rounds < 1:
-            raise ValueError(f"rounds: must be >= 1, got {rounds}")
-        settings["rounds"] = rounds
-    names = tuple(ADAPTERS) if peers is None else tuple(peers)
-    unknown = [p for p in names if p not in ADAPTERS]
-    if unknown:
-        raise ValueError(f"peers: unknown {', '.join(unknown)}; available: {', '.join(ADAPTERS)}")
+    settings = _settings(quick, rounds)
+    names = _peer_names(peers)
     cold = (not quick) if cold is None else cold
     load_before = os.getloadavg()
     _say(f"lpik bench: workload ({robot}) ...", quiet)
@@ -351,16 +345,7 @@ def run_benchmark(
     planar = C.planar_workload(settings["planar_steps"])
     problems = C.workload_problems(workload)
     peer_set = load_peers(workload, names)
-    singular = singular_workload(settings["singular_bases"]) if robot == "panda" else None
-    cases = [
-        *C.step_cases(workload, planar),
-        *(singular_cases(singular) if singular is not None else []),
-        *C.peer_cases(peer_set.steps, workload),
-        *C.fk_cases(workload),
-        *C.solve_cases(workload, problems),
-        C.batch_case(problems, settings["batch"]),
-        C.reference_case(),
-    ]
+    cases = _cases(robot, workload, planar, problems, peer_set, settings)
     _say(f"lpik bench: agreement checks ({len(peer_set.steps)} peer steps) ...", quiet)
     checks = agreement_checks(workload, problems, peer_set, C.batch_arrays(problems, len(problems)))
     _say(f"lpik bench: timing {len(cases)} cases, {settings['rounds']} rounds ...", quiet)
@@ -369,6 +354,59 @@ def run_benchmark(
     loaded = sorted({p.library for p in peer_set.steps}, key=names.index)
     firsts = first_call_records(robot, loaded, cold)
     load_after = os.getloadavg()
+    records = [environment(command, workload, settings, (load_before, load_after))]
+    records += _timing_records(cases, samples, robot)
+    records += firsts
+    records += [a.record() for a in checks]
+    records += [
+        Record(s.library, "", "skipped", kind="skipped", extra={"note": s.reason})
+        for s in peer_set.skipped
+    ]
+    return records
+
+
+def _settings(quick: bool, rounds: int | None) -> dict:
+    """The run's settings: :data:`QUICK` or :data:`FULL`, with ``rounds`` when given."""
+    settings = dict(QUICK if quick else FULL)
+    if rounds is not None:
+        if rounds < 1:
+            raise ValueError(f"rounds: must be >= 1, got {rounds}")
+        settings["rounds"] = rounds
+    return settings
+
+
+def _peer_names(peers: Sequence[str] | None) -> tuple[str, ...]:
+    """The peers to try (default all of :data:`ADAPTERS`); ``ValueError`` for an unknown one."""
+    names = tuple(ADAPTERS) if peers is None else tuple(peers)
+    unknown = [p for p in names if p not in ADAPTERS]
+    if unknown:
+        raise ValueError(f"peers: unknown {', '.join(unknown)}; available: {', '.join(ADAPTERS)}")
+    return names
+
+
+def _cases(
+    robot: str,
+    workload: Workload,
+    planar: C.PlanarWorkload,
+    problems: list[Any],
+    peer_set: PeerSet,
+    settings: dict,
+) -> list[C.Case]:
+    """Every timed case: lpik's steps (singular ones too, on the Panda), the peers', the rest."""
+    singular = singular_workload(settings["singular_bases"]) if robot == "panda" else None
+    return [
+        *C.step_cases(workload, planar),
+        *(singular_cases(singular) if singular is not None else []),
+        *C.peer_cases(peer_set.steps, workload),
+        *C.fk_cases(workload),
+        *C.solve_cases(workload, problems),
+        C.batch_case(problems, settings["batch"]),
+        C.reference_case(),
+    ]
+
+
+def _timing_records(cases: Sequence[C.Case], samples: dict, robot: str) -> list[Record]:
+    """One timing record per case, with its ratio to the fastest peer's median full step."""
     medians = {}
     timing = []
     for case in cases:
@@ -387,14 +425,6 @@ def run_benchmark(
             (case, Record(case.library, case.method, case.what, median, p99, extra=extra))
         )
     ratios = ratios_to_fastest_peer(medians, [c.label for c in cases if c.peer])
-    records = [environment(command, workload, settings, (load_before, load_after))]
     for case, record in timing:
         record.extra.setdefault("ratio_to_fastest_peer", ratios.get(case.label))
-        records.append(record)
-    records += firsts
-    records += [a.record() for a in checks]
-    records += [
-        Record(s.library, "", "skipped", kind="skipped", extra={"note": s.reason})
-        for s in peer_set.skipped
-    ]
-    return records
+    return [record for _, record in timing]

@@ -187,96 +187,147 @@ def _find(records: Sequence[Rec], method: str, what: str, prefix: bool = False) 
 
 def targets(records: Sequence[Rec]) -> list[list[str]]:
     """The speed targets against this run: target, measured, met (``yes``/``no``/``n/a``)."""
-    rows: list[list[str]] = []
+    return [
+        *_fused_step_targets(records),
+        *worst_case_targets(records),
+        *_batch_targets(records),
+        *_reference_targets(records),
+        *_highs_reuse_targets(records),
+    ]
 
-    def row(target: str, measured: str, met: bool | None) -> None:
-        rows.append([target, measured, "n/a" if met is None else ("yes" if met else "no")])
 
+def _row(target: str, measured: str, met: bool | None) -> list[str]:
+    """One row of the targets table; ``met`` None: nothing to meet (``n/a``)."""
+    return [target, measured, "n/a" if met is None else ("yes" if met else "no")]
+
+
+def _fused_step_targets(records: Sequence[Rec]) -> list[list[str]]:
+    """The fused step +acc: median, p99, against the peers, step_into and the planar arm."""
     acc = _find(records, "lp2 fused (compiled)", "full step +acc")
-    if acc is not None:
-        med, p99 = acc["median_us"], acc["p99_us"]
-        row(
+    if acc is None:
+        return []
+    med, p99 = acc["median_us"], acc["p99_us"]
+    return [
+        _row(
             f"fused step +acc: median <= {TARGET_MEDIAN_US:g} us",
             f"{med:.2f} us",
             med <= TARGET_MEDIAN_US,
-        )
-        row(f"fused step +acc: p99 <= {TARGET_P99_US:g} us", f"{p99:.2f} us", p99 <= TARGET_P99_US)
-        ratio = acc.get("ratio_to_fastest_peer")
-        fastest = min(  # the peers' full steps (not the machine reference)
-            (
-                r
-                for r in _of(records, "timing")
-                if r["library"] != "lpik" and r["what"] == "full step"
-            ),
-            key=lambda r: r["median_us"],
-            default=None,
-        )
-        name = "" if fastest is None else f" ({fastest['library']} {fastest['method']})"
-        row(
-            f"fused step +acc: >= {1 / TARGET_RATIO:g}x faster than the fastest peer{name}",
-            speedup(ratio) or "no peer ran",
-            None if ratio is None else ratio <= TARGET_RATIO,
-        )
-        qp = [
-            r
-            for r in _of(records, "timing")
-            if r["library"] in QP_PEERS and r["what"] == "full step"
-        ]
-        if qp:
-            best = min(qp, key=lambda r: r["median_us"])
-            row(
+        ),
+        _row(
+            f"fused step +acc: p99 <= {TARGET_P99_US:g} us", f"{p99:.2f} us", p99 <= TARGET_P99_US
+        ),
+        _fastest_peer_row(records, acc),
+        *_fused_step_comparisons(records, med),
+    ]
+
+
+def _fastest_peer_row(records: Sequence[Rec], acc: Rec) -> list[str]:
+    """The fused step +acc against the fastest peer's full step."""
+    ratio = acc.get("ratio_to_fastest_peer")
+    fastest = min(  # the peers' full steps (not the machine reference)
+        (r for r in _of(records, "timing") if r["library"] != "lpik" and r["what"] == "full step"),
+        key=lambda r: r["median_us"],
+        default=None,
+    )
+    name = "" if fastest is None else f" ({fastest['library']} {fastest['method']})"
+    return _row(
+        f"fused step +acc: >= {1 / TARGET_RATIO:g}x faster than the fastest peer{name}",
+        speedup(ratio) or "no peer ran",
+        None if ratio is None else ratio <= TARGET_RATIO,
+    )
+
+
+def _fused_step_comparisons(records: Sequence[Rec], med: float) -> list[list[str]]:
+    """The fused step +acc (median ``med``) against QP peers, step_into and the planar arm."""
+    rows = []
+    qp = [
+        r for r in _of(records, "timing") if r["library"] in QP_PEERS and r["what"] == "full step"
+    ]
+    if qp:
+        best = min(qp, key=lambda r: r["median_us"])
+        rows.append(
+            _row(
                 f"fused step +acc vs the fastest QP-based peer ({best['library']} "
                 f"{best['method']}, {best['median_us']:.0f} us)",
                 speedup(med / best["median_us"]),
                 med / best["median_us"] <= TARGET_RATIO,
             )
-        into = _find(records, "lp2 fused step_into (compiled)", "full step +acc")
-        if into is not None:
-            row(
+        )
+    into = _find(records, "lp2 fused step_into (compiled)", "full step +acc")
+    if into is not None:
+        rows.append(
+            _row(
                 "fused step_into +acc (q into a preallocated array, no Result): median, p99",
                 f"{into['median_us']:.2f} us, {into['p99_us']:.2f} us",
                 None,
             )
-        planar = _find(records, "lp2 fused (compiled)", "full step, planar", prefix=True)
-        if planar is not None:
-            row(
+        )
+    planar = _find(records, "lp2 fused (compiled)", "full step, planar", prefix=True)
+    if planar is not None:
+        rows.append(
+            _row(
                 "planar 4-link step faster than the Panda step +acc",
                 f"{planar['median_us']:.2f} us vs {med:.2f} us",
                 planar["median_us"] < med,
             )
-    rows += worst_case_targets(records)
+        )
+    return rows
+
+
+def _batch_targets(records: Sequence[Rec]) -> list[list[str]]:
+    """Batched LP2 against its target, and the batched full steps."""
+    rows = []
     batch = _find(records, "lp2_batch (compiled)", "batch of", prefix=True)
     if batch is not None:
         rate = batch.get("steps_per_s") or 0.0
-        row(
-            f"batched LP2 ({batch.get('robot', '?')}, 6-D task): "
-            f">= {TARGET_BATCH_PER_S:,.0f} steps/s",
-            f"{rate:,.0f} steps/s ({batch['what']})",
-            rate >= TARGET_BATCH_PER_S,
+        rows.append(
+            _row(
+                f"batched LP2 ({batch.get('robot', '?')}, 6-D task): "
+                f">= {TARGET_BATCH_PER_S:,.0f} steps/s",
+                f"{rate:,.0f} steps/s ({batch['what']})",
+                rate >= TARGET_BATCH_PER_S,
+            )
         )
     full_batch = _find(records, "lp2 fused step_batch (compiled)", "batch of", prefix=True)
     if full_batch is not None:
-        row(
-            "batched full steps +acc (FK, J, limits, LP2 per row; Lp2Controller.step_batch)",
-            f"{full_batch.get('steps_per_s') or 0.0:,.0f} steps/s ({full_batch['what']})",
-            None,
+        rows.append(
+            _row(
+                "batched full steps +acc (FK, J, limits, LP2 per row; Lp2Controller.step_batch)",
+                f"{full_batch.get('steps_per_s') or 0.0:,.0f} steps/s ({full_batch['what']})",
+                None,
+            )
         )
+    return rows
+
+
+def _reference_targets(records: Sequence[Rec]) -> list[list[str]]:
+    """The machine's speed in this run: the reference case."""
     reference = next((r for r in _of(records, "timing") if r["what"] == "machine reference"), None)
-    if reference is not None:
-        row(
+    if reference is None:
+        return []
+    return [
+        _row(
             "machine speed: a 13x13 numpy solve in this run (about 8 us when the machine is idle)",
             f"{reference['median_us']:.2f} us",
             None,
         )
+    ]
+
+
+def _highs_reuse_targets(records: Sequence[Rec]) -> list[list[str]]:
+    """Each LP method with one HiGHS model reused across steps against a new one every step."""
+    rows = []
     for method in ("lp1", "l1", "lp2 highs"):
         new = _find(records, method, "solve")
         reused = _find(records, method, "solve, HiGHS reused")
         if new is not None and reused is not None:
             gain = new["median_us"] / reused["median_us"]
-            row(
-                f"{method}: HiGHS model reused across steps vs built anew",
-                f"{reused['median_us']:.0f} us vs {new['median_us']:.0f} us ({gain:.2f}x)",
-                None,
+            rows.append(
+                _row(
+                    f"{method}: HiGHS model reused across steps vs built anew",
+                    f"{reused['median_us']:.0f} us vs {new['median_us']:.0f} us ({gain:.2f}x)",
+                    None,
+                )
             )
     return rows
 

@@ -48,32 +48,52 @@ def _bound_value(text: str) -> float | str:
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Register ``lpik simulate`` (light: the methods are imported only when it runs)."""
+    parser = sub.add_parser(
+        "simulate",
+        help="run a scenario in closed loop and write the log as CSV",
+        description=_paragraph(
+            "Run one of the paper's scenarios in closed loop, on the paper's planar arm or a "
+            "bundled 3-D arm, and report p and the binding limit of every step."
+        ),
+        epilog=_epilog(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _add_run_arguments(parser)
+    _add_output_arguments(parser)
+    _add_loop_arguments(parser)
+    parser.set_defaults(handler=run)
+
+
+def _paragraph(text: str) -> str:
+    """``text`` wrapped for the help, a ``name: ...`` paragraph with a hanging indent."""
     import textwrap
 
+    return textwrap.fill(text, 78, subsequent_indent="  " if ": " in text[:20] else "")
+
+
+def _epilog() -> str:
+    """The help's closing paragraphs: scenarios, robots, CSV columns, refused combinations."""
     from lpik.methods.registry import METHODS
     from lpik.paper.scenarios import PLANAR, SCENARIOS
     from lpik.robots.registry import robot_names
 
-    def paragraph(text: str) -> str:
-        return textwrap.fill(text, 78, subsequent_indent="  " if ": " in text[:20] else "")
-
     bounded = ", ".join(name for name, spec in METHODS.items() if spec.bounds_multipliers)
-    epilog = "\n\n".join(
+    return "\n\n".join(
         [
             "scenarios:",
-            *(paragraph(s.describe()) for s in SCENARIOS.values()),
-            paragraph(
+            *(_paragraph(s.describe()) for s in SCENARIOS.values()),
+            _paragraph(
                 "reach: from a bundled 3-D arm's home configuration (--robot NAME), the tool "
                 "point moves straight to --target X,Y,Z [m] at v_max, its orientation held "
                 "(pose task); the URDF's end-stops and velocity limits."
             ),
-            paragraph(
+            _paragraph(
                 "obstacles: --scene SCENE.json (a 2-D scene for the planar arm) avoids them "
                 "by distance rows (--avoid rows), the paper's potential field (--avoid field) "
                 "or both."
             ),
-            paragraph(f"robots: {PLANAR} (default), {', '.join(robot_names())}."),
-            paragraph(
+            _paragraph(f"robots: {PLANAR} (default), {', '.join(robot_names())}."),
+            _paragraph(
                 "CSV columns, one row per step: t, q1..qn [rad], x, y (planar) or x, y, z [m], "
                 "p, lam1..lamm (the state before the step, the step's dexterity and "
                 "multipliers; nan for methods without them), then status, binding (the limit "
@@ -81,23 +101,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                 "--scene also min_distance [m] (the smallest signed distance before the step, "
                 "self-collision included) and closest (its pair)."
             ),
-            paragraph(
+            _paragraph(
                 f"refused combinations (exit 2, one line): --lambda-bound with a method that "
                 f"does not bound its multipliers (only {bounded} do); --animate with a 3-D "
                 f"--robot (use --plot); --plot or --animate without matplotlib."
             ),
         ]
     )
-    parser = sub.add_parser(
-        "simulate",
-        help="run a scenario in closed loop and write the log as CSV",
-        description=paragraph(
-            "Run one of the paper's scenarios in closed loop, on the paper's planar arm or a "
-            "bundled 3-D arm, and report p and the binding limit of every step."
-        ),
-        epilog=epilog,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+
+
+def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """The run: scenario or target, robot, method, CSV, limits, steps and period."""
+    from lpik.paper.scenarios import PLANAR, SCENARIOS
+
     parser.add_argument(
         "scenario",
         metavar="SCENARIO",
@@ -150,6 +166,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         metavar="DT",
         help=f"control period [s] (at most {MAX_DT:g}; default the scenario's)",
     )
+
+
+def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
+    """The figures of the run: an overview plot, an animated GIF and its frames."""
+    from lpik.paper.scenarios import PLANAR
+
     parser.add_argument("--plot", metavar="FIG.png", help="draw an overview figure of the run")
     parser.add_argument(
         "--animate",
@@ -163,6 +185,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         metavar="F",
         help=f"GIF frames (default 60, at most {MAX_FRAMES})",
     )
+
+
+def _add_loop_arguments(parser: argparse.ArgumentParser) -> None:
+    """How the loop steps: stall handling, obstacles and how to avoid them, HiGHS's start."""
     parser.add_argument(
         "--on-stall",
         type=int,
@@ -188,7 +214,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         action="store_true",
         help="solve every step's LP on its own instead of warm-starting HiGHS across steps",
     )
-    parser.set_defaults(handler=run)
 
 
 def _writable(option: str, path: str | None) -> Path | None:
