@@ -188,7 +188,7 @@ def test_batch_equals_highs_on_random_degenerate_instances(random_batches) -> No
     checked_bindings = 0
     total = 0
     for problems in random_batches:
-        batch = lp2_batch(problems)
+        batch = lp2_batch(problems, method="lp2")
         for i, problem in enumerate(problems):
             total += 1
             fast = batch[i]
@@ -281,7 +281,7 @@ def test_raw_batch_arrays_are_normalised_and_solved_like_problems() -> None:
             assert value.dtype == np.float64 and value.flags.c_contiguous
     full_H = fields["H"] + 0.5 * (1 - np.eye(3))  # symmetric, positive definite, not diagonal
     for arrays in (as_lists, strided, BatchArrays(**_raw_batch(H=full_H))):
-        batch = lp2_batch(arrays)
+        batch = lp2_batch(arrays, method="lp2")
         for i in range(4):
             one = lp2(fast_arrays.problem_at(arrays, i), path="highs")
             assert (batch.status_of(i), batch.binding_of(i)) == (one.status, one.binding)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numba
 import numpy as np
@@ -22,13 +23,16 @@ from lpik.check import task_residual
 from lpik.exceptions import InvalidProblemError
 from lpik.fast import lp2_kernel as K
 from lpik.fast.arrays import BatchArrays, raw_problem
-from lpik.fast.saturation import lp2s_kernel
+from lpik.fast.outcome import compiled_result
+from lpik.fast.saturation import lp2s_batch_kernel, lp2s_kernel
 from lpik.highs import HighsSolver
 from lpik.labels import code_labels
 from lpik.methods.assembly import kernel_args
+from lpik.methods.engines import register_compiled
 from lpik.methods.lp2 import lp2
+from lpik.methods.lp2s import lp2s
 from lpik.problem import Problem
-from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result, safe_step
+from lpik.result import INFEASIBLE, OPTIMAL, Result
 from lpik.types import FloatArray
 
 __all__ = ["BatchArrays", "BatchResult", "lp2_batch", "solve_compiled"]
@@ -42,52 +46,34 @@ def problem_labels(problem: Problem) -> tuple[str, ...]:
 def solve_compiled(
     problem: Problem, solver: HighsSolver | None = None, *, saturate: bool = False
 ) -> Result:
-    """LP2 (eqs. 15-18) by the compiled ratio test; HiGHS (``solver``) when ``K`` is singular.
+    """LP2 (eqs. 15-18) by the compiled ratio test; the numpy method where the kernel cannot.
 
-    The same answer as :func:`lpik.methods.lp2.lp2` with ``path="ratio-test"``,
-    with ``path="compiled"`` when the kernel answers. With ``saturate``, LP2 with
-    saturation in the null space (:func:`lpik.methods.lp2s.lp2s`,
-    :mod:`lpik.fast.saturation`).
+    The same answer as :func:`lpik.methods.lp2.lp2` (``saturate``: as
+    :func:`lpik.methods.lp2s.lp2s`, :mod:`lpik.fast.saturation`), with
+    ``path="compiled"`` when the kernel answers; where ``K`` is singular, HiGHS
+    (``solver``) for LP2, and the numpy passes for LP2 with saturation.
     """
     start = time.perf_counter()
     dq, lam = np.empty(problem.n), np.empty(problem.m)
     kernel = lp2s_kernel if saturate else K.lp2_kernel
     code, p, binding, _ = kernel(*kernel_args(problem), dq, lam)
     method = "lp2s" if saturate else "lp2"
-    if code == K.OK:
-        outside = problem.recovering()
-        return Result.trusted(
-            {
-                "q": problem.q0 + dq,
-                "dq": dq,
-                "p": float(p),
-                "lam": lam,
-                "status": RECOVERING if outside else OPTIMAL,
-                "binding": outside[0]
-                if outside
-                else None
-                if binding < 0
-                else problem_labels(problem)[binding],
-                "method": method,
-                "solve_time": time.perf_counter() - start,
-                "residual": task_residual(problem, dq, p),
-                "path": "compiled",
-            }
-        )
-    if code == K.INFEASIBLE:
-        return safe_step(
-            problem,
-            method,
-            INFEASIBLE,
-            problem_labels(problem)[binding],
-            solve_time=time.perf_counter() - start,
-            path="compiled",
-        )
-    if saturate:  # a singular pass: the numpy method, pass by pass
-        from lpik.methods.lp2s import lp2s
+    if code not in (K.OK, K.INFEASIBLE):
+        if saturate:
+            return lp2s(problem, solver=solver)
+        return lp2(problem, path="highs", solver=solver)
+    outside = problem.recovering()
+    p = float(p) if code == K.OK else 0.0
+    label = None if binding < 0 else problem_labels(problem)[binding]
+    return compiled_result(
+        code, problem.q0 + dq, dq, p, lam, label, outside[0] if outside else None, method,
+        task_residual(problem, dq, p),
+        time.perf_counter() - start,
+    )  # fmt: skip
 
-        return lp2s(problem, solver=solver)
-    return lp2(problem, path="highs", solver=solver)
+
+register_compiled("lp2", solve_compiled)
+register_compiled("lp2s", partial(solve_compiled, saturate=True))
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,6 +88,8 @@ class BatchResult:
         codes: (B,) kernel outcome per item (:mod:`lpik.fast.lp2_kernel` codes).
         binding_codes: (B,) index of each item's binding limit in its table of
             labels (``-1``: none); :meth:`binding_of` gives the label.
+        residual: (B,) ``max |J dq - p dw|`` of each item.
+        method: ``"lp2"`` or ``"lp2s"``.
     """
 
     q: FloatArray
@@ -112,6 +100,8 @@ class BatchResult:
     binding_codes: NDArray[np.int64]
     _labels: Callable[[int], tuple[str, ...]]
     _fallback: dict[int, Result]
+    residual: FloatArray
+    method: str
 
     def __len__(self) -> int:
         return int(self.p.shape[0])
@@ -152,95 +142,91 @@ class BatchResult:
         return paths
 
     def __getitem__(self, i: int) -> Result:
-        """Item ``i`` as a :class:`~lpik.result.Result`."""
+        """Item ``i`` as a :class:`~lpik.result.Result` (its :func:`compiled_result`)."""
         if i in self._fallback:
             return self._fallback[i]
-        lam = None if np.isnan(self.lam[i]).all() else self.lam[i].copy()
-        return Result.trusted(
-            {
-                "q": self.q[i].copy(),
-                "dq": self.dq[i].copy(),
-                "p": float(self.p[i]),
-                "lam": lam,
-                "status": self.status_of(i),
-                "binding": self.binding_of(i),
-                "method": "lp2",
-                "solve_time": 0.0,
-                "residual": 0.0,
-                "path": "compiled",
-            }
-        )
+        return compiled_result(
+            int(self.codes[i]), self.q[i].copy(), self.dq[i].copy(), float(self.p[i]),
+            self.lam[i].copy(), self.binding_of(i), None, self.method, float(self.residual[i]),
+            0.0,
+        )  # fmt: skip
 
 
-def lp2_batch(problems: Sequence[Problem] | BatchArrays) -> BatchResult:
+def batch_residuals(J: FloatArray, dw: FloatArray, dq: FloatArray, p: FloatArray) -> FloatArray:
+    """(B,) ``max |J dq - p dw|`` of every row (the residual each Result reports)."""
+    return np.abs(np.einsum("bmn,bn->bm", J, dq) - p[:, None] * dw).max(axis=1)
+
+
+#: The batch kernels, by method.
+BATCH_KERNELS = {"lp2": K.lp2_batch_kernel, "lp2s": lp2s_batch_kernel}
+
+
+def lp2_batch(problems: Sequence[Problem] | BatchArrays, method: str = "lp2s") -> BatchResult:
     """Solve a batch of LP2 problems (eqs. 15-18) in parallel; identical to one by one.
 
     Args:
         problems: Validated problems of equal ``n``, ``m`` and rows, or a
             prepared :class:`BatchArrays` (faster: no per-problem Python work).
+        method: ``"lp2s"`` (the default: LP2 with saturation in the null space,
+            :func:`lpik.methods.lp2s.lp2s`) or ``"lp2"`` (the paper's LP2).
 
     Returns:
         The stacked answers; items the compiled ratio test cannot take
-        (singular ``K``) are solved by :func:`lpik.methods.lp2.lp2` one by one.
+        (singular ``K``) are solved by the numpy method one by one.
 
     Raises:
         InvalidProblemError: (a ``ValueError``) for an empty batch, an item that is
             not a :class:`~lpik.problem.Problem`, problems of different sizes, or a
-            raw ``H`` that is not positive definite (naming the item).
+            raw ``H`` that is not positive definite (naming the item), or an
+            unknown method.
     """
-    if not isinstance(problems, BatchArrays):
-        try:
-            problems = list(problems)
-        except TypeError:
-            raise InvalidProblemError(
-                "problems",
-                f"must be a sequence of Problems or a BatchArrays, got {type(problems).__name__}",
-            ) from None
-    arrays = problems if isinstance(problems, BatchArrays) else BatchArrays.from_problems(problems)
+    if method not in BATCH_KERNELS:
+        raise InvalidProblemError("method", f"must be one of {', '.join(BATCH_KERNELS)}, got "
+                                  f"{method!r}")  # fmt: skip
+    problem_list = None if isinstance(problems, BatchArrays) else _problem_list(problems)
+    arrays = problems if problem_list is None else BatchArrays.from_problems(problem_list)
     B, m, n = arrays.J.shape
-    dq = np.empty((B, n))
-    lam = np.empty((B, m))
-    codes = np.empty(B, dtype=np.int64)
-    ps = np.empty(B)
-    bindings = np.empty(B, dtype=np.int64)
-    K.lp2_batch_kernel(
-        arrays.J,
-        arrays.dw,
-        arrays.H,
-        arrays.h_diag,
-        arrays.c,
-        arrays.c_ref,
-        arrays.lower,
-        arrays.upper,
-        arrays.lam_min,
-        arrays.lam_max,
-        arrays.G,
-        arrays.g,
-        dq,
-        lam,
-        codes,
-        ps,
-        bindings,
-        4 * numba.get_num_threads(),
-    )
-    problem_list = None if isinstance(problems, BatchArrays) else list(problems)
+    dq, lam = np.empty((B, n)), np.empty((B, m))
+    codes, ps, bindings = np.empty(B, dtype=np.int64), np.empty(B), np.empty(B, dtype=np.int64)
+    BATCH_KERNELS[method](
+        arrays.J, arrays.dw, arrays.H, arrays.h_diag, arrays.c, arrays.c_ref, arrays.lower,
+        arrays.upper, arrays.lam_min, arrays.lam_max, arrays.G, arrays.g, dq, lam, codes, ps,
+        bindings, 4 * numba.get_num_threads(),
+    )  # fmt: skip
     infeasible = codes == K.INFEASIBLE
-    if infeasible.any():  # dq: the kernel's safe step
-        ps[infeasible], lam[infeasible] = 0.0, np.nan
-    fallback: dict[int, Result] = {}
+    ps[infeasible], lam[infeasible] = 0.0, np.nan  # dq: the kernel's safe step
     one_by_one = (codes != K.OK) & ~infeasible
     if problem_list is not None:  # steps from outside the limits say so: solved one by one
         one_by_one |= np.array([bool(P.recovering()) for P in problem_list])
+    fallback: dict[int, Result] = {}
     for i in np.nonzero(one_by_one)[0].tolist():
         problem = problem_list[i] if problem_list is not None else raw_problem(arrays, i)
-        res = lp2(problem, path="highs" if codes[i] != K.OK and not infeasible[i] else "compiled")
+        res = solve_compiled(problem, saturate=method == "lp2s")
         fallback[i] = res
         dq[i], ps[i] = res.dq, res.p
         lam[i] = np.nan if res.lam is None else res.lam
-    if problem_list is None:  # raw arrays: every item has the same labels
+    return BatchResult(
+        q=arrays.q0 + dq, dq=dq, p=ps, lam=lam, codes=codes, binding_codes=bindings,
+        _labels=_label_tables(arrays, problem_list), _fallback=fallback,
+        residual=batch_residuals(arrays.J, arrays.dw, dq, ps), method=method,
+    )  # fmt: skip
+
+
+def _problem_list(problems: Sequence[Problem]) -> list[Problem]:
+    try:
+        return list(problems)
+    except TypeError:
+        raise InvalidProblemError(
+            "problems",
+            f"must be a sequence of Problems or a BatchArrays, got {type(problems).__name__}",
+        ) from None
+
+
+def _label_tables(
+    arrays: BatchArrays, problem_list: list[Problem] | None
+) -> Callable[[int], tuple[str, ...]]:
+    """Each item's table of labels (raw arrays: every item has the same labels)."""
+    if problem_list is None:
         generic = problem_labels(raw_problem(arrays, 0))
-        labels: Callable[[int], tuple[str, ...]] = lambda i: generic  # noqa: E731
-    else:
-        labels = lambda i: problem_labels(problem_list[i])  # noqa: E731
-    return BatchResult(q=arrays.q0 + dq, dq=dq, p=ps, lam=lam, codes=codes,
-                       binding_codes=bindings, _labels=labels, _fallback=fallback)  # fmt: skip
+        return lambda i: generic
+    return lambda i: problem_labels(problem_list[i])

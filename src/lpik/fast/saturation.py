@@ -10,7 +10,7 @@ their tie-breaking are those of the numpy method, which the tests hold equal.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from lpik.fast.lp2_kernel import (
     CHECK_FAILED,
@@ -93,3 +93,29 @@ def lp2s_kernel(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g
     ws = np.empty(_workspace_size(n, m, G.shape[0]))
     return lp2s_core(J, dw, H, h_diag, c, c_ref, lower.copy(), upper.copy(), lam_min, lam_max,
                      G, g, dq, lam, ws, np.empty(n + m))  # fmt: skip
+
+
+@njit(cache=True, parallel=True)
+def lp2s_batch_kernel(
+    J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, codes, ps, bindings,
+    chunks,
+):  # fmt: skip
+    """:func:`lp2s_core` over a batch (leading axis ``B`` on every argument), in parallel.
+
+    As :func:`lpik.fast.lp2_kernel.lp2_batch_kernel`: the batch is cut into
+    ``chunks`` parts, each with its own workspace; every item works on copies
+    of its bounds.
+    """
+    B, m, n = J.shape
+    chunks = max(1, min(B, chunks))
+    for chunk in prange(chunks):
+        ws = np.empty(_workspace_size(n, m, G.shape[1]))
+        best = np.empty(n + m)
+        for b in range(chunk * B // chunks, (chunk + 1) * B // chunks):
+            code, p, binding, _ = lp2s_core(
+                J[b], dw[b], H[b], h_diag, c[b], c_ref[b], lower[b].copy(), upper[b].copy(),
+                lam_min[b], lam_max[b], G[b], g[b], dq[b], lam[b], ws, best,
+            )  # fmt: skip
+            codes[b] = code
+            ps[b] = p
+            bindings[b] = binding

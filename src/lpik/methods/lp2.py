@@ -43,6 +43,7 @@ from lpik.methods.assembly import (
     unsolved_step,
 )
 from lpik.methods.duals import binding_from_duals
+from lpik.methods.engines import compiled_step
 from lpik.methods.kkt import AffineSolution, affine_solution, smoothing
 from lpik.methods.singular import INFEASIBLE as SINGULAR_INFEASIBLE
 from lpik.methods.singular import OK as SINGULAR_OK
@@ -165,10 +166,8 @@ def lp2(
     if path not in PATHS:
         raise ValueError(f"path: unknown LP2 path {path!r}; available: {', '.join(PATHS)}")
     start = time.perf_counter()
-    if path == "compiled":
-        from lpik.fast.batch import solve_compiled  # numba is optional: import on use
-
-        return solve_compiled(problem, solver)
+    if path == "compiled":  # the compiled engine (lpik.methods.engines)
+        return compiled_step("lp2")(problem, solver)
     # the HiGHS path needs the affine solution only to weigh sec. 3.1's pull
     ratio = path in ("auto", "ratio-test")
     affine = affine_solution(problem) if ratio or problem.Lambda.any() else None

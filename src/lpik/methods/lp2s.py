@@ -27,6 +27,7 @@ import time
 
 from lpik.highs import HighsSolver
 from lpik.methods.assembly import finish
+from lpik.methods.engines import compiled_step
 from lpik.methods.kkt import affine_solution
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
@@ -67,10 +68,8 @@ def lp2s(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = N
         the most saturated); ``binding`` names the limit that finally stops it.
         Re-checked against ``problem`` itself, so every limit holds.
     """
-    if path == "compiled":
-        from lpik.fast.batch import solve_compiled  # numba is optional: import on use
-
-        return solve_compiled(problem, solver, saturate=True)
+    if path == "compiled":  # the compiled engine (lpik.methods.engines)
+        return compiled_step("lp2s")(problem, solver)
     start = time.perf_counter()
     best, _ = saturation_passes(problem, path=path, solver=solver)
     if best.status == INFEASIBLE:  # no pass feasible: as LP2 names it (recovering or not)

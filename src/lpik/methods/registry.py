@@ -98,7 +98,9 @@ def get_method(name: Any, *, field: str = "method") -> MethodSpec:
         ) from None
 
 
-def solve(problem: Problem, method: str = DEFAULT_METHOD, *, model: TaskModel | None = None) -> Result:
+def solve(
+    problem: Problem, method: str = DEFAULT_METHOD, *, model: TaskModel | None = None
+) -> Result:
     """Solve one step with the named method.
 
     Args:
