@@ -65,7 +65,7 @@ def test_the_panda_in_its_shelf_matches_lp2_step_by_step() -> None:
 
 def test_the_rows_are_the_scenes() -> None:
     setup = get_scenario("obstacle").setup()
-    with pytest.raises(ValueError, match="^G: the rows of an AvoidingLp2Controller"):
+    with pytest.raises(ValueError, match="^G: the rows of a controller with a scene"):
         AvoidingLp2Controller(setup.model, setup.scene, dt=0.01, G=np.zeros((1, 4)))
     with pytest.raises(ValueError, match="^scene: expected a Scene"):
         AvoidingLp2Controller(setup.model, None, dt=0.01)
@@ -93,7 +93,7 @@ def test_the_automatic_bound_is_applied_inside_the_avoiding_step(compiled: bool)
                                      **options)  # fmt: skip
 
     controller, free_twin = make(), make(lambda_bound=None)
-    auto = controller.controller.automatic_bound
+    auto = controller.automatic_bound
     bounded = 0
     for q, prev, target in zip(work.q, work.q_prev, work.targets):
         got, free = controller.step(q, target, prev), free_twin.step(q, target, prev)

@@ -35,9 +35,9 @@ def panda_in_clutter() -> tuple:  # type: ignore[type-arg]
 def compiled_rows(controller, q, target) -> tuple:  # type: ignore[no-untyped-def,type-arg]
     """The step's result and the rows the compiled step wrote, then coal's rows at ``q``."""
     result = controller.step(q, target)
-    G, h = controller._G_view.copy(), controller._h_view.copy()
+    G, h = controller.scene_rows.G.copy(), controller.scene_rows.h.copy()
     problem = controller.problem(q, target)  # writes coal's rows into the same block
-    return result, G, h, controller._G_view.copy(), controller._h_view.copy(), problem
+    return result, G, h, controller.scene_rows.G.copy(), controller.scene_rows.h.copy(), problem
 
 
 def assert_found_matches_coal(controller, q) -> None:  # type: ignore[no-untyped-def]
@@ -79,9 +79,9 @@ def test_the_panda_among_ten_obstacles_keeps_its_distances_in_one_compiled_call(
     q, bound, rows, ties = setup.q0.copy(), 0, 0, 0
     for _ in range(200):
         result = controller.step(q, setup.target)
-        G, h = controller._G_view.copy(), controller._h_view.copy()
+        G, h = controller.scene_rows.G.copy(), controller.scene_rows.h.copy()
         # the fused LP2 step equals lp2 on the problem the numpy layers build with its rows
-        reference = lp2(controller.controller.problem(q, setup.target))
+        reference = lp2(controller.problem(q, setup.target))
         assert result.path == "compiled"
         np.testing.assert_allclose(result.q, reference.q, rtol=0, atol=1e-9)
         assert result.p == pytest.approx(reference.p, abs=1e-9)
@@ -89,7 +89,8 @@ def test_the_panda_among_ten_obstacles_keeps_its_distances_in_one_compiled_call(
         # and its rows equal coal's (ties aside)
         assert_found_matches_coal(controller, q)
         controller.problem(q, setup.target)  # coal's rows into the same block
-        ties += assert_rows_agree(controller, q, G, h, controller._G_view, controller._h_view)
+        coal = controller.scene_rows
+        ties += assert_rows_agree(controller, q, G, h, coal.G, coal.h)
         bound += (result.binding or "").startswith("collision")
         rows += int((h < 1e8).sum())
         q = result.q

@@ -1,63 +1,142 @@
-"""A fused, compiled LP2 control step for a robot: the path a 1 kHz loop calls.
+"""The compiled engine: one LP2 control step in one compiled call, the path a 1 kHz loop calls.
 
-:class:`Lp2Controller` prepares everything that does not change between steps
-(the chain's geometry, the limits, the weights) once; :meth:`Lp2Controller.step`
-then runs forward kinematics, the Jacobian, the command law, the limits and
-LP2's ratio test (eqs. 15-18) in one compiled call (:mod:`lpik.fast.step`)
-and returns the same :class:`~lpik.result.Result` as building the problem with
-:func:`lpik.limits.build_problem` and solving it with
-:func:`lpik.methods.lp2.lp2` (tests hold the two equal). Steps the ratio test
-cannot take (singular KKT matrix) go to the HiGHS path.
+:class:`Lp2Controller` runs the stages of :mod:`lpik.control.stepper`
+(kinematics, command, limits, LP2 or LP2 with saturation, the automatic
+multiplier bound) fused into one compiled call (:mod:`lpik.fast.step`) over a
+state buffer prepared once (:mod:`lpik.fast.layout`), and returns the same
+:class:`~lpik.result.Result` as the numpy engine,
+:class:`~lpik.control.stepper.Stepper`, on the same limits and weights (tests
+hold the two equal). The controller owns such a stepper: every step the
+kernel does not answer itself goes to its stages (the HiGHS path where the KKT
+matrix is singular, the bound policy over a backend's kinematics, the stall
+stage), and :meth:`Lp2Controller.problem` is its problem.
+
+Over a :class:`~lpik.robots.chain.SerialChain` the kinematics are compiled
+into the step; over Pinocchio or MuJoCo their kinematics run first
+(:mod:`lpik.control.backend_step`). With a scene, the velocity damper's
+distance rows are one more limit: rows of the state's ``ROWS_G``/``ROWS_H``
+block, computed inside the compiled step (:mod:`lpik.fast.avoiding_step`) or
+written from coal before it (:class:`SceneRows`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from functools import partial
 from time import perf_counter
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.command import (
-    DEFAULT_V_MAX,
-    DEFAULT_W_MAX,
-    commanded_displacement,
-    second_order_term,
-    task_rows,
-)
+from lpik.collision import CollisionAvoidance, DistanceRows
+from lpik.collision.avoidance import INACTIVE_RHS
+from lpik.collision.model import as_avoidance
+from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik.control.backend_step import fuses_kinematics, step_functions
-from lpik.control.controller_steps import (
-    auto_bound_block,
-    batch_steps,
-    bounded_step,
-    not_optimal_step,
-)
 from lpik.control.inputs import (
+    TARGET_SHAPES,
     chain_arrays,
-    controller_limits,
     joint_vector,
-    positive_number,
     rate_limits,
+    stacked_rows,
     target_array,
-    task_value,
 )
+from lpik.control.stepper import Stepper
 from lpik.fast import layout
+from lpik.fast.autobound import bound_in_state, settings
 from lpik.fast.batch import BatchResult
+from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
+from lpik.fast.outcome import compiled_result
+from lpik.fast.step import BAD_INPUT
 from lpik.labels import step_label_table
-from lpik.limits import AutomaticMultiplierBounds, Limit, MultiplierBounds, build_problem
+from lpik.limits import Limit, MultiplierBounds, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
-from lpik.methods.lp2 import lp2
-from lpik.methods.lp2s import lp2s
-from lpik.methods.progress import StallWatch
 from lpik.problem import Problem, reference_configuration
 from lpik.result import OPTIMAL, Result
 from lpik.robots.base import TaskModel
-from lpik.robots.tasks import as_task_model
 from lpik.tolerances import FULL_P
 from lpik.types import FloatArray
+
+__all__ = ["Lp2Controller", "SceneRows", "StateRows"]
+
+
+@dataclass(frozen=True, eq=False)
+class StateRows:
+    """The rows the last step left in the state buffer, as a limit of the numpy layers.
+
+    Attributes:
+        G: View of the state's rows block, (r, n).
+        h: View of their right-hand side, (r,).
+        labels: One label per row.
+    """
+
+    G: FloatArray
+    h: FloatArray
+    labels: tuple[str, ...]
+
+    def apply(self, context: StepContext) -> Piece:
+        """The rows as they are now (copies)."""
+        return Piece(G=self.G.copy(), h=self.h.copy(), row_labels=self.labels)
+
+
+class SceneRows:
+    """A scene's distance rows as rows of a controller's state: one row per pair it watches.
+
+    Robot-obstacle pairs, then the self-collision pairs; each step fills the
+    rows of the pairs within the influence distance with the velocity
+    damper's rows (Faverjon and Tournassoud 1987,
+    :class:`lpik.collision.DistanceRows`) and leaves the others as
+    ``0 q <= INACTIVE_RHS``, which never binds. With the potential field
+    (the paper's eq. 3, after Khatib 1986) :meth:`write` also sets the step's ``f``.
+
+    Args:
+        model: The task model.
+        avoidance: The scene's collision avoidance.
+    """
+
+    def __init__(self, model: TaskModel, avoidance: CollisionAvoidance) -> None:
+        self.avoidance = avoidance
+        self._rows = DistanceRows(avoidance.proximities, avoidance.approach_speed)
+        probe = avoidance.proximities.at(
+            np.clip(np.zeros(model.n_joints), model.q_min, model.q_max)
+        )
+        #: Each row's pair, spelled as a binding names it.
+        self.labels = tuple(p.label for p in probe)
+        self.model = model
+
+    def reserved(self) -> tuple[FloatArray, FloatArray, tuple[str, ...]]:
+        """The rows to reserve in the state: ``(G, h, labels)``, every row inactive."""
+        r, n = len(self.labels), self.model.n_joints
+        return np.zeros((r, n)), np.full(r, INACTIVE_RHS), self.labels
+
+    def attach(self, state: FloatArray, stepper: Stepper) -> None:
+        """Read and write the rows, and ``f``, in ``state``; ``stepper``'s limits read them.
+
+        Afterwards :attr:`G` (r, n) and :attr:`h` (r,) are views of the state's rows.
+        """
+        r, n = len(self.labels), self.model.n_joints
+        g0, h0, f0 = (int(state[slot]) for slot in (layout.ROWS_G, layout.ROWS_H, layout.F_REF))
+        self.G, self.h = state[g0 : g0 + r * n].reshape(r, n), state[h0 : h0 + r]
+        self._f, self._stepper = state[f0 : f0 + n], stepper
+        f = stepper.weights.get("f")
+        self._f0 = np.zeros(n) if f is None else np.broadcast_to(np.asarray(f, float), (n,)).copy()
+        stepper.limits = (*stepper.limits[:-1], StateRows(self.G, self.h, self.labels))
+
+    def write(self, q0: FloatArray, dt: float) -> None:
+        """This step's rows (and force) by coal into the state buffer."""
+        self.G[:] = 0.0
+        self.h[:] = INACTIVE_RHS
+        if self.avoidance.mechanism != "field":
+            pairs, G, h = self._rows.pair_rows(q0, dt)
+            self.G[pairs] = G
+            self.h[pairs] = h
+        weights = self.avoidance.weights({"f": self._f0}, q0, dt, self.model.jacobian(q0))
+        self._f[:] = weights["f"]
+        self._stepper.weights["f"] = weights["f"]
 
 
 class Lp2Controller:
@@ -101,6 +180,14 @@ class Lp2Controller:
             from ``q_prev`` to ``q0``; the default): the error each step leaves on a
             curved path is then third order in the step, not second. ``False``:
             the command law alone, as the paper's runs command it.
+        scene: Obstacles to keep clear of, as one more limit: a
+            :class:`~lpik.collision.Scene` (the velocity damper's rows) or a
+            :class:`~lpik.collision.CollisionAvoidance` (rows, field or both). Not
+            with ``G``, ``h``, ``row_labels``: the rows are the scene's.
+        home: With a Scene: the configuration at which touching self-collision
+            pairs are dropped; None: none dropped.
+        compiled_distances: With the damper alone, compute the distances and rows
+            inside the compiled step (``False``: through coal in Python, as with the field).
 
     Raises:
         ValueError: For a model the compiled path does not support, or bad limits/weights.
@@ -127,77 +214,123 @@ class Lp2Controller:
         saturate: bool = True,
         on_stall: int | None = None,
         second_order: bool = True,
+        scene: Any = None,
+        home: ArrayLike | None = None,
+        compiled_distances: bool = True,
     ) -> None:
-        self.model = model = as_task_model(model)
-        self.dt = positive_number("dt", dt)
-        self.v_max, self.w_max = positive_number("v_max", v_max), positive_number("w_max", w_max)
-        if not isinstance(velocity_limits, bool | np.bool_):
-            raise ValueError(f"velocity_limits: must be True or False, got {velocity_limits!r}")
         if not isinstance(saturate, bool | np.bool_):
             raise ValueError(f"saturate: must be True or False, got {saturate!r}")
-        self.method = "lp2s" if saturate else "lp2"
-        if not isinstance(second_order, bool | np.bool_):
-            raise ValueError(f"second_order: must be True or False, got {second_order!r}")
-        #: Whether the command takes off the last step's second-order term.
-        self.second_order = bool(second_order)
-        self._stall = StallWatch(on_stall)
-        self._bound: FloatArray | None = None  # the automatic bound of a step under it
-        self._fallback = lp2s if saturate else partial(lp2, path="highs")
-        origins, axes, revolute, tip = chain_arrays(model)
-        self._row_index = task_rows(model)
-        n, m = model.n_joints, self._row_index.size
-        self.limits = controller_limits(model, limits, velocity_limits=velocity_limits,
-                                        qdd_max=qdd_max, lambda_bound=lambda_bound,
-                                        rows=(G, h, row_labels))  # fmt: skip
-        self._weights = {
-            "M": M,
-            "f": f,
-            "Lambda": Lambda,
-            "q_ref": q_ref,
-            "joint_names": model.joint_names,
-        }
-        # One validated template problem checks every weight and limit once.
-        template = self._problem(
-            np.zeros((m, n)), np.zeros(m), np.clip(np.zeros(n), model.q_min, model.q_max), None
-        )
-        H = template.M + template.Lambda
-        # NaN where q_ref follows q0 (Problem's default), filled in by the step.
-        ref = template.q_ref if q_ref is not None else reference_configuration(
-            template.q_min, template.q_max, np.full(n, np.nan))  # fmt: skip
-        # (6, n): q_min, q_max, qd_min, qd_max, qdd_min, qdd_max.
-        bounds = np.vstack([template.q_min, template.q_max, rate_limits(self.limits, n)])
-        #: The automatic multiplier bound in force (lpik.methods.autobound), or None.
-        self.automatic_bound = next(
-            (lim for lim in self.limits if isinstance(lim, AutomaticMultiplierBounds)), None
-        )
-        self._state = layout.pack(
-            n, m, template.G.shape[0],
-            h_diag=is_diagonal(H), dt=self.dt, v_max=self.v_max, w_max=self.w_max,
-            saturate=bool(saturate),
-            revolute=revolute, row_index=self._row_index, origins=origins, axes=axes, tip=tip,
-            limits=bounds, criterion=H, f_ref=np.vstack([template.f, ref]),
-            Lambda=template.Lambda, lam_bounds=np.vstack([template.lam_min, template.lam_max]),
-            G=template.G, h=template.h, auto_bound=auto_bound_block(self.automatic_bound, model),
-            second_order=[float(self.second_order), 0.0],
+        scene_rows = self._scene_rows(model, scene, home, (G, h, row_labels))
+        #: The numpy engine over the same limits and weights: the stages the kernel hands on.
+        self.stepper = Stepper(
+            model, dt=dt, method="lp2s" if saturate else "lp2", limits=limits,
+            weights={"M": M, "f": f, "Lambda": Lambda, "q_ref": q_ref}, v_max=v_max,
+            w_max=w_max, lambda_bound=lambda_bound, qdd_max=qdd_max,
+            velocity_limits=velocity_limits,
+            rows=(G, h, row_labels) if scene_rows is None else scene_rows.reserved(),
+            second_order=second_order, on_stall=on_stall, warm_start=False,
         )  # fmt: skip
-        #: The fields of an optimal compiled step that are the same on every step.
-        self._optimal_fields = {"status": OPTIMAL, "method": self.method, "path": "compiled"}
-        self._kernel, self._batch = step_functions(model, self._state)
-        self._out = self._state[layout.out_range(self._state)]  # the kernel writes here
-        fields = layout.out_fields(self._state)
-        self._q, self._dq, self._lam = fields["q"], fields["dq"], fields["lam"]
-        self._p, self._label_at = fields["p"].start, fields["label"].start
-        self._residual = fields["residual"].start
-        self._outside = fields["outside"].start
-        self._bounded_at, self._bound_at = fields["bounded"].start, fields["bound"]
-        self._n, self._m = n, m
-        self._labels = step_label_table(model.joint_names, m, template.row_labels)
-        self._q_view = self._out[self._q]  # the kernel's q, for step_into
-        self._vector_shape = (n,)
+        s = self.stepper
+        self.model, self.dt, self.method = s.model, s.dt, s.method
+        self.v_max, self.w_max, self.second_order = s.v_max, s.w_max, s.second_order
+        #: The automatic multiplier bound in force (lpik.methods.autobound), or None.
+        self.automatic_bound = s.automatic_bound
+        self._fallback_path = None if saturate else "highs"
+        self._bound: FloatArray | None = None  # the automatic bound of a step under it
+        self._state = self._packed(bool(saturate))
+        self._kernel, self._batch = step_functions(self.model, self._state)
+        self._read_out_blocks()
+        #: The scene's rows in the state (:class:`SceneRows`), or None without a scene.
+        self.scene_rows = scene_rows
+        #: Each pair's distance, witness points and normal after the last step (P, 10).
+        self.found: FloatArray | None = None
+        if scene_rows is not None:
+            scene_rows.attach(self._state, s)
+            if scene_rows.avoidance.mechanism == "rows" and bool(compiled_distances):
+                self._compile_distances(scene_rows.avoidance)
         self._last: Result | None = None  # step_into's last outcome when not optimal
         self._last_code: int | None = None  # step_into's last kernel outcome (-1: see _last)
         # a Result for step_into: the automatic bound over a backend's kinematics (its probe)
         self._python_bound = self.automatic_bound is not None and not fuses_kinematics(model)
+
+    @property
+    def limits(self) -> tuple[Limit, ...]:
+        """The limits every step holds (those of :attr:`stepper`)."""
+        return self.stepper.limits
+
+    @property
+    def compiled(self) -> bool:
+        """Whether a scene's distances and rows are computed inside the compiled step."""
+        return self.found is not None
+
+    @property
+    def avoidance(self) -> CollisionAvoidance | None:
+        """The scene's collision avoidance, or None."""
+        return None if self.scene_rows is None else self.scene_rows.avoidance
+
+    @property
+    def pair_labels(self) -> tuple[str, ...]:
+        """The scene's pairs, one per reserved row (empty without a scene)."""
+        return () if self.scene_rows is None else self.scene_rows.labels
+
+    # -- setting up -----------------------------------------------------------------------
+
+    @staticmethod
+    def _scene_rows(model: Any, scene: Any, home: Any, rows: tuple[Any, ...]) -> SceneRows | None:
+        if scene is None:
+            return None
+        for key, value in zip(("G", "h", "row_labels"), rows):
+            if value is not None:
+                raise ValueError(f"{key}: the rows of a controller with a scene are the scene's")
+        home_q = None if home is None else np.asarray(home, dtype=np.float64)
+        return SceneRows(model, as_avoidance(model, scene, home_q))
+
+    def _packed(self, saturate: bool) -> FloatArray:
+        """The state buffer: the template problem's limits and weights, checked once."""
+        model, n = self.model, self.model.n_joints
+        m = model.task_dim
+        template = self.stepper.limited(np.clip(np.zeros(n), model.q_min, model.q_max),
+                                        np.zeros(m), None, np.zeros((m, n)))  # fmt: skip
+        H = template.M + template.Lambda
+        # NaN where q_ref follows q0 (Problem's default), filled in by the step.
+        ref = template.q_ref
+        if self.stepper.weights.get("q_ref") is None:
+            ref = reference_configuration(template.q_min, template.q_max, np.full(n, np.nan))
+        origins, axes, revolute, tip = chain_arrays(model)
+        self._n, self._m = n, m
+        self._labels = step_label_table(model.joint_names, m, template.row_labels)
+        return layout.pack(
+            n, m, template.G.shape[0],
+            h_diag=is_diagonal(H), dt=self.dt, v_max=self.v_max, w_max=self.w_max,
+            saturate=saturate, revolute=revolute, row_index=self.stepper.task_rows,
+            origins=origins, axes=axes, tip=tip,
+            limits=np.vstack([template.q_min, template.q_max, rate_limits(self.limits, n)]),
+            criterion=H, f_ref=np.vstack([template.f, ref]), Lambda=template.Lambda,
+            lam_bounds=np.vstack([template.lam_min, template.lam_max]), G=template.G,
+            h=template.h, auto_bound=settings(self.automatic_bound, fuses_kinematics(model)),
+            second_order=[float(self.second_order), 0.0],
+        )  # fmt: skip
+
+    def _read_out_blocks(self) -> None:
+        """Where the kernel writes each out block, for the step's decoding."""
+        self._out = self._state[layout.out_range(self._state)]
+        fields = layout.out_fields(self._state)
+        self._q, self._dq, self._lam = fields["q"], fields["dq"], fields["lam"]
+        self._p, self._label_at = fields["p"].start, fields["label"].start
+        self._residual, self._outside = fields["residual"].start, fields["outside"].start
+        self._bounded_at, self._bound_at = fields["bounded"].start, fields["bound"]
+        self._q_view = self._out[self._q]  # the kernel's q, for step_into
+        self._vector_shape = (self._n,)
+
+    def _compile_distances(self, avoidance: CollisionAvoidance) -> None:
+        """The fused step with the scene's distances and rows inside (lpik.fast.avoiding_step)."""
+        from lpik.fast.avoiding_step import avoiding_kernel, pack_bodies
+
+        arrays = pack_bodies(avoidance.proximities, self.dt, avoidance.approach_speed)
+        self.found = arrays[6]
+        self._kernel = partial(avoiding_kernel(), *arrays)
+
+    # -- one step -------------------------------------------------------------------------
 
     def step(
         self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, watch: bool = True
@@ -226,31 +359,37 @@ class Lp2Controller:
                 non-finite values.
         """
         start = perf_counter()
-        prev = q0 if q_prev is None else q_prev
-        try:
-            code = self._kernel(self._state, q0, prev, target)
-        except TypeError:  # not C-contiguous writable float64 arrays: convert them
-            q0, target, prev = self._converted(q0, target, q_prev)
-            code = self._kernel(self._state, q0, prev, target)
-        if code == OK and self._out.item(self._outside) < 0:
-            out = self._out.copy()
+        code = self._run(q0, target, q_prev)
+        out = self._out
+        if code == OK and out.item(self._outside) < 0:
+            out = out.copy()
             label = out.item(self._label_at)
-            fields = self._optimal_fields.copy()  # a Result without the dataclass __init__
-            fields["q"] = out[self._q]
-            fields["dq"] = out[self._dq]
-            fields["p"] = out.item(self._p)
-            fields["lam"] = out[self._lam]
-            fields["binding"] = None if label < 0 else self._labels[int(label)]
-            fields["residual"] = out.item(self._residual)
-            fields["solve_time"] = perf_counter() - start
-            result = Result.trusted(fields)
+            result = compiled_result(
+                OK, out[self._q], out[self._dq], out.item(self._p), out[self._lam],
+                None if label < 0 else self._labels[int(label)], None, self.method,
+                out.item(self._residual), perf_counter() - start,
+            )  # fmt: skip
         else:
             result = self._not_optimal(code, q0, target, q_prev, start)
         if self.automatic_bound is not None and result.p < FULL_P:
             result = self._bounded(q0, target, q_prev, result)
-        if self._stall.after is None or not watch:
+        if self.stepper.stall_watch.after is None or not watch:
             return result
-        return self._stall.check(result, lambda: self.problem(q0, target, q_prev))
+        return self.stepper.stalled(result, lambda: self.problem(q0, target, q_prev))
+
+    def _run(self, q0: Any, target: Any, q_prev: Any) -> int:
+        """The kernel on the step's inputs (converted where they are not its arrays)."""
+        if self.scene_rows is not None and self.found is None:  # rows from coal, before the kernel
+            q0 = np.ascontiguousarray(q0, dtype=np.float64)
+            if q0.shape != self._vector_shape or not np.isfinite(q0).all():
+                raise ValueError(f"q0: must be {self._n} finite coordinates")
+            self.scene_rows.write(q0, self.dt)
+        prev = q0 if q_prev is None else q_prev
+        try:
+            return self._kernel(self._state, q0, prev, target)
+        except TypeError:  # not C-contiguous writable float64 arrays: convert them
+            q0, target, prev = self._converted(q0, target, q_prev)
+            return self._kernel(self._state, q0, prev, target)
 
     def step_into(
         self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, out: FloatArray
@@ -280,16 +419,11 @@ class Lp2Controller:
                 f"out: must be a float64 array of shape ({self._n},), got "
                 f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
             )
-        if self._stall.after is not None or self._python_bound:  # a Result
+        if self.stepper.stall_watch.after is not None or self._python_bound:  # a Result
             self._last, self._last_code = self.step(q0, target, q_prev), -1
             out[...] = self._last.q
             return self._last.p
-        prev = q0 if q_prev is None else q_prev
-        try:
-            code = self._kernel(self._state, q0, prev, target)
-        except TypeError:  # not C-contiguous writable float64 arrays: convert them
-            q0, target, prev = self._converted(q0, target, q_prev)
-            code = self._kernel(self._state, q0, prev, target)
+        code = self._run(q0, target, q_prev)
         if code == OK and self._out.item(self._outside) < 0:
             self._last_code = code
             out[...] = self._q_view
@@ -316,6 +450,67 @@ class Lp2Controller:
         label = self._out.item(self._label_at)
         return None if label < 0 else self._labels[int(label)]
 
+    # -- steps the kernel hands on ------------------------------------------------------------
+
+    def _not_optimal(self, code: int, q0: Any, target: Any, q_prev: Any, start: float) -> Result:
+        """The Result of a kernel outcome other than an optimal step from within the limits.
+
+        A step from outside the limits (``recovering``) and the kernel's safe step
+        (``infeasible``) are read from the state's out blocks; bad input raises a
+        ValueError naming it; anything else goes to the stepper's HiGHS path.
+        """
+        if code in (OK, KERNEL_INFEASIBLE):
+            out, outside = self._out.copy(), int(self._out.item(self._outside))
+            label = int(out.item(self._label_at))
+            return compiled_result(
+                code, out[self._q], out[self._dq], out.item(self._p), out[self._lam],
+                None if label < 0 else self._labels[label],
+                self._labels[outside].outside() if outside >= 0 else None, self.method,
+                out.item(self._residual), perf_counter() - start,
+            )  # fmt: skip
+        if code == BAD_INPUT:
+            self._converted(q0, target, q_prev, check_finite=True)  # raises, naming the input
+        bound = self._bound
+        if bound is None and self._out.item(self._bounded_at) > 0:  # the fused step's own bound
+            bound = self._out[self._bound_at].copy()
+        problem = self.stepper.problem(*self._checked(q0, target, q_prev), bound=bound)
+        return self.stepper.solve(problem, path=self._fallback_path)
+
+    def _bounded(self, q0: Any, target: Any, q_prev: Any, unbounded: Result) -> Result:
+        """The bound policy where the kernel did not apply it (a backend's kinematics, HiGHS).
+
+        The rule is :func:`lpik.methods.autobound.automatic_bound`: compiled over
+        a SerialChain (:func:`lpik.fast.autobound.bound_in_state`), else the
+        stepper's :meth:`~lpik.control.stepper.Stepper.bound_of`. The bound is
+        written into the state's multiplier bounds for one compiled step (the
+        step's own rule switched off, and into the problem of its HiGHS path),
+        then restored.
+        """
+        if (self.automatic_bound is None or unbounded.p >= FULL_P or self._bound is not None
+                or self._out.item(self._bounded_at) >= 0 or not unbounded.moved):  # fmt: skip
+            return unbounded
+        q = np.ascontiguousarray(q0, dtype=np.float64)
+        if fuses_kinematics(self.model):  # the rule, compiled, on the step the state holds
+            dq = np.ascontiguousarray(unbounded.dq, dtype=np.float64)
+            bound = self._out[self._bound_at].copy() if bound_in_state(self._state, q, dq) else None
+        else:
+            start = int(self._state[layout.JACOBIAN])  # the step's J, as the kernel left it
+            J = self._state[start : start + self._m * self._n].reshape(self._m, self._n).copy()
+            bound = self.stepper.bound_of(q, J, unbounded)
+        if bound is None:
+            return unbounded
+        block = layout.matrix_at(self._state, layout.LAM_BOUNDS, 2, self._m)
+        on = int(self._state[layout.AUTO_BOUND])
+        saved, saved_on = block.copy(), self._state[on]
+        block[0], block[1] = np.maximum(saved[0], -bound), np.minimum(saved[1], bound)
+        self._state[on], self._bound = 0.0, bound
+        try:
+            return self.step(q0, target, q_prev, watch=False)
+        finally:
+            block[...], self._state[on], self._bound = saved, saved_on, None
+
+    # -- many steps -----------------------------------------------------------------------
+
     def step_batch(
         self, q0: ArrayLike, targets: ArrayLike, q_prev: ArrayLike | None = None
     ) -> BatchResult:
@@ -325,7 +520,9 @@ class Lp2Controller:
         (tests hold them equal): for sweeps over configurations (how much of a
         command the arm can follow across its workspace), many robots, or
         sampled starts. Rows the ratio test cannot take go to the HiGHS path
-        one by one, as in :meth:`step` (:func:`lpik.control.controller_steps.batch_steps`).
+        one by one, as in :meth:`step`; so do the rows from outside the limits
+        and, where the automatic multiplier bound applies outside the kernel,
+        the rows with ``p < 1``. With a scene every row is a :meth:`step`.
 
         Args:
             q0: Joint coordinates, (B, n).
@@ -343,18 +540,52 @@ class Lp2Controller:
             ValueError: For arrays of the wrong shape, rows that disagree in
                 number, or values that are not finite (naming the row).
         """
-        return batch_steps(self, q0, targets, q_prev)
+        n = self._n
+        Q0 = stacked_rows("q0", q0, ((n,),))
+        B = Q0.shape[0]
+        Qp = Q0 if q_prev is None else stacked_rows("q_prev", q_prev, ((n,),), B)
+        T = stacked_rows("targets", targets, TARGET_SHAPES, B)
+        outs, codes = np.empty((B, self._out.shape[0])), np.empty(B, dtype=np.int64)
+        if self.scene_rows is None:
+            self._batch(self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads())
+            if (codes == BAD_INPUT).any():  # every row was checked: a bug if it happens
+                raise ValueError(f"row {int(np.argmax(codes == BAD_INPUT))}: rejected by the step")
+            again = self._rows_again(outs, codes)
+        else:
+            codes[:], again = BAD_INPUT, np.ones(B, dtype=bool)
+        return self._batch_result(outs, codes, again, Q0, T, None if q_prev is None else Qp)
 
-    def _not_optimal(self, code: int, q0: Any, target: Any, q_prev: Any, start: float) -> Result:
-        """The Result of a kernel outcome other than OK (:func:`not_optimal_step`)."""
-        return not_optimal_step(self, code, q0, target, q_prev, start)
+    def _rows_again(self, outs: FloatArray, codes: Any) -> Any:
+        """The rows to step one by one: those the kernel does not answer itself."""
+        infeasible = codes == KERNEL_INFEASIBLE
+        again = (codes != OK) & ~infeasible | (outs[:, self._outside] >= 0)
+        if self.automatic_bound is not None:
+            p = outs[:, self._p]
+            again |= ~infeasible & (p < FULL_P) & (outs[:, self._bounded_at] < 0)
+        return again
 
-    def _bounded(self, q0: Any, target: Any, q_prev: Any, unbounded: Result) -> Result:
-        """The automatic multiplier bound where the kernel did not apply it (a backend, HiGHS)."""
-        if (self.automatic_bound is None or unbounded.p >= FULL_P or self._bound is not None
-                or self._out.item(self._bounded_at) >= 0):  # fmt: skip
-            return unbounded
-        return bounded_step(self, q0, target, q_prev, unbounded)
+    def _batch_result(
+        self, outs: FloatArray, codes: Any, again: Any, Q0: Any, T: Any, Qp: Any
+    ) -> BatchResult:
+        q, dq = outs[:, self._q].copy(), outs[:, self._dq].copy()
+        lam, p = outs[:, self._lam].copy(), outs[:, self._p].copy()
+        residual = outs[:, self._residual].copy()
+        infeasible = codes == KERNEL_INFEASIBLE
+        p[infeasible], lam[infeasible] = 0, np.nan  # q, dq: the kernel's safe step
+        fallback: dict[int, Result] = {}
+        for b in np.nonzero(again)[0].tolist():
+            res = self.step(Q0[b], T[b], None if Qp is None else Qp[b], watch=False)
+            fallback[b] = res
+            q[b], dq[b], p[b], residual[b] = res.q, res.dq, res.p, res.residual
+            lam[b] = np.nan if res.lam is None else res.lam
+        table = self._labels
+        return BatchResult(
+            q=q, dq=dq, p=p, lam=lam, codes=codes,
+            binding_codes=outs[:, self._label_at].astype(np.int64), _labels=lambda b: table,
+            _fallback=fallback, residual=residual, method=self.method,
+        )  # fmt: skip
+
+    # -- inputs and the problem -----------------------------------------------------------
 
     def _converted(
         self, q0: Any, target: Any, q_prev: Any, check_finite: bool = False
@@ -364,35 +595,22 @@ class Lp2Controller:
         prev = q0 if q_prev is None else joint_vector("q_prev", q_prev, self._n, check_finite)
         return q0, target_array(target, check_finite), prev
 
-    def _problem(
-        self, J: FloatArray, dw: FloatArray, q0: FloatArray, q_prev: FloatArray | None
-    ) -> Problem:
-        P = build_problem(J, dw, q0, self.limits, dt=self.dt, q_prev=q_prev, **self._weights)
-        if self._bound is None:  # (else a step under the automatic bound: lpik.methods.autobound)
-            return P
-        return P.replace(lam_min=np.maximum(P.lam_min, -self._bound),
-                         lam_max=np.minimum(P.lam_max, self._bound))  # fmt: skip
-
-    def problem(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Problem:
-        """The step's :class:`~lpik.problem.Problem`, built by the pure-numpy layers.
-
-        The command is the one law of :mod:`lpik.command`: the
-        displacement to the target (along the screw on a pose task), clamped
-        to ``v_max dt`` and ``w_max dt``, less the last step's second-order
-        term where ``second_order`` is on.
-        """
-        q0 = np.asarray(q0, dtype=np.float64)
+    def _checked(self, q0: Any, target: Any, q_prev: Any) -> tuple[Any, Any, Any]:
         for name, value in (("q0", q0), ("q_prev", q_prev), ("target", target)):
             if value is not None and not np.isfinite(np.asarray(value, dtype=np.float64)).all():
                 raise ValueError(f"{name}: contains NaN or inf")
-        model = self.model
-        dw = commanded_displacement(model, model.pose(q0), task_value(model, target), self.v_max,
-                                    self.w_max, self.dt)  # fmt: skip
-        if self.second_order and q_prev is not None:
-            dw -= second_order_term(model, q_prev, q0)
-        return self._problem(
-            model.jacobian(q0),
-            dw,
-            q0,
-            None if q_prev is None else np.asarray(q_prev, float),
-        )
+        return q0, target, q_prev
+
+    def problem(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Problem:
+        """The step's :class:`~lpik.problem.Problem`, built by the numpy engine's stages.
+
+        The command is the one law of :mod:`lpik.command`: the displacement to
+        the target (along the screw on a pose task), clamped to ``v_max dt`` and
+        ``w_max dt``, less the last step's second-order term where
+        ``second_order`` is on. With a scene whose distances are compiled, the
+        rows are computed by coal for this problem.
+        """
+        q0, target, q_prev = self._checked(q0, target, q_prev)
+        if self.scene_rows is not None:
+            self.scene_rows.write(np.asarray(q0, dtype=np.float64), self.dt)
+        return self.stepper.problem(q0, target, q_prev, bound=self._bound)

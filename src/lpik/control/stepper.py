@@ -140,7 +140,8 @@ class Stepper:
         self.avoidance = as_avoidance(model, scene, home_q)
         self.stall_watch = StallWatch(on_stall)
         self._solver = HighsSolver() if _flag("warm_start", warm_start) else None
-        self._task_rows = task_rows(model)
+        #: Each task row's index in x, y, z, rx, ry, rz.
+        self.task_rows = task_rows(model)
         #: Whether the last :meth:`step` clamped a classical step to the end-stops.
         self.clamped = False
 
@@ -222,7 +223,7 @@ class Stepper:
         """The automatic bound's ``B`` for this step, or None where the step stays unbounded."""
         if self.automatic_bound is None:
             return None
-        return bound_for_step(self.automatic_bound, self.model.jacobian, q0, J, self._task_rows,
+        return bound_for_step(self.automatic_bound, self.model.jacobian, q0, J, self.task_rows,
                               self.dt, result)  # fmt: skip
 
     def stalled(self, result: Result, problem_of: Callable[[], Problem]) -> Result:
