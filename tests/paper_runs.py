@@ -11,6 +11,7 @@ import functools
 from lpik.control.simulate import SimulationLog
 from lpik.paper.runs import choose_lambda_bound
 from lpik.paper.scenarios import get_scenario
+from lpik.paper.setup import PAPER_COMMAND
 
 
 @functools.cache
@@ -18,7 +19,9 @@ def run(
     scenario: str, method: str, lambda_bound: float | None = None, warm_start: bool = True
 ) -> SimulationLog:
     """One full run of a scenario (cached for the session)."""
-    return get_scenario(scenario).run(method, lambda_bound=lambda_bound, warm_start=warm_start)
+    return get_scenario(scenario).run(
+        method, lambda_bound=lambda_bound, warm_start=warm_start, **PAPER_COMMAND
+    )
 
 
 def lp1_cold() -> SimulationLog:

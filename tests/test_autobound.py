@@ -70,7 +70,7 @@ def test_the_controller_follows_simulate_step_by_step() -> None:
     pytest.importorskip("numba")
     setup = get_scenario("edge-singularity").setup()
     log = setup.run("lp2", lambda_bound="auto")
-    controller = setup.controller(lambda_bound="auto")
+    controller = setup.controller(lambda_bound="auto", saturate=False)
     assert isinstance(controller.automatic_bound, AutomaticMultiplierBounds)
     q, prev = setup.q0.copy(), None
     for k in range(setup.steps):

@@ -29,7 +29,7 @@ OURS = ("lpik", "lpik_bench")
 #: it; the longest matching prefix decides. ``lpik`` itself (the package's
 #: ``__init__``, the facade) is the top layer and covers no other module.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("facts", ("lpik.types", "lpik.tolerances", "lpik.labels", "lpik.exceptions",
+    ("facts", ("lpik.types", "lpik.defaults", "lpik.tolerances", "lpik.labels", "lpik.exceptions",
                "lpik.naming", "lpik.robots.base", "lpik.version", "lpik.bands")),
     ("core", ("lpik.problem", "lpik.result", "lpik.check", "lpik.limits", "lpik.highs")),
     ("robots", ("lpik.robots",)),

@@ -9,6 +9,7 @@ from scipy.optimize import linprog
 from lpik.methods import solve
 from lpik.methods.progress import StallWatch, progress_step
 from lpik.paper.scenarios import PLANAR, get_scenario
+from lpik.paper.setup import PAPER_COMMAND
 from lpik.problem import Problem
 from lpik.result import OFF_DIRECTION, OPTIMAL, STATUSES
 
@@ -73,8 +74,8 @@ def test_on_stall_gets_the_arm_unstuck_alike_on_both_paths(robot: str) -> None:
     pytest.importorskip("numba")
     setup = get_scenario("pull-in").setup(robot)
     target = setup.target[:3, 3] if setup.target.ndim == 2 else setup.target
-    stuck = setup.run("lp2")
-    log = setup.run("lp2", on_stall=20)
+    stuck = setup.run("lp2", **PAPER_COMMAND)
+    log = setup.run("lp2", on_stall=20, **PAPER_COMMAND)
     assert (log.status == OFF_DIRECTION).any()
     gap = np.linalg.norm(log.position_end[:2] - target[:2])
     assert gap < np.linalg.norm(stuck.position_end[:2] - target[:2])

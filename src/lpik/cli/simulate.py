@@ -15,6 +15,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from lpik.defaults import DEFAULT_METHOD
 from lpik.tolerances import MAX_MAGNITUDE
 
 if TYPE_CHECKING:
@@ -133,9 +134,15 @@ def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--method",
-        default="lp2",
-        help="pinv, weighted, robust, lp1, l1, lp2, lp2s or nlp (default lp2; lpik.methods "
-        "lists them)",
+        default=DEFAULT_METHOD,
+        help=f"pinv, weighted, robust, lp1, l1, lp2, lp2s or nlp (default {DEFAULT_METHOD}; "
+        "lpik.methods lists them)",
+    )
+    parser.add_argument(
+        "--no-second-order",
+        action="store_true",
+        help="command the law alone, as the paper's runs do (default: take off each command "
+        "the last step's second-order term, as every lpik controller does)",
     )
     parser.add_argument("--out", metavar="RUN.csv", help="write the log as CSV")
     parser.add_argument(
@@ -284,6 +291,7 @@ def run_options(args: argparse.Namespace) -> dict[str, object]:
         "warm_start": not args.cold_start,
         "on_stall": args.on_stall,
         "qdd_max": args.qdd_max,
+        "second_order": not args.no_second_order,
     }
 
 

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from lpik.defaults import DEFAULT_METHOD
 from lpik.exceptions import InvalidProblemError
 from lpik.methods.classical import pinv, robust, weighted
 from lpik.methods.l1 import l1
@@ -83,9 +84,6 @@ METHODS: dict[str, MethodSpec] = {
 
 #: Every method name.
 ALL_METHODS = tuple(METHODS)
-#: The method every way of taking a step uses unless told otherwise: LP2 with
-#: saturation in the null space. The paper's runs name ``lp2`` explicitly.
-DEFAULT_METHOD = "lp2s"
 
 
 def get_method(name: Any, *, field: str = "method") -> MethodSpec:

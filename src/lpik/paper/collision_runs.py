@@ -22,6 +22,7 @@ from lpik.collision import collision_avoidance, load_scene
 from lpik.control.log import SimulationLog
 from lpik.paper.reach import reach_setup
 from lpik.paper.scenarios import get_scenario
+from lpik.paper.setup import PAPER_COMMAND
 
 #: The mechanisms compared, with their captions.
 MECHANISMS = (
@@ -47,6 +48,7 @@ def obstacle_runs(method: str = "lp2") -> dict[str, SimulationLog]:
     return {
         mechanism: setup.run(
             method,
+            **PAPER_COMMAND,
             scene=collision_avoidance(
                 setup.model, setup.scene, setup.q0, mechanism=mechanism
             ),  # fmt: skip
@@ -62,6 +64,7 @@ def shelf_runs(method: str = "lp2") -> dict[str, SimulationLog]:
     return {
         mechanism: setup.run(
             method,
+            **PAPER_COMMAND,
             steps=SHELF_STEPS,
             scene=collision_avoidance(setup.model, scene, setup.q0, mechanism=mechanism),
         )  # fmt: skip

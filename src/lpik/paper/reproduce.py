@@ -19,6 +19,7 @@ from lpik.paper.collision_runs import reproduce_collision
 from lpik.paper.report import summary_markdown
 from lpik.paper.runs import FIGURES, BoundChoice, Progress, run_all
 from lpik.paper.scenarios import SCENARIOS, get_scenario
+from lpik.paper.setup import PAPER_COMMAND
 from lpik.version import __version__
 
 
@@ -196,7 +197,7 @@ def reproduce_3d(
         if progress is not None:
             progress(f"{name}, {robot} (3-D), {method}")
         setup = scenario.setup(robot)
-        log = setup.run(method)
+        log = setup.run(method, **PAPER_COMMAND)
         files.append(log.to_csv(out / f"{name}-3d-{robot}-{method}.csv"))
         target = setup.target
         files.append(

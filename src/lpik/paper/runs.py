@@ -40,6 +40,7 @@ import numpy as np
 
 from lpik.control.log import RunMetrics, SimulationLog
 from lpik.paper.scenarios import get_scenario
+from lpik.paper.setup import PAPER_COMMAND
 from lpik.tolerances import FULL_P
 
 #: The multiplier bound is this factor above the largest |lam| of the free motion.
@@ -146,23 +147,25 @@ def run_all(
     pull, edge = get_scenario("pull-in"), get_scenario("edge-singularity")
     say("pull-in, lp1")
     # the paper's runs state LP2 as the paper does: unbounded multipliers (None)
-    logs = {"pull-in-lp1": pull.run("lp1", warm_start=False)}
+    logs = {"pull-in-lp1": pull.run("lp1", warm_start=False, **PAPER_COMMAND)}
     say("pull-in, lp1, warm-started")
-    logs["pull-in-lp1-warm-start"] = pull.run("lp1")
+    logs["pull-in-lp1-warm-start"] = pull.run("lp1", **PAPER_COMMAND)
     say("pull-in, lp2")
-    logs["pull-in-lp2"] = pull.run("lp2", lambda_bound=None)
+    logs["pull-in-lp2"] = pull.run("lp2", lambda_bound=None, **PAPER_COMMAND)
     say("pull-in, lp2s")
-    logs["pull-in-lp2s"] = pull.run("lp2s", lambda_bound=None)
+    logs["pull-in-lp2s"] = pull.run("lp2s", lambda_bound=None, **PAPER_COMMAND)
     say("edge-singularity, lp2, unbounded multipliers")
-    logs["edge-singularity-lp2-unbounded"] = edge.run("lp2", lambda_bound=None)
+    logs["edge-singularity-lp2-unbounded"] = edge.run("lp2", lambda_bound=None, **PAPER_COMMAND)
     choice = choose_lambda_bound(logs["edge-singularity-lp2-unbounded"])
     say(f"edge-singularity, lp2, |lambda| <= {choice.bound:g}")
-    logs["edge-singularity-lp2-bounded"] = edge.run("lp2", lambda_bound=choice.bound)
+    logs["edge-singularity-lp2-bounded"] = edge.run(
+        "lp2", lambda_bound=choice.bound, **PAPER_COMMAND
+    )
     say("edge-singularity, lp2, the automatic bound (lpik's default)")
-    logs["edge-singularity-lp2-auto"] = edge.run("lp2")
+    logs["edge-singularity-lp2-auto"] = edge.run("lp2", **PAPER_COMMAND)
     metrics = {choice.bound: logs["edge-singularity-lp2-bounded"].metrics()}
     for bound in sweep:
         if bound not in metrics:
             say(f"edge-singularity, lp2, |lambda| <= {bound:g} (sweep)")
-            metrics[bound] = edge.run("lp2", lambda_bound=bound).metrics()
+            metrics[bound] = edge.run("lp2", lambda_bound=bound, **PAPER_COMMAND).metrics()
     return logs, choice, dict(sorted(metrics.items()))

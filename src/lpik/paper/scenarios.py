@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from lpik.command import DEFAULT_W_MAX
+from lpik.methods.registry import DEFAULT_METHOD
 from lpik.naming import lookup
 from lpik.paper.setup import Setup
 from lpik.robots.base import TaskModel
@@ -222,7 +223,7 @@ class Scenario:
 
     def run(
         self,
-        method: str = "lp2",
+        method: str = DEFAULT_METHOD,
         *,
         robot: str = PLANAR,
         lambda_bound: float | str | None = "auto",
@@ -232,11 +233,12 @@ class Scenario:
         progress: Progress | None = None,
         on_stall: int | None = None,
         qdd_max: float | None = None,
+        second_order: bool = True,
     ) -> SimulationLog:
         """Simulate this scenario on ``robot`` with one method (see :meth:`Setup.run`)."""
         return self.setup(robot).run(
             method, lambda_bound=lambda_bound, steps=steps, dt=dt, warm_start=warm_start,
-            progress=progress, on_stall=on_stall, qdd_max=qdd_max,
+            progress=progress, on_stall=on_stall, qdd_max=qdd_max, second_order=second_order,
         )  # fmt: skip
 
 

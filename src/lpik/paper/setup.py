@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from lpik.command import ClampedTarget
 from lpik.limits import AccelerationLimits, Limit, standard_limits
+from lpik.methods.registry import DEFAULT_METHOD
 from lpik.robots.base import TaskModel
 from lpik.types import FloatArray
 
@@ -19,6 +20,11 @@ if TYPE_CHECKING:
     from lpik.control.controller import Lp2Controller
     from lpik.control.log import SimulationLog
     from lpik.control.simulate import Progress
+
+
+#: The paper's runs' command: the law of sec. 4 alone, without lpik's second-order term
+#: (:func:`lpik.command.second_order_term`). Every run of the paper names it.
+PAPER_COMMAND: dict[str, Any] = {"second_order": False}
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +73,7 @@ class Setup:
 
     def run(
         self,
-        method: str = "lp2",
+        method: str = DEFAULT_METHOD,
         *,
         lambda_bound: float | str | None = "auto",
         steps: int | None = None,
@@ -77,7 +83,7 @@ class Setup:
         on_stall: int | None = None,
         qdd_max: float | None = None,
         scene: Any = None,
-        second_order: bool = False,
+        second_order: bool = True,
     ) -> SimulationLog:
         """Simulate this setup with one method (:func:`lpik.control.simulate.simulate`).
 
@@ -87,9 +93,9 @@ class Setup:
                 (:mod:`lpik.methods.autobound`); a number: symmetric bound on every
                 multiplier (sec. 3.2); ``None``: unbounded (the paper's runs).
             qdd_max: Acceleration limit of every joint [rad/s^2]; ``None``: none.
-            second_order: Take off each command the last step's second-order term,
-                as a deployed ``Lp2Controller`` does; ``False`` (default): the
-                paper's command law alone.
+            second_order: Take off each command the last step's second-order term
+                (the default of every way to take a step); ``False``: the paper's
+                command law alone (:data:`PAPER_COMMAND`).
             steps: Number of steps; default the scenario's.
             dt: Control period [s]; default the scenario's.
             warm_start: Reuse one HiGHS instance across steps.
@@ -124,17 +130,21 @@ class Setup:
         )
 
     def controller(
-        self, lambda_bound: float | str | None = "auto", *, saturate: bool = False
+        self,
+        lambda_bound: float | str | None = "auto",
+        *,
+        saturate: bool = True,
+        second_order: bool = True,
     ) -> Lp2Controller:
         """The compiled LP2 controller with this setup's limits, command law and weights.
 
-        ``saturate``: LP2 with saturation in the null space (``lp2s``). The command
-        is the paper's law alone (``second_order=False``), as :meth:`run` commands it.
+        ``saturate``: LP2 with saturation in the null space (``lp2s``, the default);
+        ``second_order``: as for :meth:`run` (``False``: :data:`PAPER_COMMAND`).
         """
         from lpik.control.controller import Lp2Controller
 
         return Lp2Controller(
             self.model, dt=self.dt, v_max=self.v_max, w_max=self.w_max,
-            lambda_bound=lambda_bound, saturate=saturate, second_order=False,
+            lambda_bound=lambda_bound, saturate=saturate, second_order=second_order,
             **dict(self.weights),
         )  # fmt: skip
