@@ -20,6 +20,8 @@ limit binds.
 
 from __future__ import annotations
 
+import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -28,6 +30,7 @@ import numpy as np
 
 from lpik import bands, labels
 from lpik.problem import Problem
+from lpik.tolerances import MAX_MAGNITUDE
 from lpik.types import FloatArray
 
 
@@ -227,25 +230,57 @@ class LinearRows:
         return Piece(G=G, h=h, row_labels=rows)
 
 
+#: What ``lambda_bound`` may be, wherever a step takes it.
+LambdaBound = float | str | MultiplierBounds | AutomaticMultiplierBounds | None
+
+
+def multiplier_limit(
+    lambda_bound: LambdaBound, *, field: str = "lambda_bound"
+) -> MultiplierBounds | AutomaticMultiplierBounds | None:
+    """The multiplier limit (sec. 3.2) that ``lambda_bound`` names: its one reading.
+
+    ``"auto"``: :class:`AutomaticMultiplierBounds` (bounds chosen per step where
+    the arm would race towards a singularity); a finite number ``B > 0``:
+    ``|lam_i| <= B`` (:meth:`MultiplierBounds.symmetric`); a
+    :class:`MultiplierBounds` or :class:`AutomaticMultiplierBounds`: itself;
+    ``None``: unbounded (the paper's LP2 as stated).
+
+    Raises:
+        ValueError: Naming ``field``, for anything else.
+    """
+    if lambda_bound is None or isinstance(
+        lambda_bound, MultiplierBounds | AutomaticMultiplierBounds
+    ):
+        return lambda_bound
+    if isinstance(lambda_bound, str):
+        if lambda_bound == "auto":
+            return AutomaticMultiplierBounds()
+    elif isinstance(lambda_bound, numbers.Real) and not isinstance(lambda_bound, bool):
+        if math.isfinite(lambda_bound) and 0 < lambda_bound <= MAX_MAGNITUDE:
+            return MultiplierBounds.symmetric(float(lambda_bound))
+    raise ValueError(
+        f"{field}: must be a number > 0 (at most {MAX_MAGNITUDE:g}), 'auto' or None, "
+        f"got {lambda_bound!r}"
+    )
+
+
 def standard_limits(
-    model: Any, *, velocity: bool = True, lambda_bound: float | str | None = "auto"
+    model: Any, *, velocity: bool = True, lambda_bound: LambdaBound = "auto"
 ) -> list[Limit]:
     """A robot model's end-stops, velocity limits and multiplier bounds (automatic by default).
 
     Args:
         model: Anything with ``q_min``, ``q_max`` and ``qd_max`` (e.g. a task model).
         velocity: Whether the model's ``qd_max`` bounds each step (eq. 14).
-        lambda_bound: ``"auto"`` (the default): :class:`AutomaticMultiplierBounds`,
-            LP2's default; a number: symmetric bound on every multiplier (sec. 3.2);
-            ``None``: unbounded multipliers (the paper's LP2 as stated).
+        lambda_bound: The multiplier bound, as :func:`multiplier_limit` reads it
+            (default ``"auto"``, LP2's default).
     """
     limits: list[Limit] = [EndStops(model.q_min, model.q_max, tuple(model.joint_names))]
     if velocity and np.isfinite(model.qd_max).any():
         limits.append(VelocityLimits(model.qd_max))
-    if lambda_bound == "auto":
-        limits.append(AutomaticMultiplierBounds())
-    elif lambda_bound is not None:
-        limits.append(MultiplierBounds.symmetric(lambda_bound))
+    bound = multiplier_limit(lambda_bound)
+    if bound is not None:
+        limits.append(bound)
     return limits
 
 

@@ -249,6 +249,7 @@ def _writable(option: str, path: str | None) -> Path | None:
 
 def _check_options(args: argparse.Namespace) -> None:
     """Validate numbers and names before the run starts (one line, exit 2 on failure)."""
+    from lpik.limits import multiplier_limit
     from lpik.methods.registry import METHODS, get_method
 
     spec = get_method(args.method, field="--method")
@@ -257,13 +258,8 @@ def _check_options(args: argparse.Namespace) -> None:
     if args.dt is not None and not (math.isfinite(args.dt) and 0 < args.dt <= MAX_DT):
         raise ValueError(f"--dt: must be a number in (0, {MAX_DT:g}] [s], got {args.dt}")
     if args.lambda_bound is not None:
-        if args.lambda_bound not in ("auto", "none") and not (
-            math.isfinite(args.lambda_bound) and 0 < args.lambda_bound <= MAX_MAGNITUDE
-        ):
-            raise ValueError(
-                f"--lambda-bound: must be a number in (0, {MAX_MAGNITUDE:g}], "
-                f"got {args.lambda_bound}"
-            )
+        value = None if args.lambda_bound == "none" else args.lambda_bound
+        multiplier_limit(value, field="--lambda-bound")  # raises, naming the option
         if not spec.bounds_multipliers:
             bounded = [name for name, s in METHODS.items() if s.bounds_multipliers]
             raise ValueError(

@@ -25,6 +25,7 @@ from typing import Any
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik.console.robot import ConsoleRobot
 from lpik.control.stepper import Stepper as PipelineStepper
+from lpik.limits import MultiplierBounds, multiplier_limit
 from lpik.methods.registry import DEFAULT_METHOD, METHODS, get_method
 from lpik.result import Result
 from lpik.types import FloatArray
@@ -65,12 +66,8 @@ class Settings:
         spec = get_method(self.method)
         for key, (low, high) in (("v_max", V_RANGE), ("w_max", W_RANGE)):
             _in_range(key, getattr(self, key), low, high)
-        if isinstance(self.lambda_bound, str):
-            if self.lambda_bound != "auto":
-                raise ValueError(
-                    f"lambda_bound: 'auto', None or a number, got {self.lambda_bound!r}"
-                )
-        elif self.lambda_bound is not None:
+        bound = multiplier_limit(self.lambda_bound)
+        if isinstance(bound, MultiplierBounds):  # a number: within the page's range
             _in_range("lambda_bound", self.lambda_bound, *LAMBDA_RANGE)
             if not spec.bounds_multipliers:
                 bounded = ", ".join(n for n, s in METHODS.items() if s.bounds_multipliers)

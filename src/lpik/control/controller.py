@@ -53,7 +53,7 @@ from lpik.fast.lp2_kernel import OK
 from lpik.fast.outcome import compiled_result
 from lpik.fast.step import BAD_INPUT
 from lpik.labels import step_label_table
-from lpik.limits import Limit, MultiplierBounds, Piece, StepContext
+from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
 from lpik.problem import Problem, reference_configuration
 from lpik.result import OPTIMAL, Result
@@ -203,7 +203,7 @@ class Lp2Controller:
         limits: Sequence[Limit] | None = None,
         qdd_max: ArrayLike | None = None,
         velocity_limits: bool = True,
-        lambda_bound: float | str | MultiplierBounds | None = "auto",
+        lambda_bound: LambdaBound = "auto",
         M: Any = None,
         f: Any = None,
         Lambda: Any = None,

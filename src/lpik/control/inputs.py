@@ -19,11 +19,13 @@ from lpik.limits import (
     AccelerationLimits,
     AutomaticMultiplierBounds,
     EndStops,
+    LambdaBound,
     Limit,
     LinearRows,
     MultiplierBounds,
     StepContext,
     VelocityLimits,
+    multiplier_limit,
     standard_limits,
 )
 from lpik.robots.base import TaskModel
@@ -144,25 +146,24 @@ def rate_limits(limits: Sequence[Limit], n: int) -> FloatArray:
     return out
 
 
-def controller_limits(
+def step_limits(
     model: TaskModel,
     limits: Sequence[Limit] | None,
     *,
     velocity_limits: bool,
     qdd_max: Any,
-    lambda_bound: float | str | MultiplierBounds | None,
+    lambda_bound: LambdaBound,
     rows: tuple[Any, Any, Any],
 ) -> tuple[Limit, ...]:
-    """The limits a controller holds: ``limits`` as given, else the model's, plus the keywords.
+    """The limits every step holds: ``limits`` as given, else the model's, plus the keywords.
 
     ``limits`` are the values :func:`lpik.limits.build_problem` takes; without
     them, the model's end-stops and (``velocity_limits``) velocity limits
     (:func:`lpik.limits.standard_limits`). The keywords add to either:
     ``qdd_max`` [rad/s^2] an :class:`~lpik.limits.AccelerationLimits`,
-    ``lambda_bound`` a number ``B`` (``|lam_i| <= B``), a
-    :class:`~lpik.limits.MultiplierBounds` (sec. 3.2), ``"auto"`` (the default:
-    an :class:`~lpik.limits.AutomaticMultiplierBounds` unless ``limits`` bound
-    the multipliers) or ``None`` (unbounded), ``rows`` ``(G, h,
+    ``lambda_bound`` the multiplier limit :func:`lpik.limits.multiplier_limit`
+    reads (``"auto"``, the default, only where ``limits`` do not bound the
+    multipliers already), ``rows`` ``(G, h,
     row_labels)`` a :class:`~lpik.limits.LinearRows`.
 
     Raises:
@@ -178,14 +179,11 @@ def controller_limits(
             "limits: must be a list of limits (EndStops, VelocityLimits, AccelerationLimits, "
             f"MultiplierBounds, LinearRows), got {type(limits).__name__}"
         )
-    multipliers = (MultiplierBounds, AutomaticMultiplierBounds)
-    if isinstance(lambda_bound, multipliers):
-        held.append(lambda_bound)  # (the order of earlier releases)
-    elif lambda_bound == "auto":  # the default: unless the limits bound the multipliers
-        if not any(isinstance(limit, multipliers) for limit in held):
-            held.append(AutomaticMultiplierBounds())
-    elif lambda_bound is not None:
-        held.append(MultiplierBounds.symmetric(positive_number("lambda_bound", lambda_bound)))
+    bound = multiplier_limit(lambda_bound)
+    if lambda_bound != "auto" or not any(
+        isinstance(limit, MultiplierBounds | AutomaticMultiplierBounds) for limit in held
+    ):  # "auto" (the default) holds unless the limits bound the multipliers
+        held.extend([] if bound is None else [bound])
     if qdd_max is not None:
         held.append(AccelerationLimits(joint_rates("qdd_max", qdd_max, n)))
     G, h, row_labels = rows

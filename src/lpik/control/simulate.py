@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from lpik.command import CommandLaw
 from lpik.control.log import SimulationLog
 from lpik.control.stepper import DEFAULT_METHOD, Stepper
-from lpik.limits import Limit
+from lpik.limits import LambdaBound, Limit
 from lpik.result import Result
 from lpik.robots.base import TaskModel
 from lpik.robots.tasks import as_task_model
@@ -63,7 +63,7 @@ def simulate(
     method: str = DEFAULT_METHOD,
     dt: float,
     limits: Sequence[Limit] | None = None,
-    lambda_bound: float | str | None = "auto",
+    lambda_bound: LambdaBound = "auto",
     qdd_max: Any = None,
     weights: Mapping[str, Any] | None = None,
     name: str = "",

@@ -39,9 +39,14 @@ from lpik.command import (
     second_order_term,
     task_rows,
 )
-from lpik.control.inputs import controller_limits, positive_number, task_value
+from lpik.control.inputs import positive_number, step_limits, task_value
 from lpik.highs import HighsSolver
-from lpik.limits import AutomaticMultiplierBounds, Limit, MultiplierBounds, build_problem
+from lpik.limits import (
+    AutomaticMultiplierBounds,
+    LambdaBound,
+    Limit,
+    build_problem,
+)
 from lpik.methods.autobound import bound_for_step
 from lpik.methods.progress import StallWatch
 from lpik.methods.registry import DEFAULT_METHOD, MethodSpec, get_method
@@ -103,7 +108,7 @@ class Stepper:
         weights: Mapping[str, Any] | None = None,
         v_max: float = DEFAULT_V_MAX,
         w_max: float = DEFAULT_W_MAX,
-        lambda_bound: float | str | MultiplierBounds | None = "auto",
+        lambda_bound: LambdaBound = "auto",
         qdd_max: ArrayLike | None = None,
         velocity_limits: bool = True,
         rows: tuple[Any, Any, Any] = (None, None, None),
@@ -125,7 +130,7 @@ class Stepper:
         #: The limits every step holds (the scene's rows come on top, per step).
         self.limits = tuple(
             lim
-            for lim in controller_limits(model, limits, velocity_limits=velocity_limits,
+            for lim in step_limits(model, limits, velocity_limits=velocity_limits,
                                          qdd_max=qdd_max, lambda_bound=lambda_bound, rows=rows)
             if self.spec.bounds_multipliers or not isinstance(lim, AutomaticMultiplierBounds)
         )  # fmt: skip
