@@ -315,72 +315,92 @@ def build_problem(
         raise ValueError(f"dt: must be a finite number > 0, got {dt!r}")
     q0 = np.asarray(q0, dtype=np.float64)
     n = q0.size
-    m = np.atleast_2d(np.asarray(J)).shape[0]
     context = StepContext(
         q0=q0, dt=float(dt), q_prev=None if q_prev is None else np.asarray(q_prev, dtype=np.float64)
     )
-    q_min, q_max = np.full(n, -np.inf), np.full(n, np.inf)
-    dq_min, dq_max = np.full(n, -np.inf), np.full(n, np.inf)
-    qdd_min, qdd_max = np.full(n, -np.inf), np.full(n, np.inf)
-    lo_kind, hi_kind = [labels.VELOCITY_LIMIT] * n, [labels.VELOCITY_LIMIT] * n
-    lam_min, lam_max = np.full(m, -np.inf), np.full(m, np.inf)
-    rows, rhs, row_labels = [], [], []
-    named: tuple[str, ...] = ()
+    stack = _Stack(n, np.atleast_2d(np.asarray(J)).shape[0])
     for limit in limits:
-        piece = limit.apply(context)
-        named = named or piece.joint_names
-        if piece.q_min is not None:
-            q_min = np.maximum(q_min, np.broadcast_to(piece.q_min, (n,)))
-        if piece.q_max is not None:
-            q_max = np.minimum(q_max, np.broadcast_to(piece.q_max, (n,)))
-        if piece.dq_min is not None:
-            new = np.broadcast_to(piece.dq_min, (n,))
-            lo_kind = [piece.kind if b > a else k for a, b, k in zip(dq_min, new, lo_kind)]
-            dq_min = np.maximum(dq_min, new)
-        if piece.dq_max is not None:
-            new = np.broadcast_to(piece.dq_max, (n,))
-            hi_kind = [piece.kind if b < a else k for a, b, k in zip(dq_max, new, hi_kind)]
-            dq_max = np.minimum(dq_max, new)
-        if piece.qdd_min is not None:
-            qdd_min = np.maximum(qdd_min, np.broadcast_to(piece.qdd_min, (n,)))
-        if piece.qdd_max is not None:
-            qdd_max = np.minimum(qdd_max, np.broadcast_to(piece.qdd_max, (n,)))
-        if piece.lam_min is not None:
-            lam_min = np.maximum(lam_min, np.broadcast_to(piece.lam_min, (m,)))
-        if piece.lam_max is not None:
-            lam_max = np.minimum(lam_max, np.broadcast_to(piece.lam_max, (m,)))
-        if piece.G is not None and piece.h is not None:
-            rows.append(piece.G)
-            rhs.append(piece.h)
-            start, count = len(row_labels), np.atleast_2d(piece.G).shape[0]
-            row_labels.extend(piece.row_labels or labels.default_row_labels(start + count)[start:])
-    if not weights.get("joint_names") and len(named) == n:
-        weights = {**weights, "joint_names": named}
+        stack.add(limit.apply(context))
+    if not weights.get("joint_names") and len(stack.named) == n:
+        weights = {**weights, "joint_names": stack.named}
     names = weights.get("joint_names") or labels.default_joint_names(n)
     last = np.zeros(n) if context.q_prev is None else context.q0 - context.q_prev
     outside: list[str] = []
-    if np.isfinite(qdd_min).any() or np.isfinite(qdd_max).any():
-        _rate_bands(q0, last, (q_min, q_max, dq_min, dq_max, qdd_min, qdd_max), dt,
-                    (lo_kind, hi_kind), names, outside)  # fmt: skip
-    extra: dict[str, Any] = {}
-    if rows:
-        extra = {"G": np.vstack(rows), "h": np.concatenate(rhs), "row_labels": row_labels}
+    if np.isfinite(stack.qdd_min).any() or np.isfinite(stack.qdd_max).any():
+        _rate_bands(q0, last, (stack.q_min, stack.q_max, stack.dq_min, stack.dq_max,
+                               stack.qdd_min, stack.qdd_max), dt,
+                    (stack.lo_kind, stack.hi_kind), names, outside)  # fmt: skip
     return Problem(
         J=J,
         dw=dw,
         q0=q0,
-        q_min=q_min,
-        q_max=q_max,
-        dq_min=dq_min,
-        dq_max=dq_max,
-        dq_min_kind=lo_kind,
-        dq_max_kind=hi_kind,
-        lam_min=lam_min,
-        lam_max=lam_max,
+        q_min=stack.q_min,
+        q_max=stack.q_max,
+        dq_min=stack.dq_min,
+        dq_max=stack.dq_max,
+        dq_min_kind=stack.lo_kind,
+        dq_max_kind=stack.hi_kind,
+        lam_min=stack.lam_min,
+        lam_max=stack.lam_max,
         outside_limits=outside,
-        **extra,
+        **stack.rows(),
         **weights,
     )
+
+
+class _Stack:
+    """The limits' pieces stacked: per joint and side the tightest bound (and its kind), rows."""
+
+    def __init__(self, n: int, m: int) -> None:
+        self.n, self.m = n, m
+        self.q_min, self.q_max = np.full(n, -np.inf), np.full(n, np.inf)
+        self.dq_min, self.dq_max = np.full(n, -np.inf), np.full(n, np.inf)
+        self.qdd_min, self.qdd_max = np.full(n, -np.inf), np.full(n, np.inf)
+        self.lo_kind, self.hi_kind = [labels.VELOCITY_LIMIT] * n, [labels.VELOCITY_LIMIT] * n
+        self.lam_min, self.lam_max = np.full(m, -np.inf), np.full(m, np.inf)
+        self.G: list[Any] = []
+        self.h: list[Any] = []
+        self.row_labels: list[str] = []
+        self.named: tuple[str, ...] = ()
+
+    def add(self, piece: Piece) -> None:
+        """Tighten the bounds by ``piece``'s and append its rows."""
+        n, m = self.n, self.m
+        self.named = self.named or piece.joint_names
+        self.q_min = _tighter(np.maximum, self.q_min, piece.q_min, n)
+        self.q_max = _tighter(np.minimum, self.q_max, piece.q_max, n)
+        if piece.dq_min is not None:
+            new = np.broadcast_to(piece.dq_min, (n,))
+            self.lo_kind = [piece.kind if b > a else k
+                            for a, b, k in zip(self.dq_min, new, self.lo_kind)]  # fmt: skip
+            self.dq_min = np.maximum(self.dq_min, new)
+        if piece.dq_max is not None:
+            new = np.broadcast_to(piece.dq_max, (n,))
+            self.hi_kind = [piece.kind if b < a else k
+                            for a, b, k in zip(self.dq_max, new, self.hi_kind)]  # fmt: skip
+            self.dq_max = np.minimum(self.dq_max, new)
+        self.qdd_min = _tighter(np.maximum, self.qdd_min, piece.qdd_min, n)
+        self.qdd_max = _tighter(np.minimum, self.qdd_max, piece.qdd_max, n)
+        self.lam_min = _tighter(np.maximum, self.lam_min, piece.lam_min, m)
+        self.lam_max = _tighter(np.minimum, self.lam_max, piece.lam_max, m)
+        if piece.G is not None and piece.h is not None:
+            self.G.append(piece.G)
+            self.h.append(piece.h)
+            start, count = len(self.row_labels), np.atleast_2d(piece.G).shape[0]
+            self.row_labels.extend(
+                piece.row_labels or labels.default_row_labels(start + count)[start:]
+            )
+
+    def rows(self) -> dict[str, Any]:
+        """The stacked rows as the problem's ``G``, ``h`` and ``row_labels`` (none: empty)."""
+        if not self.G:
+            return {}
+        return {"G": np.vstack(self.G), "h": np.concatenate(self.h), "row_labels": self.row_labels}
+
+
+def _tighter(pick: Any, current: FloatArray, value: Any, size: int) -> FloatArray:
+    """``current`` tightened by ``value`` (broadcast to ``size``) with ``pick``; None: as it is."""
+    return current if value is None else pick(current, np.broadcast_to(value, (size,)))
 
 
 def _rate_bands(
