@@ -46,7 +46,7 @@ def test_kernel_tolerances_are_lpik_tolerances(name: str) -> None:
     """The kernel imports every tolerance from lpik.tolerances (no copied values); its answer's
     own check is lpik.check.loop_check, compiled."""
     from lpik import check
-    from lpik.fast import ratio
+    from lpik.methods import ratio
 
     module = check if name in ("FEASIBILITY_TOL", "EQUALITY_RTOL") else K
     module = ratio if name == "SLACK_TOL" else module  # the ratio test's per-entry helpers

@@ -45,6 +45,7 @@ from lpik.methods.assembly import (
 from lpik.methods.duals import binding_from_duals
 from lpik.methods.engines import compiled_step
 from lpik.methods.kkt import AffineSolution, affine_solution, smoothing
+from lpik.methods.ratio import limit_code
 from lpik.methods.singular import INFEASIBLE as SINGULAR_INFEASIBLE
 from lpik.methods.singular import OK as SINGULAR_OK
 from lpik.methods.singular import singular_core
@@ -84,7 +85,8 @@ def ratio_test(
 
     Ties go to the first entry in order (joint bounds, then multipliers, then rows),
     upper bounds before lower ones; limits within :data:`INTERVAL_TOL` of each
-    other in ``p`` tie, so that the rounding of two paths cannot name two limits.
+    other in ``p`` tie (the rule of :mod:`lpik.methods.ratio`, which the compiled
+    ratio test compiles as it is), so that two paths cannot name two limits.
     """
     with np.errstate(invalid="ignore", divide="ignore"):
         s_hi = hi - a
@@ -108,23 +110,20 @@ def ratio_test(
         low_hi = np.divide(s_hi, b, out=np.full_like(b, -np.inf), where=neg)
         low_lo = np.divide(-s_lo, b, out=np.full_like(b, -np.inf), where=pos)
     first_hi, first_lo = float(up_hi.min(initial=np.inf)), float(up_lo.min(initial=np.inf))
-    p_up = min(first_hi, first_lo)
-    if first_hi <= first_lo + INTERVAL_TOL:
-        up_label = hi_labels[int(np.argmax(up_hi <= first_hi + INTERVAL_TOL))]
-    else:
-        up_label = lo_labels[int(np.argmax(up_lo <= first_lo + INTERVAL_TOL))]
     last_hi, last_lo = float(low_hi.max(initial=-np.inf)), float(low_lo.max(initial=-np.inf))
-    p_down = max(last_hi, last_lo)
-    if last_hi >= last_lo - INTERVAL_TOL:
-        down_label = hi_labels[int(np.argmax(low_hi >= last_hi - INTERVAL_TOL))]
-    else:
-        down_label = lo_labels[int(np.argmax(low_lo >= last_lo - INTERVAL_TOL))]
-    p_hi = min(1.0, p_up)
-    p_lo = max(0.0, p_down)
+    p_hi = min(1.0, first_hi, first_lo)
+    p_lo = max(0.0, last_hi, last_lo)
+
+    def label(upper_side: bool, by_hi: float, by_lo: float) -> str:  # the tie rule's choice
+        code = limit_code(a, b, lo, hi, a.size, eps, upper_side, by_hi, by_lo)
+        return (hi_labels if code % 2 else lo_labels)[code // 2]
+
     if p_hi < p_lo - INTERVAL_TOL:
-        return RatioTest(False, 0.0, down_label if p_lo > 1.0 else up_label)
+        if p_lo > 1.0:
+            return RatioTest(False, 0.0, label(False, last_hi, last_lo))
+        return RatioTest(False, 0.0, label(True, first_hi, first_lo))
     p = max(p_hi, p_lo)
-    return RatioTest(True, p, up_label if p < FULL_P else None)
+    return RatioTest(True, p, label(True, first_hi, first_lo) if p < FULL_P else None)
 
 
 def lp2(
