@@ -552,7 +552,7 @@ class Lp2Controller:
                 raise ValueError(f"row {int(np.argmax(codes == BAD_INPUT))}: rejected by the step")
             again = self._rows_again(outs, codes)
         else:
-            codes[:], again = BAD_INPUT, np.ones(B, dtype=bool)
+            outs[:], codes[:], again = -1.0, BAD_INPUT, np.ones(B, dtype=bool)
         return self._batch_result(outs, codes, again, Q0, T, None if q_prev is None else Qp)
 
     def _rows_again(self, outs: FloatArray, codes: Any) -> Any:
