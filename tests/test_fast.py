@@ -667,10 +667,11 @@ def test_step_batch_equals_steps_panda() -> None:
     statuses = set(batch.status)
     assert {OPTIMAL, INFEASIBLE, RECOVERING} >= statuses >= {OPTIMAL, INFEASIBLE}
     assert (batch.p == 1).any() and ((batch.p > 0) & (batch.p < 1)).any()
-    # xyz targets, at rest (q_prev None), lists in
-    xyz = poses[:50, :3, 3]
-    at_rest = controller.step_batch(q0[:50].tolist(), xyz.tolist())
-    _assert_rows_equal_steps(controller, at_rest, q0[:50], xyz, None)
+    # at rest (q_prev None), lists in
+    at_rest = controller.step_batch(q0[:50].tolist(), poses[:50].tolist())
+    _assert_rows_equal_steps(controller, at_rest, q0[:50], poses[:50], None)
+    with pytest.raises(ValueError, match="^target: .* not xyz"):  # no rotation is made up
+        controller.step_batch(q0[:50], poses[:50, :3, 3])
 
 
 def test_step_batch_equals_steps_planar_with_singular_rows() -> None:

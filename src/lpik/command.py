@@ -195,6 +195,23 @@ def second_order_rows(e6: FloatArray, rows: FloatArray, jdq: FloatArray, rho: Fl
         rho[k] -= jdq[k]
 
 
+def target_fits(has_translation: bool, has_rotation: bool, rows: FloatArray) -> bool:
+    """Whether a target with these parts commands every row of the task.
+
+    A task row x, y or z needs the target's translation (an xyz or a pose), a
+    row rx, ry or rz its rotation (a rotation or a pose): a target never leaves
+    a part the task controls to be filled in. ``rows`` holds each task row's
+    index in x, y, z, rx, ry, rz (:func:`task_rows`). A plain loop, compiled
+    as it is by the fused step.
+    """
+    for k in range(rows.shape[0]):
+        if rows[k] < 3 and not has_translation:
+            return False
+        if rows[k] >= 3 and not has_rotation:
+            return False
+    return True
+
+
 def second_order_term(model: TaskModel, q_prev: Any, q0: Any) -> FloatArray:
     """The second-order term of the task motion from ``q_prev`` to ``q0`` (see the function above).
 
@@ -222,11 +239,16 @@ def commanded_displacement(
     Args:
         model: The task model.
         pose: ``model.pose(q)``.
-        target: The commanded task value (what ``model.pose`` returns).
+        target: The commanded task value (what ``model.pose`` returns, of its shape).
         v_max: Largest linear speed [m/s].
         w_max: Largest angular speed [rad/s].
         dt: Control period [s].
     """
+    if np.shape(target) != np.shape(pose):
+        raise ValueError(
+            f"target: must be the task's value, shape {np.shape(pose)} (what model.pose "
+            f"returns), got shape {np.shape(target)}"
+        )
     rows = task_rows(model)
     if getattr(model, "KIND", None) != "pose":
         dw = np.array(model.difference(pose, target), dtype=np.float64)

@@ -32,7 +32,7 @@ def test_simulate_3d_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
         main(["simulate", "pull-in", "--robot", "ur5e", "--steps", "10", "--plot", str(fig)]) == 0
     )
     assert fig.stat().st_size > 10_000
-    assert "pull-in ur5e, lp2: 10 steps" in capsys.readouterr().out
+    assert "pull-in ur5e, lp2s: 10 steps" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(

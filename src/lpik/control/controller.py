@@ -43,6 +43,7 @@ from lpik.control.inputs import (
     rate_limits,
     stacked_rows,
     target_array,
+    task_value,
 )
 from lpik.control.stepper import Stepper
 from lpik.fast import layout
@@ -545,6 +546,7 @@ class Lp2Controller:
         B = Q0.shape[0]
         Qp = Q0 if q_prev is None else stacked_rows("q_prev", q_prev, ((n,),), B)
         T = stacked_rows("targets", targets, TARGET_SHAPES, B)
+        task_value(self.model, T[0])  # every row has the same shape: it must fit the task
         outs, codes = np.empty((B, self._out.shape[0])), np.empty(B, dtype=np.int64)
         if self.scene_rows is None:
             self._batch(self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads())
@@ -593,6 +595,8 @@ class Lp2Controller:
         """``q0``, the target and ``q_prev`` as the kernel's arrays, or a ValueError naming them."""
         q0 = joint_vector("q0", q0, self._n, check_finite)
         prev = q0 if q_prev is None else joint_vector("q_prev", q_prev, self._n, check_finite)
+        if check_finite:  # the step refused its input: name what is wrong
+            task_value(self.model, target)
         return q0, target_array(target, check_finite), prev
 
     def _checked(self, q0: Any, target: Any, q_prev: Any) -> tuple[Any, Any, Any]:

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from lpik.command import TASK_ROWS, target_fits, task_rows
 from lpik.control.backend_step import placeholder_chain
 from lpik.limits import (
     AccelerationLimits,
@@ -249,10 +250,23 @@ def target_array(target: Any, check_finite: bool) -> FloatArray:
 def task_value(model: TaskModel, target: Any) -> FloatArray:
     """The target as the model's task value (what ``model.pose`` returns), as the step reads it.
 
-    A missing part is the identity: an xyz target has no rotation, a rotation
-    target sits at the origin.
+    The target must command every row of the task (:func:`lpik.command.target_fits`):
+    an xyz (3,) for a task of position rows only, a rotation (3, 3) for one of
+    rotation rows only, a pose (4, 4) for any task.
+
+    Raises:
+        ValueError: Naming ``target`` when it is not a task value, or leaves a part
+            the task controls (an xyz for a pose task: no rotation is made up).
     """
     t = target_array(target, check_finite=False)
+    rows = task_rows(model)
+    if not target_fits(t.shape != (3, 3), t.shape != (3,), rows):
+        wanted = "a pose (4, 4)" + (", or a rotation (3, 3)" if rows.min() >= 3 else "")
+        given = {(3,): "xyz (3,): it has no rotation", (3, 3): "a rotation: it has no position"}
+        raise ValueError(
+            f"target: the task controls {', '.join(TASK_ROWS[int(r)] for r in rows)}; give "
+            f"{wanted}, not {given[t.shape]}"
+        )
     goal = np.eye(4)
     if t.shape == (3,):
         goal[:3, 3] = t

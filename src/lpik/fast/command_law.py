@@ -24,6 +24,8 @@ command_rows = compiled_twin(
     clamp_command=njit(cache=True)(command.clamp_command),
     along_screw=njit(cache=True)(command.along_screw),
 )
+#: Whether a target commands every row of the task (:func:`lpik.command.target_fits`).
+target_fits = njit(cache=True)(command.target_fits)
 #: The last step's second-order term (:func:`lpik.command.second_order_rows`).
 second_order_rows = compiled_twin(command.second_order_rows, command_rows=command_rows)
 

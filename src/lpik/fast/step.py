@@ -32,7 +32,12 @@ from numba import njit, prange
 from lpik import bands
 from lpik.fast import layout as L
 from lpik.fast.autobound import bound_in_state
-from lpik.fast.command_law import command_rows, previous_kinematics, take_off_second_order
+from lpik.fast.command_law import (
+    command_rows,
+    previous_kinematics,
+    take_off_second_order,
+    target_fits,
+)
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
 from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core
 from lpik.fast.saturation import lp2s_core
@@ -268,11 +273,13 @@ def task_step(state, q0, q_prev, target):
     goal = L.matrix_at(state, L.GOAL, 4, 4)
     if not (_finite_joints(q0, q_prev, n) and target_pose(target, goal)):
         return BAD_INPUT
+    rows = L.vector(state, L.ROW_INDEX)
+    if not target_fits(target.ndim == 1 or target.shape[0] == 4, target.ndim == 2, rows):
+        return BAD_INPUT  # a target that leaves a part the task controls
     T = L.matrix_at(state, L.FRAME, 4, 4)
     J6 = L.matrix_at(state, L.JACOBIAN6, 6, n)
     e6 = L.vector(state, L.ERROR6)
     pose_error(T, goal, e6, L.vector(state, L.LOG_SCRATCH))
-    rows = L.vector(state, L.ROW_INDEX)
     J = L.matrix_at(state, L.JACOBIAN, m, n)
     dw = L.vector(state, L.DW)
     for k in range(m):
