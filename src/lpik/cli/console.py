@@ -64,10 +64,12 @@ def _interrupt(signum: int, frame: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the console until interrupted; 0 after a clean stop."""
     from lpik.console.app import Console
+    from lpik.console.gate import resolve_host
     from lpik.console.robot import console_robot
     from lpik.console.stepper import Settings
     from lpik.paper.scenarios import PLANAR
 
+    resolve_host(args.host)  # a host that is not this machine's: one line, at once
     robot = console_robot(PLANAR if args.planar else args.robot, args.scene)
     settings = Settings(method=args.method, v_max=robot.v_max, w_max=robot.w_max)
     console = Console(

@@ -51,9 +51,14 @@ def check_handshake(path: str, headers: Mapping[str, str], token: str | None) ->
 
     Args:
         path: The request's path with its query (``/?token=...``).
-        headers: The request's headers (``Host``, ``Origin``).
+        headers: The request's headers (``Host``, ``Origin``); one with ``get_all``
+            (websockets' ``Headers``) is refused when it repeats either.
         token: The access token, or None when the console listens on loopback only.
     """
+    get_all = getattr(headers, "get_all", None)
+    for name in ("Host", "Origin"):
+        if get_all is not None and len(get_all(name)) > 1:
+            return f"more than one {name} header"
     host = headers.get("Host") or ""
     if token is not None:
         given = parse_qs(urlsplit(path).query).get("token", [""])[0]

@@ -1,10 +1,11 @@
 """The console as one object: robot, control loop, viser server, page and access gate.
 
-:class:`Console` starts the control loop thread, a viser server on the given
-interface and port, the page (:class:`~lpik.console.view.ConsoleView`) and the
-access gate (:mod:`lpik.console.access`); :meth:`Console.close` stops them in
-the reverse order. ``lpik console`` (:mod:`lpik.cli.console`) is a thin shell
-around it.
+:class:`Console` starts the control loop thread, a viser server on a private
+loopback address, the page (:class:`~lpik.console.view.ConsoleView`) and, on the
+given interface and port, the gate (:class:`~lpik.console.gate.Gate`) that lets
+through only the websockets the access rules (:mod:`lpik.console.access`)
+accept; :meth:`Console.close` stops them in the reverse order. ``lpik console``
+(:mod:`lpik.cli.console`) is a thin shell around it.
 """
 
 from __future__ import annotations
@@ -14,14 +15,15 @@ import io
 from pathlib import Path
 from typing import Any
 
-from lpik.console.access import REFUSED, check_handshake, is_loopback, new_token, page_url
+from lpik.console.access import is_loopback, new_token, page_url
+from lpik.console.gate import Gate, private_address, resolve_host
 from lpik.console.loop import ControlLoop
 from lpik.console.robot import ConsoleRobot
 from lpik.console.stepper import Settings
 
 #: The loopback address the console listens on by default.
 DEFAULT_HOST = "127.0.0.1"
-#: The default port (viser's: the next free one above it when taken).
+#: The default port (the next free one above it when taken).
 DEFAULT_PORT = 8080
 
 
@@ -32,38 +34,6 @@ def viser_module() -> Any:
     except ImportError:
         raise ValueError("console: the console needs viser: pip install 'lpik[console]'") from None
     return viser
-
-
-def install_gate(server: Any, token: str | None) -> None:
-    """Refuse every websocket connection whose handshake :func:`check_handshake` refuses.
-
-    The check runs when viser accepts a connection, before it sends or reads any
-    message. Viser offers no public hook that sees the handshake, so this reads
-    its websocket server's table of live connections; when that table is not
-    where it is expected (another viser version), the console refuses to start
-    rather than run without the gate. The gate is in place before the URL (and
-    its token) is printed.
-
-    Raises:
-        RuntimeError: When this viser version cannot be gated.
-    """
-    ws = getattr(server, "_websock_server", None)
-    live = getattr(ws, "_live_connections", None)
-    if ws is None or not isinstance(live, dict) or not hasattr(ws, "on_client_connect"):
-        raise RuntimeError("console: this viser version offers no way to check connections")
-
-    async def gate(client: Any) -> None:
-        connection = live.get(client.client_id)
-        request = getattr(connection, "request", None)
-        reason = (
-            "no handshake"
-            if request is None
-            else check_handshake(request.path, request.headers, token)
-        )
-        if reason is not None and connection is not None:
-            await connection.close(REFUSED, reason[:120])
-
-    ws.on_client_connect(gate)
 
 
 class Console:
@@ -80,7 +50,8 @@ class Console:
         quiet: Keep viser's own messages off the terminal.
 
     Raises:
-        ValueError: For settings the robot cannot take, or without viser.
+        ValueError: For settings the robot cannot take, a host that cannot be
+            listened on, or without viser.
     """
 
     def __init__(
@@ -101,25 +72,30 @@ class Console:
             raise ValueError(f"port: must be a whole number in [0, 65535], got {port!r}")
         if record_dir is not None and not Path(record_dir).is_dir():
             raise ValueError(f"record-dir: {str(record_dir)!r} is not a directory")
+        if not isinstance(host, str):
+            raise ValueError(f"host: must be a name or an address, got {host!r}")
+        resolve_host(host)  # a bad host fails here, before anything starts
         self.token = token if token is not None or is_loopback(host) else new_token()
         self.host = host
         self.loop = ControlLoop(robot, settings, record_dir)
-        sink = io.StringIO()
-        with contextlib.redirect_stdout(sink) if quiet else contextlib.nullcontext():
-            self.server = viser.ViserServer(host=host, port=port, verbose=not quiet)
+        private = private_address()
+        with contextlib.redirect_stdout(io.StringIO()) if quiet else contextlib.nullcontext():
+            self.server = viser.ViserServer(host=private, port=0, verbose=not quiet)
         try:
-            install_gate(self.server, self.token)
             self.view = ConsoleView(self.server, self.loop)
+            self.gate = Gate((private, int(self.server.get_port())), self.token, host, port)
+            self.gate.start()
         except Exception:
-            self.server.stop()
+            with contextlib.redirect_stdout(io.StringIO()):
+                self.server.stop()
             raise
         self.loop.start()
         self.view.start()
 
     @property
     def port(self) -> int:
-        """The port the server listens on."""
-        return int(self.server.get_port())
+        """The public port (the gate's) the console listens on."""
+        return self.gate.port
 
     @property
     def url(self) -> str:
@@ -132,7 +108,8 @@ class Console:
         return page_url(host, self.port, self.token)
 
     def close(self) -> None:
-        """Stop the page's refresh, the server and the control loop."""
+        """Stop the gate, the page's refresh, the server and the control loop."""
+        self.gate.stop()
         self.view.stop()
         with contextlib.redirect_stdout(io.StringIO()):
             self.server.stop()
