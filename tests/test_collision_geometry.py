@@ -218,3 +218,105 @@ def test_load_scene_reads_a_file_and_refuses_bad_json(tmp_path) -> None:  # type
         load_scene(bad)
     with pytest.raises(ValueError, match="^scene: cannot read"):
         load_scene(tmp_path / "missing.json")
+
+
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"kind": "sphere", "center": [0, NAN, 0], "radius": 0.1}, "center[1]"),
+        ({"kind": "sphere", "center": np.array([INF, 0, 0]), "radius": 0.1}, "center[0]"),
+        ({"kind": "sphere", "center": [0, 0, 0], "radius": NAN}, "radius"),
+        ({"kind": "sphere", "center": [0, 0, 0], "radius": -0.1}, "radius"),
+        ({"kind": "sphere", "center": [0, 0, 0], "radius": 0.0}, "radius"),
+        ({"kind": "sphere", "center": [0, 0], "radius": 0.1}, "center"),
+        ({"kind": "sphere", "radius": 0.1}, "center"),
+        ({"kind": "sphere", "center": [0, 0, 0], "radius": 0.1, "size": [1, 1, 1]}, "size"),
+        ({"kind": "capsule", "a": [INF, 0, 0], "b": [0, 0, 1], "radius": 0.1}, "a[0]"),
+        ({"kind": "capsule", "a": [0, 0, 0], "b": [0, 0, 1], "radius": INF}, "radius"),
+        ({"kind": "box", "center": [0, 0, 0], "size": [1, 0, 1]}, "size"),
+        ({"kind": "box", "center": [0, 0, 0], "size": [1, -2, 1]}, "size"),
+        ({"kind": "box", "center": [0, 0, 0], "size": [1, NAN, 1]}, "size[1]"),
+        ({"kind": "box", "center": [0, 0, 0], "size": [1, 1, 1], "rpy": [0, INF, 0]}, "rpy[1]"),
+        ({"kind": "box", "center": [0, 0, 0], "size": [1, 1, 1], "radius": 0.2}, "radius"),
+        ({"kind": "box", "dims": 2, "center": [0, 0], "size": [1, 1], "rpy": [0.3, 0, 0]}, "rpy"),
+        ({"kind": "plane", "center": [0, 0, 0], "normal": [0, 0, 0]}, "normal"),
+        ({"kind": "plane", "center": [0, 0, 0], "normal": [0, 0, NAN]}, "normal[2]"),
+        ({"kind": "plane", "center": [0, 0, NAN], "normal": [0, 0, 1]}, "center[2]"),
+        ({"kind": "cone", "center": [0, 0, 0], "radius": 0.1}, "kind"),
+        ({"kind": "sphere", "dims": 4, "center": [0, 0, 0, 0], "radius": 0.1}, "dims"),
+        ({"kind": "sphere", "name": " ", "center": [0, 0, 0], "radius": 0.1}, "name"),
+        ({"kind": "sphere", "center": [0, "1", 0], "radius": 0.1}, "center[1]"),
+        ({"kind": "sphere", "center": [0, 0, 0], "radius": True}, "radius"),
+    ],
+)  # fmt: skip
+def test_an_obstacle_built_in_python_is_checked_at_construction(kwargs: dict, field: str) -> None:
+    kwargs = {"name": "o", **kwargs}
+    with pytest.raises(ValueError, match="^" + re.escape(field) + ":") as bad:
+        Obstacle(**kwargs)
+    if field not in ("name", "kind"):
+        assert f"(obstacle 'o', a {kwargs['kind']})" in str(bad.value)
+
+
+@pytest.mark.parametrize(
+    ("item", "kwargs"),
+    [
+        ({"type": "sphere", "center": [0, 0, 0], "radius": -1},
+         {"kind": "sphere", "center": [0, 0, 0], "radius": -1}),
+        ({"type": "box", "center": [0, 0, 0], "size": [1, 0, 1]},
+         {"kind": "box", "center": [0, 0, 0], "size": [1, 0, 1]}),
+        ({"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 0]},
+         {"kind": "plane", "center": [0, 0, 0], "normal": [0, 0, 0]}),
+        ({"type": "sphere", "center": [0, 1e300, 0], "radius": 1},
+         {"kind": "sphere", "center": [0, 1e300, 0], "radius": 1}),
+        ({"type": "cone", "center": [0, 0, 0], "radius": 1},
+         {"kind": "cone", "center": [0, 0, 0], "radius": 1}),
+    ],
+)  # fmt: skip
+def test_json_and_python_refuse_a_bad_obstacle_by_the_same_rule(item: dict, kwargs: dict) -> None:
+    with pytest.raises(ValueError) as from_json:
+        scene_from_dict({**GOOD, "obstacles": [{"name": "o", **item}]})
+    with pytest.raises(ValueError) as from_python:
+        Obstacle("o", **kwargs)
+    json_reason = from_json.value.reason  # type: ignore[attr-defined]
+    assert from_python.value.reason.startswith(json_reason)  # type: ignore[attr-defined]
+
+
+def test_a_scene_built_in_python_is_checked_too() -> None:
+    from lpik.collision import Scene
+
+    ball = Obstacle("ball", "sphere", center=[0.5, 0, 0.5], radius=0.1)
+    flat = Obstacle("disc", "sphere", dims=2, center=[0.5, 0], radius=0.1)
+    for args, field in (
+        (((ball,), NAN, 0.2), "safety_distance"),
+        (((ball,), 0.02, INF), "influence_distance"),
+        (((ball,), 0.02, 0.01), "influence_distance"),
+        (((flat,), 0.02, 0.2), "obstacles[0]"),
+        ((("ball",), 0.02, 0.2), "obstacles[0]"),
+        (((ball, ball), 0.02, 0.2), "obstacles"),
+    ):
+        with pytest.raises(ValueError, match="^" + re.escape(field) + ":"):
+            Scene(*args)  # type: ignore[arg-type]
+    scene = Scene([ball], 0.02, 0.2)  # type: ignore[arg-type]
+    assert scene.obstacles == (ball,) and isinstance(ball.center, np.ndarray)
+
+
+def test_a_plane_built_in_python_gets_a_unit_normal() -> None:
+    plane = Obstacle("floor", "plane", center=(0, 0, 0), normal=(0, 0, 3))
+    np.testing.assert_array_equal(plane.normal, [0.0, 0.0, 1.0])
+    assert plane.placed()["offset"] == 0.0
+
+
+def test_load_scene_takes_a_bundled_scene_by_name(tmp_path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    from lpik.collision.scene_json import bundled_scenes
+
+    assert "panda-shelf" in bundled_scenes()
+    names = load_scene("panda-shelf").names
+    assert "shelf top" in names and load_scene("panda-shelf.json").names == names
+    with pytest.raises(ValueError, match="^scene: no file 'kitchen'.*bundled scenes: panda-shelf"):
+        load_scene("kitchen")
+    monkeypatch.chdir(tmp_path)  # a file of that name in the working folder comes first
+    (tmp_path / "panda-shelf").write_text(json.dumps(GOOD))
+    assert load_scene("panda-shelf").names == ("ball",)

@@ -15,22 +15,31 @@ A planar scene (for the paper's planar arm) writes every point with two
 coordinates; its boxes take ``"angle"`` [rad] (about z) instead of ``"rpy"``.
 ``rpy`` is optional (zero). A bad document raises
 :class:`~lpik.exceptions.InvalidProblemError` (a ``ValueError``) naming the
-key, e.g. ``obstacles[2].radius: must be a number > 0``. The caps below keep
-what a file can ask for small.
+key, e.g. ``obstacles[2].radius: must be a number > 0``; the rules on the
+values are those of :mod:`lpik.collision.shapes` (one place for each), applied
+here with the document's keys. The caps below keep what a file can ask for small.
 """
 
 from __future__ import annotations
 
 import json
-import math
+from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from lpik.collision.shapes import OBSTACLE_TYPES, Obstacle, Scene
+from lpik.collision.shapes import (
+    Obstacle,
+    Scene,
+    check_kind,
+    check_name,
+    check_normal,
+    check_number,
+    check_point,
+    check_sizes,
+)
 from lpik.exceptions import InvalidProblemError
-from lpik.tolerances import MAX_MAGNITUDE
 
 #: Largest scene file read [bytes].
 MAX_SCENE_BYTES = 1024 * 1024
@@ -47,23 +56,6 @@ OBSTACLE_KEYS = {
 }
 
 
-def _number(key: str, value: Any, *, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InvalidProblemError(key, f"must be a number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x) or abs(x) > MAX_MAGNITUDE:
-        raise InvalidProblemError(key, f"must be a finite number, got {value!r}")
-    if positive and not x > 0:
-        raise InvalidProblemError(key, f"must be a number > 0, got {value!r}")
-    return x
-
-
-def _vector(key: str, value: Any, dims: int) -> np.ndarray:
-    if not isinstance(value, list) or len(value) != dims:
-        raise InvalidProblemError(key, f"must be a list of {dims} numbers, got {value!r}")
-    return np.array([_number(f"{key}[{i}]", v) for i, v in enumerate(value)])
-
-
 def _dims_of(item: dict[str, Any], where: str) -> int:
     point = item.get("center", item.get("a", item.get("point")))
     if isinstance(point, list) and len(point) in (2, 3):
@@ -76,14 +68,8 @@ def _dims_of(item: dict[str, Any], where: str) -> int:
 def _obstacle(item: Any, where: str, dims: int | None) -> Obstacle:
     if not isinstance(item, dict):
         raise InvalidProblemError(where, f"must be an object, got {item!r}")
-    kind = item.get("type")
-    if kind not in OBSTACLE_TYPES:
-        raise InvalidProblemError(
-            f"{where}.type", f"must be one of {', '.join(OBSTACLE_TYPES)}; got {kind!r}"
-        )
-    name = item.get("name")
-    if not isinstance(name, str) or not name.strip() or len(name) > 80:
-        raise InvalidProblemError(f"{where}.name", f"must be a non-empty name, got {name!r}")
+    kind = check_kind(f"{where}.type", item.get("type"))
+    name = check_name(f"{where}.name", item.get("name"))
     optional = {"box": ("rpy", "angle")}.get(kind, ())
     allowed = ("name", "type", *OBSTACLE_KEYS[kind], *optional)
     for key in item:
@@ -97,35 +83,30 @@ def _obstacle(item: Any, where: str, dims: int | None) -> Obstacle:
     d = _dims_of(item, where) if dims is None else dims
     fields: dict[str, Any] = {"name": name, "kind": kind, "dims": d}
     if kind in ("sphere", "capsule"):
-        fields["radius"] = _number(f"{where}.radius", item["radius"], positive=True)
+        fields["radius"] = check_number(f"{where}.radius", item["radius"], positive=True)
     if kind in ("sphere", "box"):
-        fields["center"] = _vector(f"{where}.center", item["center"], d)
+        fields["center"] = check_point(f"{where}.center", item["center"], d)
     if kind == "capsule":
-        fields["a"] = _vector(f"{where}.a", item["a"], d)
-        fields["b"] = _vector(f"{where}.b", item["b"], d)
+        fields["a"] = check_point(f"{where}.a", item["a"], d)
+        fields["b"] = check_point(f"{where}.b", item["b"], d)
     if kind == "box":
-        size = _vector(f"{where}.size", item["size"], d)
-        if not (size > 0).all():
-            raise InvalidProblemError(
-                f"{where}.size", f"every edge must be > 0, got {item['size']}"
-            )
-        fields["size"] = size
+        fields["size"] = check_sizes(f"{where}.size", item["size"], d)
         if d == 2 and "rpy" in item:
             raise InvalidProblemError(f"{where}.rpy", "a 2-D box takes 'angle' [rad], not 'rpy'")
         if d == 3 and "angle" in item:
             raise InvalidProblemError(f"{where}.angle", "a 3-D box takes 'rpy' [rad], not 'angle'")
         if d == 2:
-            fields["rpy"] = np.array([0.0, 0.0, _number(f"{where}.angle", item.get("angle", 0.0))])
+            angle = check_number(f"{where}.angle", item.get("angle", 0.0))
+            fields["rpy"] = np.array([0.0, 0.0, angle])
         else:
-            fields["rpy"] = _vector(f"{where}.rpy", item.get("rpy", [0.0, 0.0, 0.0]), 3)
+            fields["rpy"] = check_point(f"{where}.rpy", item.get("rpy", [0.0, 0.0, 0.0]), 3)
     if kind == "plane":
-        fields["center"] = _vector(f"{where}.point", item["point"], d)
-        normal = _vector(f"{where}.normal", item["normal"], d)
-        length = float(np.linalg.norm(normal))
-        if not length > 1e-12:
-            raise InvalidProblemError(f"{where}.normal", "must be a non-zero vector")
-        fields["normal"] = normal / length
-    return Obstacle(**fields)
+        fields["center"] = check_point(f"{where}.point", item["point"], d)
+        fields["normal"] = check_normal(f"{where}.normal", item["normal"], d)
+    try:
+        return Obstacle(**fields)
+    except InvalidProblemError as exc:  # every rule was applied above; this names the key anyway
+        raise InvalidProblemError(f"{where}.{exc.field}", exc.reason) from None
 
 
 def scene_from_dict(data: Any) -> Scene:
@@ -157,21 +138,49 @@ def scene_from_dict(data: Any) -> Scene:
         obstacle = _obstacle(item, f"obstacles[{i}]", dims)
         dims = obstacle.dims
         obstacles.append(obstacle)
-    d_s = _number("safety_distance", data["safety_distance"])
-    d_i = _number("influence_distance", data["influence_distance"])
-    try:
-        return Scene(tuple(obstacles), d_s, d_i, dims or 3)
-    except ValueError as exc:
-        key, _, reason = str(exc).partition(": ")
-        raise InvalidProblemError(key, reason) from None
+    d_s = check_number("safety_distance", data["safety_distance"])
+    d_i = check_number("influence_distance", data["influence_distance"])
+    return Scene(tuple(obstacles), d_s, d_i, dims or 3)
+
+
+def bundled_scenes() -> tuple[str, ...]:
+    """The names of the scenes that come with lpik (``lpik/data/scenes/NAME.json``)."""
+    folder = files("lpik") / "data" / "scenes"
+    return tuple(
+        sorted(p.name[: -len(".json")] for p in folder.iterdir() if p.name.endswith(".json"))
+    )
+
+
+def scene_file(name: str | Path) -> Path:
+    """The file of a scene: ``name`` itself when it exists, else the bundled scene of that name.
+
+    A bundled scene is named without a folder, with or without ``.json``
+    (``panda-shelf``); a file of the same name in the working folder comes first.
+
+    Raises:
+        InvalidProblemError: For a name without a folder that is neither (the message
+            lists the bundled scenes).
+    """
+    path = Path(name)
+    if path.exists() or path.name != str(name):  # a file, or a path with a folder
+        return path
+    stem = path.name.removesuffix(".json")
+    if stem in bundled_scenes():
+        return Path(str(files("lpik") / "data" / "scenes" / f"{stem}.json"))
+    raise InvalidProblemError(
+        "scene",
+        f"no file {str(name)!r} and no bundled scene of that name; "
+        f"bundled scenes: {', '.join(bundled_scenes())}",
+    )
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and check a scene file.
+    """Read and check a scene file, or a bundled scene by name (:func:`scene_file`).
 
     Raises:
-        InvalidProblemError: For an unreadable or too large file, bad JSON or a bad key.
+        InvalidProblemError: For a missing, unreadable or too large file, bad JSON or a bad key.
     """
+    path = scene_file(path)
     name = repr(str(path))
     try:
         with open(path, "rb") as file:

@@ -10,24 +10,110 @@ Planar scenes (the paper's arm moves in the x-y plane) use 2-D points; each
 2-D shape is the 3-D shape whose cut by the plane z = 0 it is (a circle is a
 sphere at z = 0, a 2-D box a box standing on the plane, a line a vertical
 half-space), so one distance library serves both.
+
+Every rule on an obstacle's values lives here, once (:func:`check_number`,
+:func:`check_point`, :func:`check_sizes`, :func:`check_normal`,
+:func:`check_name`, :func:`check_kind`): :class:`Obstacle` and :class:`Scene`
+apply them when they are built in Python, and the JSON reader
+(:mod:`lpik.collision.scene_json`) applies the same functions with the
+document's keys. A bad value is an :class:`~lpik.exceptions.InvalidProblemError`
+(a ``ValueError``) naming the field.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from lpik.exceptions import MissingBackendError
+from lpik.exceptions import InvalidProblemError, MissingBackendError
 from lpik.robots.rotations import transform
+from lpik.tolerances import MAX_MAGNITUDE
 from lpik.types import FloatArray
 
 #: Obstacle types a scene may hold.
 OBSTACLE_TYPES = ("sphere", "capsule", "box", "plane")
 #: Height of the box that stands for a 2-D box, centred on z = 0 [m]: far above any link's radius.
 PLANAR_BOX_HEIGHT = 10.0
+#: Longest obstacle name (it appears in every binding label and CSV row that names the obstacle).
+MAX_NAME = 80
+#: The fields each kind of obstacle needs (``rpy``, a box's orientation, is optional).
+OBSTACLE_FIELDS = {
+    "sphere": ("center", "radius"),
+    "capsule": ("a", "b", "radius"),
+    "box": ("center", "size"),
+    "plane": ("center", "normal"),
+}
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def check_number(key: str, value: Any, *, positive: bool = False) -> float:
+    """``value`` as a float: finite, at most ``MAX_MAGNITUDE`` in size; ``> 0`` if ``positive``.
+
+    Raises:
+        InvalidProblemError: Naming ``key``.
+    """
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        raise InvalidProblemError(key, f"must be a number, got {_shown(value)}")
+    x = float(value)
+    if not math.isfinite(x) or abs(x) > MAX_MAGNITUDE:
+        raise InvalidProblemError(key, f"must be a finite number, got {_shown(value)}")
+    if positive and not x > 0:
+        raise InvalidProblemError(key, f"must be a number > 0, got {_shown(value)}")
+    return x
+
+
+def check_point(key: str, value: Any, dims: int) -> FloatArray:
+    """``value`` (a list, tuple or 1-D array of ``dims`` numbers) as a new float array.
+
+    Raises:
+        InvalidProblemError: Naming ``key`` (or ``key[i]``, the number at fault).
+    """
+    if isinstance(value, np.ndarray):
+        value = value.tolist() if value.ndim == 1 else value
+    if not isinstance(value, list | tuple) or len(value) != dims:
+        raise InvalidProblemError(key, f"must be a list of {dims} numbers, got {_shown(value)}")
+    return np.array([check_number(f"{key}[{i}]", v) for i, v in enumerate(value)])
+
+
+def check_sizes(key: str, value: Any, dims: int) -> FloatArray:
+    """A box's edge lengths: :func:`check_point`, every edge ``> 0``."""
+    size = check_point(key, value, dims)
+    if not (size > 0).all():
+        raise InvalidProblemError(key, f"every edge must be > 0, got {_shown(value)}")
+    return size
+
+
+def check_normal(key: str, value: Any, dims: int) -> FloatArray:
+    """A plane's normal: :func:`check_point`, not zero; returned as a unit vector."""
+    normal = check_point(key, value, dims)
+    length = float(np.linalg.norm(normal))
+    if not length > 1e-12:
+        raise InvalidProblemError(key, "must be a non-zero vector")
+    return normal / length
+
+
+def check_name(key: str, value: Any) -> str:
+    """An obstacle's name: a string, not blank, of at most :data:`MAX_NAME` characters."""
+    if not isinstance(value, str) or not value.strip() or len(value) > MAX_NAME:
+        raise InvalidProblemError(key, f"must be a non-empty name, got {_shown(value)}")
+    return value
+
+
+def check_kind(key: str, value: Any) -> str:
+    """One of :data:`OBSTACLE_TYPES`."""
+    if value not in OBSTACLE_TYPES:
+        raise InvalidProblemError(
+            key, f"must be one of {', '.join(OBSTACLE_TYPES)}; got {_shown(value)}"
+        )
+    return str(value)
 
 
 def coal_module() -> Any:
@@ -105,6 +191,52 @@ class Obstacle:
     rpy: FloatArray | None = None
     normal: FloatArray | None = None
 
+    def __post_init__(self) -> None:
+        """Check every field with the rules of this module; arrays are stored as new float arrays.
+
+        Raises:
+            InvalidProblemError: Naming the field, e.g. ``radius: must be a number > 0,
+                got -1.0 (obstacle 'ball', a sphere)``.
+        """
+        check_name("name", self.name)
+        kind = check_kind("kind", self.kind)
+        try:
+            for field, value in self._checked(kind).items():
+                object.__setattr__(self, field, value)
+        except InvalidProblemError as exc:
+            raise InvalidProblemError(
+                exc.field, f"{exc.reason} (obstacle {self.name!r}, a {kind})"
+            ) from None
+
+    def _checked(self, kind: str) -> dict[str, Any]:
+        if self.dims not in (2, 3) or isinstance(self.dims, bool):
+            raise InvalidProblemError("dims", f"must be 2 or 3, got {_shown(self.dims)}")
+        d, needed = int(self.dims), OBSTACLE_FIELDS[kind]
+        optional = ("rpy",) if kind == "box" else ()
+        for field in ("center", "a", "b", "size", "rpy", "normal"):
+            given = getattr(self, field) is not None
+            if field in needed and not given:
+                raise InvalidProblemError(field, f"missing (a {kind} needs it)")
+            if given and field not in needed and field not in optional:
+                raise InvalidProblemError(field, f"a {kind} takes {', '.join(needed)}")
+        if "radius" not in needed and self.radius != 0.0:
+            raise InvalidProblemError("radius", f"a {kind} takes {', '.join(needed)}")
+        checked: dict[str, Any] = {"dims": d}
+        if "radius" in needed:
+            checked["radius"] = check_number("radius", self.radius, positive=True)
+        for field in ("center", "a", "b"):
+            if field in needed:
+                checked[field] = check_point(field, getattr(self, field), d)
+        if kind == "box":
+            checked["size"] = check_sizes("size", self.size, d)
+            rpy = check_point("rpy", [0.0, 0.0, 0.0] if self.rpy is None else self.rpy, 3)
+            if d == 2 and rpy[:2].any():
+                raise InvalidProblemError("rpy", f"a 2-D box turns about z only, got {rpy}")
+            checked["rpy"] = rpy
+        if kind == "plane":
+            checked["normal"] = check_normal("normal", self.normal, d)
+        return checked
+
     def placed(self) -> dict[str, Any]:
         """The obstacle in the world frame, in 3-D, as plain numbers.
 
@@ -162,16 +294,42 @@ class Scene:
     dims: int = 3
 
     def __post_init__(self) -> None:
-        d_s, d_i = self.safety_distance, self.influence_distance
-        if not (np.isfinite(d_s) and d_s >= 0):
-            raise ValueError(f"safety_distance: must be a finite number >= 0, got {d_s!r}")
-        if not (np.isfinite(d_i) and d_i > d_s):
-            raise ValueError(
-                f"influence_distance: must be finite and > safety_distance ({d_s}), got {d_i!r}"
+        """Check the distances, the obstacles and their dimensions.
+
+        Raises:
+            InvalidProblemError: Naming the field.
+        """
+        d_s = check_number("safety_distance", self.safety_distance)
+        d_i = check_number("influence_distance", self.influence_distance)
+        if not d_s >= 0:
+            raise InvalidProblemError(
+                "safety_distance", f"must be a finite number >= 0, got {_shown(d_s)}"
             )
+        if not d_i > d_s:
+            raise InvalidProblemError(
+                "influence_distance", f"must be finite and > safety_distance ({d_s}), got {d_i!r}"
+            )
+        if self.dims not in (2, 3) or isinstance(self.dims, bool):
+            raise InvalidProblemError("dims", f"must be 2 or 3, got {_shown(self.dims)}")
+        if not isinstance(self.obstacles, tuple | list):
+            raise InvalidProblemError(
+                "obstacles", f"must be a tuple of Obstacle, got {_shown(self.obstacles)}"
+            )
+        for i, o in enumerate(self.obstacles):
+            if not isinstance(o, Obstacle):
+                raise InvalidProblemError(
+                    f"obstacles[{i}]", f"must be an Obstacle, got {_shown(o)}"
+                )
+            if o.dims != self.dims:
+                raise InvalidProblemError(
+                    f"obstacles[{i}]", f"a {o.dims}-D obstacle in a {self.dims}-D scene"
+                )
         names = [o.name for o in self.obstacles]
         if len(set(names)) != len(names):
-            raise ValueError(f"obstacles: names must be unique, got {names}")
+            raise InvalidProblemError("obstacles", f"names must be unique, got {names}")
+        object.__setattr__(self, "obstacles", tuple(self.obstacles))
+        object.__setattr__(self, "safety_distance", d_s)
+        object.__setattr__(self, "influence_distance", d_i)
 
     @property
     def names(self) -> tuple[str, ...]:
