@@ -121,3 +121,39 @@ def test_a_run_with_a_scene_draws_its_obstacles_and_reports_the_closest_pair(
     out = capsys.readouterr().out
     assert "smallest distance" in out and "- obstacle)" in out
     assert fig.stat().st_size > 10_000
+
+
+def test_a_bundled_scene_is_named_without_a_path(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from importlib.resources import files
+
+    path = str(files("lpik") / "data" / "scenes" / "panda-shelf.json")
+    args = ["simulate", "reach", "--robot", "panda", "--target", "0.72,0,0.36", "--steps", "5"]
+    runs = []
+    for scene in ("panda-shelf", "panda-shelf.json", path):
+        out = tmp_path / "reach.csv"
+        assert main([*args, "--scene", scene, "--out", str(out)]) == 0
+        rows = list(csv.DictReader(out.open(encoding="utf-8")))
+        runs.append([(r["min_distance"], r["closest"]) for r in rows])
+    assert runs[0] == runs[1] == runs[2] and len(runs[0]) == 5
+
+
+def test_an_unknown_scene_name_lists_the_bundled_ones(capsys) -> None:  # type: ignore[no-untyped-def]
+    assert main(["simulate", "pull-in", "--scene", "kitchen", "--steps", "5"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "'kitchen'" in err and "panda-shelf" in err
+
+
+def test_names_with_newlines_or_terminal_escapes_are_printed_escaped(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    name = "ba\nll\x1b[31m\u202e"
+    scene = tmp_path / "scene.json"
+    obstacle = {**SCENE["obstacles"][0], "name": name}
+    scene.write_text(json.dumps({**SCENE, "obstacles": [obstacle]}))
+    out = tmp_path / "run.csv"
+    args = ["simulate", "pull-in", "--scene", str(scene), "--steps", "250", "--out", str(out)]
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("\n") == 2  # the summary and "wrote"
+    assert "\x1b" not in printed and "\u202e" not in printed
+    assert "ba\\nll\\x1b[31m\\u202e" in printed
+    rows = list(csv.DictReader(out.open(encoding="utf-8", newline="")))
+    assert any(r["closest"] == f"link 2 - {name}" for r in rows)  # the CSV keeps the name

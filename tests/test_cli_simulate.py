@@ -150,3 +150,81 @@ def test_a_reader_that_closes_the_pipe_ends_lpik_quietly(monkeypatch, capsys) ->
     monkeypatch.setattr("sys.stdout", ClosedPipe())
     assert main(["robots", "--json"]) == 141
     assert capsys.readouterr().err == ""
+
+
+def test_out_dash_writes_clean_csv_on_stdout_and_the_rest_on_stderr(tmp_path) -> None:
+    import subprocess
+
+    from cli_documents import LPIK
+
+    fig = tmp_path / "run.png"
+    out = subprocess.run(
+        [str(LPIK), "simulate", "pull-in", "--steps", "7", "--out", "-", "--plot", str(fig)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    rows = list(csv.reader(out.stdout.splitlines()))
+    assert rows[0][:3] == ["t", "q1", "q2"] and len(rows) == 8
+    assert all(len(r) == len(rows[0]) for r in rows)
+    assert "7 steps" in out.stderr and f"wrote {fig}" in out.stderr
+    assert "wrote the CSV on stdout" in out.stderr and fig.exists()
+
+
+def test_out_dash_in_process_keeps_the_summary_off_stdout(capsys) -> None:
+    assert main(["simulate", "pull-in", "--steps", "4", "--out", "-"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.splitlines()[0].startswith("t,q1,") and len(captured.out.splitlines()) == 5
+    assert "4 steps" in captured.err and "4 steps" not in captured.out
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--plot", "x.csv"], ["--plot", "'x.csv'", ".csv", ".png"]),
+        (["--plot", "-"], ["--plot", "stdout"]),
+        (["--animate", "x.mp4"], ["--animate", ".gif"]),
+        (["--animate", "-"], ["--animate", "stdout"]),
+        (["--out", "/dev/full"], ["--out", "/dev/full", "No space left"]),
+        (["--animate", "/dev/full"], ["--animate", "/dev/full", "No space left"]),
+        (["--plot", "/dev/full"], ["--plot", "/dev/full", "No space left"]),
+        (["--out", "{tmp}/a.png", "--plot", "{tmp}/a.png"], ["--plot", "--out"]),
+    ],
+)
+def test_every_output_is_checked_before_the_run_and_named(
+    args, words, tmp_path, monkeypatch, capsys
+) -> None:
+    if "/dev/full" in args and not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full here")
+    from lpik.paper.setup import Setup
+
+    def ran(*a, **k):
+        raise AssertionError("the run started")
+
+    monkeypatch.setattr(Setup, "run", ran)
+    args = [a.format(tmp=tmp_path) for a in args]
+    assert main(["simulate", "pull-in", "--steps", "3", *args]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1, captured.err
+    for word in words:
+        assert word in captured.err
+
+
+def test_a_figure_and_an_animation_without_extension_are_written_under_that_name(
+    tmp_path, capsys
+) -> None:
+    fig, gif = tmp_path / "overview", tmp_path / "motion"
+    args = ["simulate", "pull-in", "--steps", "20", "--plot", str(fig), "--animate", str(gif)]
+    assert main([*args, "--frames", "3"]) == 0
+    assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and gif.read_bytes()[:6] == b"GIF89a"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["motion", "overview"]
+    out = capsys.readouterr().out
+    assert f"wrote {fig}\n" in out and f"wrote {gif}\n" in out
+
+
+def test_a_figure_onto_dev_null_is_written_and_nothing_else(tmp_path, capsys) -> None:
+    if not os.path.exists("/dev/null"):
+        pytest.skip("no /dev/null here")
+    assert main(["simulate", "pull-in", "--steps", "5", "--plot", "/dev/null"]) == 0
+    assert "wrote /dev/null" in capsys.readouterr().out

@@ -5,15 +5,29 @@ home configuration straight to a point, its orientation held (:mod:`lpik.paper.r
 
 One path for every robot: :meth:`lpik.paper.scenarios.Scenario.setup` gives the
 run, :mod:`lpik.paper.run_figures` draws it.
+
+Every output (``--out``, ``--plot``, ``--animate``) is checked before the run:
+its format, that it can be written (an empty write, which ``/dev/full``
+refuses), that no two options name the same file; an error names the option.
+``--out -`` writes the CSV, and nothing else, on stdout: the summary goes to
+stderr. A figure or animation named without an extension is written, as PNG or
+GIF, under exactly that name. Names from a scene (obstacles) are printed with
+control characters escaped.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
+import shutil
+import stat
+import sys
+import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TextIO
 
 from lpik.defaults import DEFAULT_METHOD
 from lpik.tolerances import MAX_MAGNITUDE
@@ -33,6 +47,10 @@ MAX_STEPS = 1_000_000
 MAX_DT = 1.0
 #: Most frames of an animated GIF.
 MAX_FRAMES = 1000
+#: ``--out``'s name for standard output.
+STDOUT = "-"
+#: Figure formats that need nothing but matplotlib (pgf needs LaTeX).
+NOT_PLOT_FORMATS = ("pgf",)
 
 
 def _bound_value(text: str) -> float | str:
@@ -112,7 +130,7 @@ def _epilog() -> str:
 
 
 def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
-    """The run: scenario or target, robot, method, CSV, limits, steps and period."""
+    """The run: scenario or target, robot, method, limits, steps and period."""
     from lpik.paper.scenarios import PLANAR, SCENARIOS
 
     parser.add_argument(
@@ -144,7 +162,6 @@ def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
         help="command the law alone, as the paper's runs do (default: take off each command "
         "the last step's second-order term, as every lpik controller does)",
     )
-    parser.add_argument("--out", metavar="RUN.csv", help="write the log as CSV")
     parser.add_argument(
         "--lambda-bound",
         type=_bound_value,
@@ -176,9 +193,14 @@ def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
-    """The figures of the run: an overview plot, an animated GIF and its frames."""
+    """The outputs of the run: the CSV, an overview plot, an animated GIF and its frames."""
     from lpik.paper.scenarios import PLANAR
 
+    parser.add_argument(
+        "--out",
+        metavar="RUN.csv",
+        help="write the log as CSV ('-': on stdout, the summary on stderr)",
+    )
     parser.add_argument("--plot", metavar="FIG.png", help="draw an overview figure of the run")
     parser.add_argument(
         "--animate",
@@ -207,7 +229,8 @@ def _add_loop_arguments(parser: argparse.ArgumentParser) -> None:
         "--scene",
         metavar="SCENE.json",
         help="obstacles to avoid (JSON: obstacles, safety_distance, influence_distance; 2-D "
-        "points for the planar arm); the CSV gains min_distance and closest",
+        "points for the planar arm), or a bundled scene by name (panda-shelf); the CSV gains "
+        "min_distance and closest",
     )
     parser.add_argument(
         "--avoid",
@@ -235,16 +258,143 @@ def _writable(option: str, path: str | None) -> Path | None:
         raise ValueError(f"{option}: cannot write {path!r}: directory {str(parent)!r} not found")
     if not os.access(parent, os.W_OK) or (out.exists() and not os.access(out, os.W_OK)):
         raise ValueError(f"{option}: cannot write {path!r}: permission denied")
-    # Open it (without truncating) before the run: the only sure test, e.g. under /proc.
+    # Open it (without truncating) before the run: the only sure test, e.g. under /proc;
+    # an empty write, which changes nothing, is refused by a full device (/dev/full).
     existed = out.exists()
     try:
-        with open(out, "a", encoding="utf-8"):
-            pass
+        with open(out, "ab") as handle:
+            os.write(handle.fileno(), b"")
     except OSError as exc:
         raise ValueError(f"{option}: cannot write {path!r}: {exc.strerror or exc}") from None
-    if not existed:
-        out.unlink(missing_ok=True)
+    finally:
+        if not existed:
+            out.unlink(missing_ok=True)
     return out
+
+
+def _plot_formats() -> tuple[str, ...]:
+    """The extensions ``--plot`` can write (matplotlib's, those that need no other tool)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    known = FigureCanvasBase.get_supported_filetypes()
+    return tuple(sorted(f".{k}" for k in known if k not in NOT_PLOT_FORMATS))
+
+
+def _format(option: str, path: str, formats: tuple[str, ...]) -> None:
+    """Refuse an extension the output cannot be written in (none is fine: PNG or GIF)."""
+    suffix = Path(path).suffix.lower()
+    if suffix and suffix not in formats:
+        raise ValueError(
+            f"{option}: cannot write {path!r} as {suffix}; use one of {', '.join(formats)} "
+            "(or no extension)"
+        )
+
+
+def _outputs(args: argparse.Namespace) -> tuple[Path | str | None, Path | None, Path | None]:
+    """``--out``, ``--plot`` and ``--animate`` checked before the run (``ValueError`` naming one).
+
+    Returns ``--out`` (:data:`STDOUT` for ``-``), ``--plot`` and ``--animate``, or None each.
+    """
+    for option, value in (("--plot", args.plot), ("--animate", args.animate)):
+        if value == STDOUT:
+            raise ValueError(f"{option}: '-' (stdout) is for --out only; name a file")
+    if args.plot is not None or args.animate is not None:
+        from lpik.paper.style import require_backend
+
+        require_backend(animation=args.animate is not None)  # fail before the run, not after it
+    if args.plot is not None:
+        _format("--plot", args.plot, _plot_formats())
+    if args.animate is not None:
+        _format("--animate", args.animate, (".gif",))
+    if args.out == STDOUT:
+        _check_stdout()
+    out = STDOUT if args.out == STDOUT else _writable("--out", args.out)
+    fig, gif = _writable("--plot", args.plot), _writable("--animate", args.animate)
+    named: dict[str, str] = {}
+    for option, path in (("--out", out), ("--plot", fig), ("--animate", gif)):
+        if isinstance(path, Path) and _is_regular(path):
+            key = os.path.realpath(path)
+            if key in named:
+                raise ValueError(f"{option}: {str(path)!r} is also {named[key]}'s file")
+            named[key] = option
+    return out, fig, gif
+
+
+def _check_stdout() -> None:
+    """``--out -``: refuse a closed or full stdout before the run (an empty write)."""
+    if sys.stdout is None:  # the process was started with stdout closed
+        raise ValueError("--out: cannot write on stdout: it is closed")
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # no descriptor (a test's capture): fine
+        return
+    try:
+        os.write(fd, b"")
+    except OSError as exc:
+        raise ValueError(f"--out: cannot write on stdout: {exc.strerror or exc}") from None
+
+
+def _is_regular(path: Path) -> bool:
+    """Whether ``path`` is (or, missing, will be) a regular file: not a device or a pipe."""
+    try:
+        return stat.S_ISREG(path.stat().st_mode)
+    except OSError:
+        return True
+
+
+def _written(option: str, path: Path, exc: Exception) -> ValueError:
+    """A failed write as one line naming the option."""
+    if isinstance(exc, OSError):
+        reason = exc.strerror or str(exc)
+    else:
+        text = str(exc)
+        reason = text.rsplit(": ", 1)[-1] if "cannot write" in text else text
+    return ValueError(f"{option}: cannot write {str(path)!r}: {reason}")
+
+
+def _deliver(option: str, path: Path, suffix: str, draw: Callable[[Path], Path]) -> Path:
+    """Have ``draw`` write ``path``; exactly ``path``, also without an extension or on a device.
+
+    Without an extension (or onto a device), ``draw`` writes a ``suffix`` file in a
+    temporary folder that is then copied to ``path``.
+    """
+    try:
+        if path.suffix and _is_regular(path):
+            draw(path)
+            return path
+        with tempfile.TemporaryDirectory() as folder:
+            made = draw(Path(folder) / f"output{suffix}")
+            with open(made, "rb") as source, open(path, "wb") as target:
+                shutil.copyfileobj(source, target)
+    except (OSError, ValueError) as exc:
+        raise _written(option, path, exc) from None
+    return path
+
+
+def _write_csv(log: SimulationLog, out: Path | str) -> Path | None:
+    """The CSV to ``out``, or on stdout for :data:`STDOUT` (then None)."""
+    if out != STDOUT:
+        path = Path(out)
+        try:
+            return log.to_csv(path)
+        except (OSError, ValueError) as exc:
+            raise _written("--out", path, exc) from None
+    with tempfile.TemporaryDirectory() as folder:  # one writer of the CSV: SimulationLog's
+        made = log.to_csv(Path(folder) / "run.csv")
+        with open(made, encoding="utf-8", newline="") as source:
+            shutil.copyfileobj(source, sys.stdout)
+    sys.stdout.flush()
+    return None
+
+
+def _safe(text: object) -> str:
+    r"""``text`` for a terminal, what is not printable escaped (``\n``, ``\x1b``).
+
+    A name from a scene file then cannot break a line or drive the terminal.
+    """
+    return "".join(
+        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in str(text)
+    )
 
 
 def _check_options(args: argparse.Namespace) -> None:
@@ -326,33 +476,45 @@ def run(args: argparse.Namespace) -> int:
     from lpik.paper.scenarios import PLANAR
 
     _check_options(args)
-    out = _writable("--out", args.out)
-    fig = _writable("--plot", args.plot)
-    gif = _writable("--animate", args.animate)
+    out, fig, gif = _outputs(args)
     setup = _setup(args)
     if gif is not None and args.robot != PLANAR:
         raise ValueError("--animate: draws the planar arm only; use --plot for 3-D runs")
-    if fig is not None or gif is not None:
-        from lpik.paper.style import require_backend
-
-        require_backend(animation=gif is not None)  # fail before the run, not after it
     avoid = _avoidance(args, setup)
-    with LazyProgress(f"{setup.name} {args.method}") as progress:
+    on_stdout = out == STDOUT
+    report: TextIO = sys.stderr if on_stdout else sys.stdout
+    quiet = contextlib.redirect_stdout(sys.stderr) if on_stdout else contextlib.nullcontext()
+    with LazyProgress(f"{setup.name} {args.method}") as progress, quiet:
         log = setup.run(args.method, progress=progress, scene=avoid, **run_options(args))
-    written = [] if out is None else [log.to_csv(out)]
-    written += _draw(args, setup, log, fig, gif, avoid)
+    written = [] if out is None else [_write_csv(log, out)]
+    if fig is not None:
+        draw = _figure_drawer(args, setup, log, avoid)
+        written.append(_deliver("--plot", fig, ".png", draw))
+    if gif is not None:
+        from lpik.paper import run_figures
+
+        def animation(path: Path) -> Path:
+            return run_figures.animate(log, setup.model, path, frames=args.frames,
+                                       target=setup.target)  # fmt: skip
+
+        written.append(_deliver("--animate", gif, ".gif", animation))
+    print(_summary(log), file=report)
+    for path in written:
+        print("wrote the CSV on stdout" if path is None else f"wrote {_safe(path)}", file=report)
+    return 0
+
+
+def _summary(log: SimulationLog) -> str:
+    """The run in one line: steps, final p and binding, end point, jitter, statuses."""
     m = log.metrics()
     position = ", ".join(f"{v:.4f}" for v in m.final_position)
-    print(
+    return _safe(
         f"{log.name}, {log.method}: {m.steps} steps, final p = {m.final_p:.4g} "
         f"(binding: {log.binding[-1] or 'none'}), end effector at ({position}) m, "
         f"jitter {m.jitter:.4g} rad/s, statuses "
         + ", ".join(f"{k} {v}" for k, v in m.statuses.items())
         + _distance_summary(log)
     )
-    for path in written:
-        print(f"wrote {path}")
-    return 0
 
 
 def _distance_summary(log: SimulationLog) -> str:
@@ -363,36 +525,28 @@ def _distance_summary(log: SimulationLog) -> str:
     return f", smallest distance {log.min_distance[k]:.4g} m ({log.closest[k]})"
 
 
-def _draw(
-    args: argparse.Namespace, setup: Setup, log: SimulationLog, fig: Path | None,
-    gif: Path | None, avoid: Any = None,
-) -> list[Path]:  # fmt: skip
-    """The figure and animation asked for: x-y overview (planar) or 3-D tool path.
+def _figure_drawer(
+    args: argparse.Namespace, setup: Setup, log: SimulationLog, avoid: Any = None
+) -> Callable[[Path], Path]:
+    """What draws ``--plot``'s figure into a path: x-y overview (planar) or 3-D tool path.
 
     With a scene, the figure is :func:`lpik.paper.collision_figures.avoidance_figure`
     (the obstacles, the smallest distance and ``p`` with the binding limit).
     """
     from lpik.paper import run_figures
 
-    written = []
     target = setup.target
-    if fig is not None and avoid is not None:
+    goal = target[:3, 3] if target.ndim == 2 else target
+    if avoid is not None:
         from lpik.paper.collision_figures import avoidance_figure
 
-        goal = target[:3, 3] if target.ndim == 2 else target
         caption = f"{args.method}, {avoid.mechanism}"
-        written.append(avoidance_figure([(caption, log)], setup.model, avoid.scene, fig,
-                                        title=setup.name, target=goal))  # fmt: skip
-    elif fig is not None and setup.model.position_dims == 2:
-        written.append(run_figures.run_overview(log, setup.model, fig, target=target))
-    elif fig is not None:
-        goal = target[:3, 3] if target.ndim == 2 else target
-        title = f"{setup.name} ({args.method})"
-        written.append(
-            run_figures.tool_path_figure(log, fig, model=setup.model, target=goal, title=title)
+        return lambda path: avoidance_figure(
+            [(caption, log)], setup.model, avoid.scene, path, title=setup.name, target=goal
         )
-    if gif is not None:
-        written.append(
-            run_figures.animate(log, setup.model, gif, frames=args.frames, target=target)
-        )
-    return written
+    if setup.model.position_dims == 2:
+        return lambda path: run_figures.run_overview(log, setup.model, path, target=target)
+    title = f"{setup.name} ({args.method})"
+    return lambda path: run_figures.tool_path_figure(
+        log, path, model=setup.model, target=goal, title=title
+    )
