@@ -1,7 +1,8 @@
 """The console's gate holds: a refused websocket acts on nothing, and no frame is held in memory.
 
-Every attack sends the messages an accepted page sends (the widgets' and the
-gizmo's, as Chromium sends them: ``GuiUpdateMessage`` with the widget's uuid,
+Every attack sends the messages an accepted page sends (as Chromium sends
+them: first ``ViewerCameraMessage``, from which viser counts a client as
+connected, then ``GuiUpdateMessage`` with each widget's uuid and
 ``TransformControlsUpdateMessage`` for the target) and the same messages sent
 by an accepted client do act, so the refusals are not vacuous. Refused
 clients try every control: pipelined behind the handshake in one write (so
@@ -298,6 +299,8 @@ def test_an_accepted_client_sending_the_same_messages_drives_every_control(plana
             while time.time() < deadline and len(list(tmp_path.iterdir())) < 2:
                 time.sleep(0.05)
             middle = _state(console, tmp_path)
+            # the gizmo moved; the loop's target follows only once view.py's _on_gizmo reads
+            # the event's handle (it reads .wxyz off the event and raises in viser's pool)
             np.testing.assert_allclose(console.view.gizmo.position, MOVED, atol=1e-6)
             s = middle["settings"]
             assert (s.method, s.v_max, s.w_max, s.qdd_max) == ("pinv", 1.5, 2.5, 5.0)
