@@ -29,16 +29,16 @@ def test_the_compiled_steps_follow_the_numpy_run_of_the_obstacle_scenario(
     avoid = collision_avoidance(setup.model, setup.scene, setup.q0, mechanism=mechanism)
     log = setup.run(method, scene=avoid)
     controller = AvoidingLp2Controller(setup.model, avoid, dt=setup.dt, saturate=method == "lp2s")
-    q = setup.q0.copy()
+    q, q_prev = setup.q0.copy(), None
     for k in range(setup.steps):
         np.testing.assert_allclose(q, log.q[k], atol=1e-9)
-        result = controller.step(q, setup.target)
+        result = controller.step(q, setup.target, q_prev)  # as the loop steps: q_prev too
         assert result.path == "compiled" and result.p == pytest.approx(log.p[k], abs=1e-9)
         if result.binding != log.binding[k]:  # two rows that tie (a shared joint)
-            problem = controller.problem(q, setup.target)
+            problem = controller.problem(q, setup.target, q_prev)
             assert active(problem, result.q, result.binding)
             assert active(problem, result.q, str(log.binding[k]))
-        q = result.q
+        q_prev, q = q, result.q
     np.testing.assert_allclose(q, log.q_end, atol=1e-9)
 
 
