@@ -1,4 +1,4 @@
-"""``lpik reproduce --out DIR``: the paper's figures 3-9, their CSV logs and summary.md."""
+"""``lpik reproduce --out DIR``: figures 3-12 (the paper's 3-9 and more), CSV logs, summary.md."""
 
 from __future__ import annotations
 
@@ -14,12 +14,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     """Register ``lpik reproduce``."""
     parser = sub.add_parser(
         "reproduce",
-        help="rerun the paper's section 4 and write figures 3-9, CSV logs and summary.md",
+        help="rerun the paper's section 4 and write figures 3-12, CSV logs and summary.md",
         description="Run the pull-in scenario under LP1 and LP2 and the edge-singularity "
         "scenario under LP2 with unbounded, bounded and automatically bounded multipliers; "
-        "write figures 3-9 as PNG, the CSV log behind every figure and summary.md with the "
-        "runs' numbers; beyond the paper, the saturating LP2 (Fig. 10), the 3-D arms and "
-        "collision avoidance (Figs. 11-12). Needs matplotlib and coal: "
+        "write the paper's figures 3-9 as PNG, the CSV log behind every figure and summary.md "
+        "with the runs' numbers; beyond the paper, the saturating LP2 (Fig. 10), collision "
+        "avoidance (Figs. 11-12) and the 3-D arms (fig3d-*.png). Needs matplotlib and coal: "
         'pip install "lpik[reproduce]".',
     )
     parser.add_argument(
