@@ -37,3 +37,5 @@ def test_an_example_runs(name: str, tmp_path, monkeypatch, capsys) -> None:  # t
     out = capsys.readouterr().out
     assert out.strip(), "an example says what it did"
     assert "nan" not in out.lower()
+    if name == "dexterity_sweep.py":  # the sweep is worth a plot: p spans 0..1 under both methods
+        assert out.count("p from 0.00 to 1.00") == 2, out
