@@ -182,7 +182,28 @@ class Problem:
     _cache: dict[str, Any] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
+        m, n = self._init_jacobian()
         set_ = object.__setattr__
+        set_(self, "dw", _vector("dw", self.dw, m))
+        set_(self, "q0", _vector("q0", self.q0, n))
+        for lo_name, hi_name in (("q_min", "q_max"), ("dq_min", "dq_max")):
+            lo = _bound_vector(lo_name, getattr(self, lo_name), n, -np.inf)
+            hi = _bound_vector(hi_name, getattr(self, hi_name), n, np.inf)
+            _check_ordered(lo_name, lo, hi_name, hi)
+            set_(self, lo_name, lo)
+            set_(self, hi_name, hi)
+        self._init_weights(n)
+        lam_min = _bound_vector("lam_min", self.lam_min, m, -np.inf)
+        lam_max = _bound_vector("lam_max", self.lam_max, m, np.inf)
+        _check_ordered("lam_min", lam_min, "lam_max", lam_max)
+        set_(self, "lam_min", lam_min)
+        set_(self, "lam_max", lam_max)
+        self._init_rows(n)
+        self._init_damping()
+        self._init_labels(n)
+
+    def _init_jacobian(self) -> tuple[int, int]:
+        """Validate ``J``; returns its shape ``(m, n)``."""
         try:
             J = np.array(self.J, dtype=np.float64)
         except (TypeError, ValueError) as exc:
@@ -192,22 +213,12 @@ class Problem:
         if not np.isfinite(J).all():
             raise InvalidProblemError("J", "contains NaN or inf")
         _check_magnitude("J", J)
-        m, n = J.shape
-        set_(self, "J", J)
-        set_(self, "dw", _vector("dw", self.dw, m))
-        set_(self, "q0", _vector("q0", self.q0, n))
+        object.__setattr__(self, "J", J)
+        return J.shape
 
-        q_min = _bound_vector("q_min", self.q_min, n, -np.inf)
-        q_max = _bound_vector("q_max", self.q_max, n, np.inf)
-        _check_ordered("q_min", q_min, "q_max", q_max)
-        set_(self, "q_min", q_min)
-        set_(self, "q_max", q_max)
-        dq_min = _bound_vector("dq_min", self.dq_min, n, -np.inf)
-        dq_max = _bound_vector("dq_max", self.dq_max, n, np.inf)
-        _check_ordered("dq_min", dq_min, "dq_max", dq_max)
-        set_(self, "dq_min", dq_min)
-        set_(self, "dq_max", dq_max)
-
+    def _init_weights(self, n: int) -> None:
+        """Validate the criterion: ``M``, ``f`` (eq. 3), ``Lambda`` and ``q_ref`` (sec. 3.1)."""
+        set_ = object.__setattr__
         M = _matrix("M", self.M, n, 1.0)
         try:
             np.linalg.cholesky(M)
@@ -220,28 +231,28 @@ class Problem:
         set_(self, "Lambda", Lam)
         set_(self, "f", np.zeros(n) if self.f is None else _vector("f", self.f, n))
         if self.q_ref is None:
-            q_ref = reference_configuration(q_min, q_max, self.q0)
+            q_ref = reference_configuration(self.q_min, self.q_max, self.q0)
         else:
             q_ref = _vector("q_ref", self.q_ref, n)
         set_(self, "q_ref", q_ref)
 
-        lam_min = _bound_vector("lam_min", self.lam_min, m, -np.inf)
-        lam_max = _bound_vector("lam_max", self.lam_max, m, np.inf)
-        _check_ordered("lam_min", lam_min, "lam_max", lam_max)
-        set_(self, "lam_min", lam_min)
-        set_(self, "lam_max", lam_max)
+    def _init_damping(self) -> None:
+        """Validate ``k``, the robust inverse's damping (eq. 19), where given."""
+        if self.k is None:
+            return
+        try:
+            k = float(self.k)
+        except (TypeError, ValueError):
+            raise InvalidProblemError("k", f"must be a number, got {self.k!r}") from None
+        if not np.isfinite(k) or k < 0 or k > MAX_MAGNITUDE:
+            raise InvalidProblemError(
+                "k", f"must be a finite number in [0, {MAX_MAGNITUDE:g}], got {k}"
+            )
+        object.__setattr__(self, "k", k)
 
-        self._init_rows(n)
-        if self.k is not None:
-            try:
-                k = float(self.k)
-            except (TypeError, ValueError):
-                raise InvalidProblemError("k", f"must be a number, got {self.k!r}") from None
-            if not np.isfinite(k) or k < 0 or k > MAX_MAGNITUDE:
-                raise InvalidProblemError(
-                    "k", f"must be a finite number in [0, {MAX_MAGNITUDE:g}], got {k}"
-                )
-            set_(self, "k", k)
+    def _init_labels(self, n: int) -> None:
+        """The names: the step bounds' kinds, the joints, the limits the state is outside of."""
+        set_ = object.__setattr__
         set_(self, "dq_min_kind", _labels("dq_min_kind", self.dq_min_kind, n, STEP_BOUND_KIND))
         set_(self, "dq_max_kind", _labels("dq_max_kind", self.dq_max_kind, n, STEP_BOUND_KIND))
         names = labels.default_joint_names(n)

@@ -57,9 +57,8 @@ class ConsoleView:
 
     # ---- building -----------------------------------------------------------------------------
     def _build_scene(self) -> None:
-        scene, robot = self.server.scene, self.robot
+        scene, planar = self.server.scene, self.robot.planar
         scene.set_up_direction("+z")
-        planar = robot.planar
         camera = self.server.initial_camera
         camera.position, camera.look_at = (
             ((1.5, -2.5, 6.0), (1.5, 1.0, 0.0)) if planar else ((1.6, -1.4, 1.1), (0.3, 0.0, 0.4))
@@ -70,52 +69,60 @@ class ConsoleView:
             height=10.0 if planar else 3.0,
             cell_size=0.5 if planar else 0.1,
         )
-        self._links = []
-        for k, c in enumerate(robot.capsules):
-            cyl = scene.add_cylinder(f"/robot/link{k}", radius=c.radius, height=1.0, color=geo.ARM)
-            ends = [
-                scene.add_icosphere(
-                    f"/robot/end{k}-{e}", radius=c.radius, color=geo.ARM, subdivisions=2
-                )
-                for e in (0, 1)
-            ]
-            self._links.append((cyl, ends))
+        self._links = [self._add_link(k, c.radius) for k, c in enumerate(self.robot.capsules)]
         self._obstacles: dict[str, list[Any]] = {}
-        for k, s in enumerate(geo.obstacle_shapes(robot.scene)):
-            name = f"/obstacles/{k}"
-            if s.kind == "sphere":
-                handle = scene.add_icosphere(
-                    name, radius=s.size[0], color=geo.OBSTACLE, position=s.position
-                )
-            elif s.kind == "cylinder":
-                handle = scene.add_cylinder(
-                    name,
-                    radius=s.size[0],
-                    height=s.size[1],
-                    color=geo.OBSTACLE,
-                    position=s.position,
-                    wxyz=s.wxyz,
-                )
-            else:
-                handle = scene.add_box(
-                    name,
-                    color=geo.OBSTACLE,
-                    dimensions=s.size,
-                    position=s.position,
-                    wxyz=s.wxyz,
-                    opacity=0.8,
-                )
-            self._obstacles.setdefault(s.name, []).append(handle)
+        for k, shape in enumerate(geo.obstacle_shapes(self.robot.scene)):
+            handle = self._add_obstacle(f"/obstacles/{k}", shape)
+            self._obstacles.setdefault(shape.name, []).append(handle)
+        self._add_target()
+
+    def _add_link(self, k: int, radius: float) -> tuple[Any, list[Any]]:
+        """Link ``k``'s capsule: a unit cylinder and its two end spheres, placed each refresh."""
+        scene = self.server.scene
+        cyl = scene.add_cylinder(f"/robot/link{k}", radius=radius, height=1.0, color=geo.ARM)
+        ends = [
+            scene.add_icosphere(f"/robot/end{k}-{e}", radius=radius, color=geo.ARM, subdivisions=2)
+            for e in (0, 1)
+        ]
+        return cyl, ends
+
+    def _add_obstacle(self, name: str, shape: geo.Shape) -> Any:
+        """One shape of :func:`lpik.console.geometry.obstacle_shapes` in the scene."""
+        scene = self.server.scene
+        if shape.kind == "sphere":
+            return scene.add_icosphere(
+                name, radius=shape.size[0], color=geo.OBSTACLE, position=shape.position
+            )
+        if shape.kind == "cylinder":
+            return scene.add_cylinder(
+                name,
+                radius=shape.size[0],
+                height=shape.size[1],
+                color=geo.OBSTACLE,
+                position=shape.position,
+                wxyz=shape.wxyz,
+            )
+        return scene.add_box(
+            name,
+            color=geo.OBSTACLE,
+            dimensions=shape.size,
+            position=shape.position,
+            wxyz=shape.wxyz,
+            opacity=0.8,
+        )
+
+    def _add_target(self) -> None:
+        """The target's gizmo, at the loop's target, and the tool's frame."""
+        scene, planar = self.server.scene, self.robot.planar
         target = np.asarray(self.loop.snapshot().target)
         pose = target if target.shape == (4, 4) else None
         position = target[:3, 3] if pose is not None else target
-        orientation = robot.orientation
         self.gizmo = scene.add_transform_controls(
             "/target",
             scale=0.6 if planar else 0.2,
             position=tuple(position),
             wxyz=geo.wxyz(pose[:3, :3]) if pose is not None else (1.0, 0.0, 0.0, 0.0),
-            disable_rotations=not orientation,
+            disable_rotations=not self.robot.orientation,
             depth_test=False,
             active_axes=(True, True, not planar),
         )

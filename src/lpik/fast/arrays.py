@@ -112,6 +112,17 @@ _PROBLEM_TO_BATCH = {"M": "H", "f": "c", "dq_min": "lower", "dq_max": "upper", "
 
 def _check_batch(arrays: BatchArrays) -> None:
     """Validate and normalise the fields of ``arrays`` in place (see :class:`BatchArrays`)."""
+    values = _float_arrays(arrays)
+    n = _check_shapes(values)
+    _check_ordered(values)
+    h_diag = _check_h(values["H"], n, arrays.h_diag)
+    for name, arr in values.items():
+        object.__setattr__(arrays, name, arr)
+    object.__setattr__(arrays, "h_diag", h_diag)
+
+
+def _float_arrays(arrays: BatchArrays) -> dict[str, FloatArray]:
+    """Each array field as a C-contiguous float64 array (no pull: ``c_ref`` zero)."""
     values = {}
     for name in _BATCH_FIELDS:
         if name == "c_ref" and arrays.c_ref is None:  # no pull (c comes before it)
@@ -123,6 +134,11 @@ def _check_batch(arrays: BatchArrays) -> None:
             raise InvalidProblemError(
                 f"BatchArrays.{name}", f"must be an array of numbers ({exc})"
             ) from None
+    return values
+
+
+def _check_shapes(values: dict[str, FloatArray]) -> int:
+    """Check each field's shape and values against ``J``'s ``(B, m, n)``; returns ``n``."""
     J, G = values["J"], values["G"]
     if J.ndim != 3 or 0 in J.shape:
         raise InvalidProblemError(
@@ -140,16 +156,26 @@ def _check_batch(arrays: BatchArrays) -> None:
                 f"BatchArrays.{name}",
                 f"must have shape ({', '.join(('B', *axes))}) = {want}, got {arr.shape}",
             )
-        bad = np.isnan(arr) if infinity else ~np.isfinite(arr)
-        if infinity:
-            bad |= arr == (np.inf if infinity == "-inf" else -np.inf)
-        if bad.any():
-            item, *where = (int(i) for i in np.unravel_index(np.argmax(bad), arr.shape))
-            allowed = "finite" + (f" or {infinity}" if infinity else "")
-            raise InvalidProblemError(
-                f"BatchArrays.{name}",
-                f"must be {allowed}; item {item} has {arr[(item, *where)]} at {where}",
-            )
+        _check_values(name, arr, infinity)
+    return n
+
+
+def _check_values(name: str, arr: FloatArray, infinity: str) -> None:
+    """No NaN in field ``name``, and no infinity but ``infinity`` (``""``: none)."""
+    bad = np.isnan(arr) if infinity else ~np.isfinite(arr)
+    if infinity:
+        bad |= arr == (np.inf if infinity == "-inf" else -np.inf)
+    if bad.any():
+        item, *where = (int(i) for i in np.unravel_index(np.argmax(bad), arr.shape))
+        allowed = "finite" + (f" or {infinity}" if infinity else "")
+        raise InvalidProblemError(
+            f"BatchArrays.{name}",
+            f"must be {allowed}; item {item} has {arr[(item, *where)]} at {where}",
+        )
+
+
+def _check_ordered(values: dict[str, FloatArray]) -> None:
+    """Lower bounds below upper ones, on ``dq`` and on the multipliers."""
     for low, high in (("lower", "upper"), ("lam_min", "lam_max")):
         crossed = values[low] > values[high]
         if crossed.any():
@@ -159,7 +185,10 @@ def _check_batch(arrays: BatchArrays) -> None:
                 f"item {item}: {low}[{k}] = {values[low][item, k]:g} exceeds "
                 f"{high}[{k}] = {values[high][item, k]:g}",
             )
-    H = values["H"]
+
+
+def _check_h(H: FloatArray, n: int, h_diag: bool | None) -> bool:
+    """Check that every ``H`` is symmetric and ``h_diag`` true; returns ``h_diag`` (found out)."""
     rows, cols = np.triu_indices(n, 1)
     above, below = H[:, rows, cols], H[:, cols, rows]
     if n > 1:
@@ -170,21 +199,18 @@ def _check_batch(arrays: BatchArrays) -> None:
                 "BatchArrays.H", f"must be symmetric; item {int(np.argmax(asymmetric))} is not"
             )
     off_diagonal = np.any(above != 0.0, axis=1) | np.any(below != 0.0, axis=1)
-    h_diag = arrays.h_diag
     if h_diag is None:
-        h_diag = not off_diagonal.any()
-    elif h_diag not in (True, False):
+        return not off_diagonal.any()
+    if h_diag not in (True, False):
         raise InvalidProblemError(
             "BatchArrays.h_diag", f"must be True, False or None, got {h_diag!r}"
         )
-    elif h_diag and off_diagonal.any():
+    if h_diag and off_diagonal.any():
         raise InvalidProblemError(
             "BatchArrays.h_diag",
             f"is True but H of item {int(np.argmax(off_diagonal))} is not diagonal",
         )
-    for name, arr in values.items():
-        object.__setattr__(arrays, name, arr)
-    object.__setattr__(arrays, "h_diag", bool(h_diag))
+    return bool(h_diag)
 
 
 def raw_problem(arrays: BatchArrays, i: int) -> Problem:

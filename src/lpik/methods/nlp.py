@@ -9,9 +9,10 @@ redundancy.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
+from scipy.optimize import OptimizeResult, minimize
 
 from lpik.check import clip_to_bounds, worst_violation
 from lpik.labels import SINGULARITY
@@ -57,28 +58,14 @@ def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Res
             f"coordinates, the problem {problem.n} and {problem.m}"
         )
     n = problem.n
-    q0, dw = problem.q0, problem.dw
-    w0 = model.pose(q0)
+    w0 = model.pose(problem.q0)
     lower, upper, lower_labels, upper_labels = problem.step_bounds()
-    g_rhs = problem.h - problem.G @ q0
-
-    def task_eq(x: FloatArray) -> FloatArray:
-        return model.difference(w0, model.pose(q0 + x[:n])) - x[n] * dw
-
-    # The exact derivative of difference(w0, pose(q)) when the model offers it (orientation
-    # rows: the inverse left Jacobian of SO(3)); J(q) is exact for vector tasks.
-    exact = getattr(model, "difference_jacobian", None)
-
-    def task_eq_jac(x: FloatArray) -> FloatArray:
-        q = q0 + x[:n]
-        jac = exact(w0, q) if exact is not None else model.jacobian(q)
-        return np.hstack([jac, -dw[:, None]])
-
+    g_rhs = problem.h - problem.G @ problem.q0
     lin_rows, lin_rhs, lin_labels = _inequalities(
         problem, lower, upper, lower_labels, upper_labels, g_rhs
     )
     constraints = [
-        {"type": "eq", "fun": task_eq, "jac": task_eq_jac},
+        _task_constraint(problem, model, w0),
         {"type": "ineq", "fun": lambda x: lin_rhs - lin_rows @ x, "jac": lambda x: -lin_rows},
     ]
     box = [
@@ -109,17 +96,68 @@ def nlp(problem: Problem, model: TaskModel, *, max_iterations: int = 200) -> Res
     binding = None
     if p_star < FULL_P:  # no active limit: the kinematics itself stops p (a singularity)
         binding = _binding(first, lin_rows, lin_rhs, lin_labels, problem.m) or SINGULARITY
+    second = _least_criterion(
+        problem, first.x, box + [(_p_floor(p_star), 1.0)], constraints, options
+    )
+    x = second.x if second.success else first.x
+    return _checked_result(problem, model, w0, x, binding, start)
+
+
+def _task_constraint(problem: Problem, model: TaskModel, w0: FloatArray) -> dict[str, Any]:
+    """Eq. 10 as SLSQP's equality: ``difference(w0, phi(q0 + dq)) - p dw = 0`` in ``(dq, p)``."""
+    n, q0, dw = problem.n, problem.q0, problem.dw
+
+    def task_eq(x: FloatArray) -> FloatArray:
+        return model.difference(w0, model.pose(q0 + x[:n])) - x[n] * dw
+
+    # The exact derivative of difference(w0, pose(q)) when the model offers it (orientation
+    # rows: the inverse left Jacobian of SO(3)); J(q) is exact for vector tasks.
+    exact = getattr(model, "difference_jacobian", None)
+
+    def task_eq_jac(x: FloatArray) -> FloatArray:
+        q = q0 + x[:n]
+        jac = exact(w0, q) if exact is not None else model.jacobian(q)
+        return np.hstack([jac, -dw[:, None]])
+
+    return {"type": "eq", "fun": task_eq, "jac": task_eq_jac}
+
+
+def _p_floor(p_star: float) -> float:
+    """The second stage's lower bound on ``p``: ``p*``, less a margin below a full step."""
+    return p_star if p_star >= FULL_P else max(0.0, p_star - 1e-9)
+
+
+def _least_criterion(
+    problem: Problem,
+    x0: FloatArray,
+    bounds: list[tuple[float | None, float | None]],
+    constraints: list[dict[str, Any]],
+    options: dict[str, Any],
+) -> OptimizeResult:
+    """The second stage: the least criterion (eq. 3 plus sec. 3.1's term) with ``p >= p*``."""
+    n = problem.n
     H, c = criterion(problem)
-    second = minimize(
+    return minimize(
         lambda x: 0.5 * x[:n] @ H @ x[:n] - c @ x[:n],
-        first.x,
+        x0,
         jac=lambda x: np.append(H @ x[:n] - c, 0.0),
         method="SLSQP",
-        bounds=box + [(p_star if p_star >= FULL_P else max(0.0, p_star - 1e-9), 1.0)],
+        bounds=bounds,
         constraints=constraints,
         options=options,
     )
-    x = second.x if second.success else first.x
+
+
+def _checked_result(
+    problem: Problem,
+    model: TaskModel,
+    w0: FloatArray,
+    x: FloatArray,
+    binding: str | None,
+    start: float,
+) -> Result:
+    """The step ``x = (dq, p)``, clipped to its bounds and checked against eq. 10 and the limits."""
+    n, q0, dw = problem.n, problem.q0, problem.dw
     dq = clip_to_bounds(problem, x[:n])
     p = float(np.clip(x[n], 0.0, 1.0))
     residual = float(np.abs(model.difference(w0, model.pose(q0 + dq)) - p * dw).max())
