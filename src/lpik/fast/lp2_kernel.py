@@ -26,7 +26,32 @@ from lpik.fast.linalg import cho_solve, cho_solve2, cholesky, refine
 from lpik.fast.ratio import limit_code, slacks
 from lpik.fast.smoothing import add_smoothing
 from lpik.fast.twins import compiled_twin
-from lpik.fast.views import matrix
+from lpik.fast.workspace import (
+    A_L,
+    A_Q,
+    AV,
+    B_L,
+    B_Q,
+    BV,
+    COL,
+    E_L,
+    E_Q,
+    H_FACTOR,
+    HI,
+    HINV_C,
+    HINV_JT,
+    HINV_R,
+    LO,
+    OUT,
+    RHS,
+    RHS2,
+    RHS3,
+    SCHUR,
+    SCHUR_FACTOR,
+    matrix_at,
+    vector,
+    workspace_size,
+)
 from lpik.methods import kkt, singular
 from lpik.methods.singular import CHECK_FAILED, INFEASIBLE, OK, SINGULAR
 from lpik.tolerances import (
@@ -38,36 +63,38 @@ from lpik.tolerances import (
 
 __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kernel"]
 
-#: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
+#: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is: each helper
+#: bound to the compiled twins of those it calls (``_svd``: the Jacobi SVD). The parts
+#: :func:`~lpik.methods.singular.singular_core` is cut into (one call each) are inlined
+#: into it, so that it compiles as the one body it was.
 _HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
             "singularity_code", "pull_room")  # fmt: skip
+_PARTS = ("_pinned_system", "_regular_count", "_affine_parts", "_singular_directions",
+          "_step_interval", "_multiplier_rows", "_eliminated", "_stage_interval",
+          "_free_multipliers", "_write_step")  # fmt: skip
 _loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
 condition_bound = njit(cache=True)(kkt.condition_bound)  # lp2s's later passes
 _stop = njit(cache=True)(singular._stop)  # the safe step, INFEASIBLE
-singular_core = compiled_twin(
-    singular.singular_core, _svd=jacobi_svd, loop_check=_loop_check, _stop=_stop,
-    **{name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS},
-)  # fmt: skip
+_twins = {"_svd": jacobi_svd, "loop_check": _loop_check, "_stop": _stop}
+for _name in _HELPERS:
+    _twins[_name] = compiled_twin(getattr(singular, _name), **_twins)
+for _name in _PARTS:
+    _twins[_name] = njit(inline="always")(compiled_twin(getattr(singular, _name), **_twins).py_func)
+singular_core = compiled_twin(singular.singular_core, **_twins)
 
-
-def workspace_size(n: int, m: int, r: int) -> int:
-    """Length of the float workspace :func:`lp2_core` needs (``r`` extra rows)."""
-    return n * m + n * n + 7 * n + 2 * m * m + 6 * m + 4 * (n + m + r)
-
+#: :func:`lpik.fast.workspace.workspace_size` (compiled), by its former name.
+_workspace_size = workspace_size
 
 #: :func:`lp2_core`'s ``singular_path``: never, always (``True``), or only for a
 #: ratio-test answer that fails its check.
 SINGULAR_PATH_NEVER, SINGULAR_PATH_ALWAYS, SINGULAR_PATH_AFTER_CHECK = 0, 1, 2
-
-#: :func:`workspace_size` for the kernels.
-_workspace_size = njit(cache=True)(workspace_size)
 
 
 @njit(cache=True)
 def lp2_kernel(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam):
     """:func:`lp2_core` with its own workspace."""
     m, n = J.shape
-    ws = np.empty(_workspace_size(n, m, G.shape[0]))
+    ws = np.empty(workspace_size(n, m, G.shape[0]))
     return lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws,
                     SINGULAR_PATH_ALWAYS, MAX_SCHUR_CONDITION)  # fmt: skip
 
@@ -98,7 +125,8 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         g: Their right-hand side in ``dq``: ``G dq <= g``, (r,).
         dq: Output step, (n,).
         lam: Output multipliers, (m,).
-        ws: Float workspace of length :func:`workspace_size` (no allocation inside).
+        ws: Float workspace of length :func:`workspace_size`, in the blocks of
+            :mod:`lpik.fast.workspace` (no allocation inside).
         singular_path: Whether a singular or ill-conditioned Schur complement, or
             an answer that fails the check, goes to the singular path (True,
             :data:`SINGULAR_PATH_ALWAYS`; else the outcome is :data:`SINGULAR` or
@@ -124,44 +152,17 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     m, n = J.shape
     r = G.shape[0]
     total = n + m + r
-    o = 0
-    HinvJt = matrix(ws, o, n, m)
-    o += n * m
-    LH = matrix(ws, o, n, n)
-    o += n * n
-    Hinvc, col, out, a_q, b_q = (
-        ws[o : o + n],
-        ws[o + n : o + 2 * n],
-        ws[o + 2 * n : o + 3 * n],
-        ws[o + 3 * n : o + 4 * n],
-        ws[o + 4 * n : o + 5 * n],
-    )
-    o += 5 * n
-    S = matrix(ws, o, m, m)
-    o += m * m
-    LS = matrix(ws, o, m, m)
-    o += m * m
-    rhs, a_l, b_l = ws[o : o + m], ws[o + m : o + 2 * m], ws[o + 2 * m : o + 3 * m]
-    rhs2 = ws[o + 3 * m : o + 4 * m]
-    e_l, rhs3 = ws[o + 4 * m : o + 5 * m], ws[o + 5 * m : o + 6 * m]
-    o += 6 * m
-    Hinvr, e_q = ws[o : o + n], ws[o + n : o + 2 * n]
-    o += 2 * n
-    av, bv, lo, hi = (
-        ws[o : o + total],
-        ws[o + total : o + 2 * total],
-        ws[o + 2 * total : o + 3 * total],
-        ws[o + 3 * total : o + 4 * total],
-    )
+    HinvJt, LH = matrix_at(ws, HINV_JT, n, m, r), matrix_at(ws, H_FACTOR, n, m, r)
+    S, LS = matrix_at(ws, SCHUR, n, m, r), matrix_at(ws, SCHUR_FACTOR, n, m, r)
+    Hinvc, Hinvr = vector(ws, HINV_C, n, m, r), vector(ws, HINV_R, n, m, r)
+    a_q, b_q, e_q = vector(ws, A_Q, n, m, r), vector(ws, B_Q, n, m, r), vector(ws, E_Q, n, m, r)
+    a_l, b_l, e_l = vector(ws, A_L, n, m, r), vector(ws, B_L, n, m, r), vector(ws, E_L, n, m, r)
+    col, out = vector(ws, COL, n, m, r), vector(ws, OUT, n, m, r)
+    rhs, rhs2, rhs3 = vector(ws, RHS, n, m, r), vector(ws, RHS2, n, m, r), vector(ws, RHS3, n, m, r)
+    av, bv = vector(ws, AV, n, m, r), vector(ws, BV, n, m, r)
+    lo, hi = vector(ws, LO, n, m, r), vector(ws, HI, n, m, r)
     # --- affine solution: dq = a_q + p b_q, lam = a_l + p b_l (Schur complement) ---
-    # A pinned joint (lower == upper: lpik.methods.kkt.pinned_system) keeps dq = d: its
-    # criterion row is dropped, its column of J leaves the Schur complement (H' is the
-    # identity there), and c' = c - H_FP d on the free joints, d on the pinned ones.
-    pins = False
-    for i in range(n):
-        if lower[i] == upper[i]:
-            pins = True
-    if h_diag:
+    if h_diag:  # pinned joints as in _solve_h
         for i in range(n):
             if lower[i] == upper[i]:
                 for k in range(m):
@@ -173,51 +174,9 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             for k in range(m):
                 HinvJt[i, k] = J[k, i] / H[i, i]
             Hinvc[i] = c[i] / H[i, i]
-    else:
-        for i in range(n):  # LH = H', factorised in place
-            for j in range(n):
-                LH[i, j] = H[i, j]
-                if pins and (lower[i] == upper[i] or lower[j] == upper[j]):
-                    LH[i, j] = 1.0 if i == j else 0.0
-        if not cholesky(LH, LH):
-            return SINGULAR, 0.0, -1, 0.0
-        for k in range(m):
-            for i in range(n):
-                col[i] = 0.0 if lower[i] == upper[i] else J[k, i]
-            cho_solve(LH, col, out)
-            for i in range(n):
-                HinvJt[i, k] = out[i]
-        for i in range(n):
-            if lower[i] == upper[i]:
-                col[i] = lower[i]
-            else:
-                s = c[i]
-                if pins:
-                    for j in range(n):
-                        if lower[j] == upper[j]:
-                            s -= H[i, j] * lower[j]
-                col[i] = s
-        cho_solve(LH, col, Hinvc)
-    for a in range(m):
-        for b in range(a, m):
-            s = 0.0
-            for i in range(n):
-                s += J[a, i] * HinvJt[i, b]
-            S[a, b] = s
-            S[b, a] = s
-    if not cholesky(S, LS):
-        if singular_path != SINGULAR_PATH_ALWAYS:
-            return SINGULAR, 0.0, -1, 0.0
-        return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
-    dmax, dmin = 0.0, np.inf
-    for a in range(m):
-        dmax = max(dmax, LS[a, a])
-        dmin = min(dmin, LS[a, a])
-    if (
-        not dmin > 0.0
-        or dmax > math.sqrt(MAX_SCHUR_CONDITION) * dmin
-        or (max_condition < MAX_SCHUR_CONDITION and condition_bound(S, LS, rhs) > max_condition)
-    ):
+    elif not _solve_h(J, H, c, lower, upper, HinvJt, LH, Hinvc, col, out):
+        return SINGULAR, 0.0, -1, 0.0
+    if not _schur(J, HinvJt, S, LS, rhs, max_condition):
         if singular_path != SINGULAR_PATH_ALWAYS:
             return SINGULAR, 0.0, -1, 0.0
         return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
@@ -256,6 +215,107 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             sa += G[j, i] * a_q[i]
             sb += G[j, i] * b_q[i]
         av[n + m + j], bv[n + m + j], lo[n + m + j], hi[n + m + j] = sa, sb, -np.inf, g[j]
+    stop, p, binding = _ratio_test(av, bv, lo, hi, total)
+    if stop:
+        return _stop(lower, upper, dq, binding)
+    # --- the step, clipped to solver-tolerance excursions, and its own check ---
+    for i in range(n):
+        dq[i] = min(max(a_q[i] + p * b_q[i], lower[i]), upper[i])
+    for k in range(m):
+        lam[k] = a_l[k] + p * b_l[k]
+    ok, res = _loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
+    if ok:
+        return OK, p, binding, res
+    # rounding beyond the check's tolerance: the singular path decides, as in lpik.methods.lp2
+    if singular_path == SINGULAR_PATH_NEVER:
+        return CHECK_FAILED, p, binding, res
+    code, p, binding, res = singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max,
+                                          G, g, dq, lam)  # fmt: skip
+    if code == SINGULAR and singular_path == SINGULAR_PATH_AFTER_CHECK:
+        return CHECK_FAILED, p, binding, res  # HiGHS decides: the caller's numpy method
+    return code, p, binding, res
+
+
+@njit(inline="always")
+def _solve_h(J, H, c, lower, upper, HinvJt, LH, Hinvc, col, out):
+    """``H'^-1 J^T`` and ``H'^-1 c'`` over the free joints; False where ``H'`` is not definite.
+
+    A pinned joint (``lower == upper``: :func:`lpik.methods.kkt.pinned_system`)
+    keeps ``dq = d``: its criterion row is dropped, its column of ``J`` leaves
+    the Schur complement (``H'`` is the identity there), and ``c' = c - H_FP d``
+    on the free joints, ``d`` on the pinned ones. ``LH`` receives the Cholesky
+    factor of ``H'``; ``col`` and ``out`` are scratch.
+    """
+    m, n = J.shape
+    pins = False
+    for i in range(n):
+        if lower[i] == upper[i]:
+            pins = True
+    for i in range(n):  # LH = H', factorised in place
+        for j in range(n):
+            LH[i, j] = H[i, j]
+            if pins and (lower[i] == upper[i] or lower[j] == upper[j]):
+                LH[i, j] = 1.0 if i == j else 0.0
+    if not cholesky(LH, LH):
+        return False
+    for k in range(m):
+        for i in range(n):
+            col[i] = 0.0 if lower[i] == upper[i] else J[k, i]
+        cho_solve(LH, col, out)
+        for i in range(n):
+            HinvJt[i, k] = out[i]
+    for i in range(n):
+        if lower[i] == upper[i]:
+            col[i] = lower[i]
+        else:
+            s = c[i]
+            if pins:
+                for j in range(n):
+                    if lower[j] == upper[j]:
+                        s -= H[i, j] * lower[j]
+            col[i] = s
+    cho_solve(LH, col, Hinvc)
+    return True
+
+
+@njit(inline="always")
+def _schur(J, HinvJt, S, LS, scratch, max_condition):
+    """``S = J H'^-1 J^T`` and its Cholesky factor ``LS``; False where ``S`` is ill-conditioned.
+
+    Singular, or its condition over :data:`~lpik.tolerances.MAX_SCHUR_CONDITION`
+    by the factor's diagonal, or over ``max_condition`` by
+    :func:`~lpik.methods.kkt.condition_bound` (``scratch``: (m,)).
+    """
+    m, n = J.shape
+    for a in range(m):
+        for b in range(a, m):
+            s = 0.0
+            for i in range(n):
+                s += J[a, i] * HinvJt[i, b]
+            S[a, b] = s
+            S[b, a] = s
+    if not cholesky(S, LS):
+        return False
+    dmax, dmin = 0.0, np.inf
+    for a in range(m):
+        dmax = max(dmax, LS[a, a])
+        dmin = min(dmin, LS[a, a])
+    return not (
+        not dmin > 0.0
+        or dmax > math.sqrt(MAX_SCHUR_CONDITION) * dmin
+        or (max_condition < MAX_SCHUR_CONDITION and condition_bound(S, LS, scratch) > max_condition)
+    )
+
+
+@njit(inline="always")
+def _ratio_test(av, bv, lo, hi, total):
+    """The largest ``p`` in [0, 1] that keeps every entry ``a + p b`` within its bounds.
+
+    Returns ``(stop, p, binding)``: ``stop`` where no ``p`` is feasible (the
+    step is then the safe step, ``binding`` the limit that stops it); else
+    ``p`` and the limit that stops it (``-1``: none, ``p = 1``). A limit is
+    named only where one stops ``p`` (ties: :func:`lpik.fast.ratio.limit_code`).
+    """
     bmax = 0.0
     for k in range(total):
         bmax = max(bmax, abs(bv[k]))
@@ -275,36 +335,18 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             if stuck_lo < 0 and s_lo < 0:
                 stuck_lo = 2 * k
     if stuck_hi >= 0:
-        return _stop(lower, upper, dq, stuck_hi)
+        return True, 0.0, stuck_hi
     if stuck_lo >= 0:
-        return _stop(lower, upper, dq, stuck_lo)
-    # a limit is named only where one stops p (ties: lpik.fast.ratio.limit_code)
+        return True, 0.0, stuck_lo
     p_hi = min(1.0, min(up_hi, up_lo))
     p_lo = max(0.0, max(low_hi, low_lo))
     if p_hi < p_lo - INTERVAL_TOL:
         if p_lo > 1.0:
-            return _stop(lower, upper, dq, limit_code(av, bv, lo, hi, total, eps, False,
-                                                      low_hi, low_lo))  # fmt: skip
-        return _stop(lower, upper, dq, limit_code(av, bv, lo, hi, total, eps, True, up_hi, up_lo))
+            return True, 0.0, limit_code(av, bv, lo, hi, total, eps, False, low_hi, low_lo)
+        return True, 0.0, limit_code(av, bv, lo, hi, total, eps, True, up_hi, up_lo)
     p = max(p_hi, p_lo)
     binding = limit_code(av, bv, lo, hi, total, eps, True, up_hi, up_lo) if p < FULL_P else -1
-    p = min(1.0, max(0.0, p))
-    # --- the step, clipped to solver-tolerance excursions, and its own check ---
-    for i in range(n):
-        dq[i] = min(max(a_q[i] + p * b_q[i], lower[i]), upper[i])
-    for k in range(m):
-        lam[k] = a_l[k] + p * b_l[k]
-    ok, res = _loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
-    if not ok:
-        # rounding beyond the check's tolerance: the singular path decides, as in lpik.methods.lp2
-        if singular_path == SINGULAR_PATH_NEVER:
-            return CHECK_FAILED, p, binding, res
-        code, p, binding, res = singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max,
-                                              G, g, dq, lam)  # fmt: skip
-        if code == SINGULAR and singular_path == SINGULAR_PATH_AFTER_CHECK:
-            return CHECK_FAILED, p, binding, res  # HiGHS decides: the caller's numpy method
-        return code, p, binding, res
-    return OK, p, binding, res
+    return False, min(1.0, max(0.0, p)), binding
 
 
 #: :func:`lp2_core` inlined at numba's IR level, for the batch loop: a call with 14
@@ -341,7 +383,7 @@ def lp2_batch_kernel(
     """
     B, m, n = J.shape
     chunks = max(1, min(B, chunks))
-    size = _workspace_size(n, m, G.shape[1])
+    size = workspace_size(n, m, G.shape[1])
     for chunk in prange(chunks):
         ws = np.empty(size)
         for b in range(chunk * B // chunks, (chunk + 1) * B // chunks):
