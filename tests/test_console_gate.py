@@ -299,9 +299,12 @@ def test_an_accepted_client_sending_the_same_messages_drives_every_control(plana
             while time.time() < deadline and len(list(tmp_path.iterdir())) < 2:
                 time.sleep(0.05)
             middle = _state(console, tmp_path)
-            # the gizmo moved; the loop's target follows only once view.py's _on_gizmo reads
-            # the event's handle (it reads .wxyz off the event and raises in viser's pool)
+            # the gizmo moved, and the loop's target with it (viser passes an event whose
+            # target is the gizmo; reading .wxyz off the event raised in viser's pool)
             np.testing.assert_allclose(console.view.gizmo.position, MOVED, atol=1e-6)
+            target = np.asarray(console.loop.target(), dtype=float)
+            moved_to = target[:3, 3] if target.shape == (4, 4) else target[:3]
+            np.testing.assert_allclose(moved_to[:2], MOVED[:2], atol=1e-6)
             s = middle["settings"]
             assert (s.method, s.v_max, s.w_max, s.qdd_max) == ("pinv", 1.5, 2.5, 5.0)
             assert len(middle["files"]) == 2  # the recording was started, stopped and saved

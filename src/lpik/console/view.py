@@ -205,7 +205,9 @@ class ConsoleView:
         except ValueError as exc:
             self._say(f"**not applied:** {exc}")
 
-    def _on_gizmo(self, handle: Any) -> None:
+    def _on_gizmo(self, event: Any) -> None:
+        # viser >= 1.1 passes an event whose ``target`` is the gizmo; older ones the gizmo
+        handle = getattr(event, "target", event)
         pose = np.eye(4)
         pose[:3, :3] = geo.rotation(handle.wxyz)
         pose[:3, 3] = handle.position
