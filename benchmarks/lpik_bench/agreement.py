@@ -259,7 +259,7 @@ def _lp2_batch_agreement(problems: Sequence[Any], batch: Any) -> Agreement:
     from lpik.methods.lp2 import lp2
 
     single = np.array([lp2(p, path="compiled").dq for p in problems])
-    result = lp2_batch(batch)
+    result = lp2_batch(batch, method="lp2")
     B = len(problems)
     return check_agreement(
         "lpik",

@@ -367,7 +367,7 @@ def batch_case(problems: list[Problem], size: int) -> Case:
     arrays = batch_arrays(problems, size)
 
     def run(i: int) -> object:
-        return lp2_batch(arrays)
+        return lp2_batch(arrays, method="lp2")
 
     return Case(
         "lpik",

@@ -34,7 +34,7 @@ def lpik_phases(robot: str) -> dict[str, float]:
     t4 = time.perf_counter()
     problems = [controller.problem(q, target)] * 8
     t5 = time.perf_counter()
-    lp2_batch(problems)
+    lp2_batch(problems, method="lp2")
     t6 = time.perf_counter()
     controller.step_batch(q[None], target[None], q[None])
     t7 = time.perf_counter()

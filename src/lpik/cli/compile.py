@@ -58,7 +58,7 @@ def compile_kernels() -> list[KernelLoad]:
     import numpy as np
 
     from lpik.control.controller import Lp2Controller
-    from lpik.fast import lp2_kernel, step
+    from lpik.fast import lp2_kernel, saturation, step
     from lpik.fast.autobound import bound_in_state
     from lpik.fast.avoiding_step import avoiding_kernel, loaded_avoiding_kernel
     from lpik.fast.batch import lp2_batch
@@ -111,7 +111,10 @@ def compile_kernels() -> list[KernelLoad]:
         lambda: lp2(problem, path="compiled"),
         lp2_kernel.lp2_kernel,
     )
-    ready("LP2 batch (lp2_batch)", lambda: lp2_batch([problem]), lp2_kernel.lp2_batch_kernel)
+    ready("LP2 batch (lp2_batch, lp2)", lambda: lp2_batch([problem], method="lp2"),
+          lp2_kernel.lp2_batch_kernel)  # fmt: skip
+    ready("LP2 with saturation, batch (lp2_batch, lp2s)", lambda: lp2_batch([problem]),
+          saturation.lp2s_batch_kernel)  # fmt: skip
     return loads
 
 
