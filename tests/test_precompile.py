@@ -19,7 +19,7 @@ NAMES = [
     "the automatic multiplier bound's rule, after a step on the HiGHS path",
     'LP2 ratio test (lp2, path="compiled")',
     "LP2 batch (lp2_batch, lp2)",
-    "LP2 with saturation, batch (lp2_batch, lp2s)",
+    "LP2 batch (lp2_batch, lp2s)",
 ]
 
 

@@ -19,6 +19,7 @@ import json
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from functools import partial
 from typing import Any
 
 
@@ -111,10 +112,9 @@ def compile_kernels() -> list[KernelLoad]:
         lambda: lp2(problem, path="compiled"),
         lp2_kernel.lp2_kernel,
     )
-    ready("LP2 batch (lp2_batch, lp2)", lambda: lp2_batch([problem], method="lp2"),
-          lp2_kernel.lp2_batch_kernel)  # fmt: skip
-    ready("LP2 with saturation, batch (lp2_batch, lp2s)", lambda: lp2_batch([problem]),
-          saturation.lp2s_batch_kernel)  # fmt: skip
+    for method, kernel in (("lp2", lp2_kernel.lp2_batch_kernel),
+                           ("lp2s", saturation.lp2s_batch_kernel)):  # fmt: skip
+        ready(f"LP2 batch (lp2_batch, {method})", partial(lp2_batch, [problem], method), kernel)
     return loads
 
 
