@@ -249,6 +249,8 @@ class Lp2Controller:
             scene_rows.attach(self._state, s)
             if scene_rows.avoidance.mechanism == "rows" and bool(compiled_distances):
                 self._compile_distances(scene_rows.avoidance)
+        self._coal_rows = scene_rows is not None and self.found is None  # rows written first
+        self._watch_stall = s.stall_watch.after is not None
         self._last: Result | None = None  # step_into's last outcome when not optimal
         self._last_code: int | None = None  # step_into's last kernel outcome (-1: see _last)
         # a Result for step_into: the automatic bound over a backend's kinematics (its probe)
@@ -360,7 +362,13 @@ class Lp2Controller:
                 non-finite values.
         """
         start = perf_counter()
-        code = self._run(q0, target, q_prev)
+        if self._coal_rows:
+            code = self._run(q0, target, q_prev)
+        else:  # the kernel straight away: its fast path
+            try:
+                code = self._kernel(self._state, q0, q0 if q_prev is None else q_prev, target)
+            except TypeError:  # not C-contiguous writable float64 arrays: convert them
+                code = self._run(q0, target, q_prev)
         out = self._out
         if code == OK and out.item(self._outside) < 0:
             out = out.copy()
@@ -374,13 +382,13 @@ class Lp2Controller:
             result = self._not_optimal(code, q0, target, q_prev, start)
         if self.automatic_bound is not None and result.p < FULL_P:
             result = self._bounded(q0, target, q_prev, result)
-        if self.stepper.stall_watch.after is None or not watch:
+        if not (self._watch_stall and watch):
             return result
         return self.stepper.stalled(result, lambda: self.problem(q0, target, q_prev))
 
     def _run(self, q0: Any, target: Any, q_prev: Any) -> int:
         """The kernel on the step's inputs (converted where they are not its arrays)."""
-        if self.scene_rows is not None and self.found is None:  # rows from coal, before the kernel
+        if self._coal_rows:  # the scene's rows from coal, before the kernel
             q0 = np.ascontiguousarray(q0, dtype=np.float64)
             if q0.shape != self._vector_shape or not np.isfinite(q0).all():
                 raise ValueError(f"q0: must be {self._n} finite coordinates")
@@ -420,11 +428,17 @@ class Lp2Controller:
                 f"out: must be a float64 array of shape ({self._n},), got "
                 f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
             )
-        if self.stepper.stall_watch.after is not None or self._python_bound:  # a Result
+        if self._watch_stall or self._python_bound:  # a Result
             self._last, self._last_code = self.step(q0, target, q_prev), -1
             out[...] = self._last.q
             return self._last.p
-        code = self._run(q0, target, q_prev)
+        if self._coal_rows:
+            code = self._run(q0, target, q_prev)
+        else:
+            try:
+                code = self._kernel(self._state, q0, q0 if q_prev is None else q_prev, target)
+            except TypeError:  # not C-contiguous writable float64 arrays: convert them
+                code = self._run(q0, target, q_prev)
         if code == OK and self._out.item(self._outside) < 0:
             self._last_code = code
             out[...] = self._q_view
