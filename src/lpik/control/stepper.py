@@ -23,6 +23,7 @@ runs name the paper's settings explicitly.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from functools import partial
@@ -149,6 +150,8 @@ class Stepper:
         self.task_rows = task_rows(model)
         #: Whether the last :meth:`step` clamped a classical step to the end-stops.
         self.clamped = False
+        #: Wall time [s] of the last :meth:`step`'s method, bound policy and stall stages.
+        self.solve_time = 0.0
 
     # -- the stages ---------------------------------------------------------------------
 
@@ -265,8 +268,10 @@ class Stepper:
         q = self._joints("q0", q0)
         prev = None if q_prev is None else self._joints("q_prev", q_prev)
         problem = self.problem(q, target, prev)
+        start = time.perf_counter()
         result = self.bounded(problem, self.solve(problem))
         result = self.stalled(result, lambda: problem)
+        self.solve_time = time.perf_counter() - start
         return self.applied(problem, result)
 
     def _joints(self, name: str, value: ArrayLike) -> FloatArray:
