@@ -63,24 +63,16 @@ from lpik.tolerances import (
 
 __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kernel"]
 
-#: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is: each helper
-#: bound to the compiled twins of those it calls (``_svd``: the Jacobi SVD). The parts
-#: :func:`~lpik.methods.singular.singular_core` is cut into (one call each) are inlined
-#: into it, so that it compiles as the one body it was.
+#: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
 _HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
             "singularity_code", "pull_room")  # fmt: skip
-_PARTS = ("_pinned_system", "_regular_count", "_affine_parts", "_singular_directions",
-          "_step_interval", "_multiplier_rows", "_eliminated", "_stage_interval",
-          "_free_multipliers", "_write_step")  # fmt: skip
 _loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
 condition_bound = njit(cache=True)(kkt.condition_bound)  # lp2s's later passes
 _stop = njit(cache=True)(singular._stop)  # the safe step, INFEASIBLE
-_twins = {"_svd": jacobi_svd, "loop_check": _loop_check, "_stop": _stop}
-for _name in _HELPERS:
-    _twins[_name] = compiled_twin(getattr(singular, _name), **_twins)
-for _name in _PARTS:
-    _twins[_name] = njit(inline="always")(compiled_twin(getattr(singular, _name), **_twins).py_func)
-singular_core = compiled_twin(singular.singular_core, **_twins)
+singular_core = compiled_twin(
+    singular.singular_core, _svd=jacobi_svd, loop_check=_loop_check, _stop=_stop,
+    **{name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS},
+)  # fmt: skip
 
 #: :func:`lpik.fast.workspace.workspace_size` (compiled), by its former name.
 _workspace_size = workspace_size
@@ -162,7 +154,14 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     av, bv = vector(ws, AV, n, m, r), vector(ws, BV, n, m, r)
     lo, hi = vector(ws, LO, n, m, r), vector(ws, HI, n, m, r)
     # --- affine solution: dq = a_q + p b_q, lam = a_l + p b_l (Schur complement) ---
-    if h_diag:  # pinned joints as in _solve_h
+    # A pinned joint (lower == upper: lpik.methods.kkt.pinned_system) keeps dq = d: its
+    # criterion row is dropped, its column of J leaves the Schur complement (H' is the
+    # identity there), and c' = c - H_FP d on the free joints, d on the pinned ones.
+    pins = False
+    for i in range(n):
+        if lower[i] == upper[i]:
+            pins = True
+    if h_diag:
         for i in range(n):
             if lower[i] == upper[i]:
                 for k in range(m):
@@ -174,9 +173,51 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             for k in range(m):
                 HinvJt[i, k] = J[k, i] / H[i, i]
             Hinvc[i] = c[i] / H[i, i]
-    elif not _solve_h(J, H, c, lower, upper, HinvJt, LH, Hinvc, col, out):
-        return SINGULAR, 0.0, -1, 0.0
-    if not _schur(J, HinvJt, S, LS, rhs, max_condition):
+    else:
+        for i in range(n):  # LH = H', factorised in place
+            for j in range(n):
+                LH[i, j] = H[i, j]
+                if pins and (lower[i] == upper[i] or lower[j] == upper[j]):
+                    LH[i, j] = 1.0 if i == j else 0.0
+        if not cholesky(LH, LH):
+            return SINGULAR, 0.0, -1, 0.0
+        for k in range(m):
+            for i in range(n):
+                col[i] = 0.0 if lower[i] == upper[i] else J[k, i]
+            cho_solve(LH, col, out)
+            for i in range(n):
+                HinvJt[i, k] = out[i]
+        for i in range(n):
+            if lower[i] == upper[i]:
+                col[i] = lower[i]
+            else:
+                s = c[i]
+                if pins:
+                    for j in range(n):
+                        if lower[j] == upper[j]:
+                            s -= H[i, j] * lower[j]
+                col[i] = s
+        cho_solve(LH, col, Hinvc)
+    for a in range(m):
+        for b in range(a, m):
+            s = 0.0
+            for i in range(n):
+                s += J[a, i] * HinvJt[i, b]
+            S[a, b] = s
+            S[b, a] = s
+    if not cholesky(S, LS):
+        if singular_path != SINGULAR_PATH_ALWAYS:
+            return SINGULAR, 0.0, -1, 0.0
+        return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
+    dmax, dmin = 0.0, np.inf
+    for a in range(m):
+        dmax = max(dmax, LS[a, a])
+        dmin = min(dmin, LS[a, a])
+    if (
+        not dmin > 0.0
+        or dmax > math.sqrt(MAX_SCHUR_CONDITION) * dmin
+        or (max_condition < MAX_SCHUR_CONDITION and condition_bound(S, LS, rhs) > max_condition)
+    ):
         if singular_path != SINGULAR_PATH_ALWAYS:
             return SINGULAR, 0.0, -1, 0.0
         return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
@@ -215,107 +256,6 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             sa += G[j, i] * a_q[i]
             sb += G[j, i] * b_q[i]
         av[n + m + j], bv[n + m + j], lo[n + m + j], hi[n + m + j] = sa, sb, -np.inf, g[j]
-    stop, p, binding = _ratio_test(av, bv, lo, hi, total)
-    if stop:
-        return _stop(lower, upper, dq, binding)
-    # --- the step, clipped to solver-tolerance excursions, and its own check ---
-    for i in range(n):
-        dq[i] = min(max(a_q[i] + p * b_q[i], lower[i]), upper[i])
-    for k in range(m):
-        lam[k] = a_l[k] + p * b_l[k]
-    ok, res = _loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
-    if ok:
-        return OK, p, binding, res
-    # rounding beyond the check's tolerance: the singular path decides, as in lpik.methods.lp2
-    if singular_path == SINGULAR_PATH_NEVER:
-        return CHECK_FAILED, p, binding, res
-    code, p, binding, res = singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max,
-                                          G, g, dq, lam)  # fmt: skip
-    if code == SINGULAR and singular_path == SINGULAR_PATH_AFTER_CHECK:
-        return CHECK_FAILED, p, binding, res  # HiGHS decides: the caller's numpy method
-    return code, p, binding, res
-
-
-@njit(inline="always")
-def _solve_h(J, H, c, lower, upper, HinvJt, LH, Hinvc, col, out):
-    """``H'^-1 J^T`` and ``H'^-1 c'`` over the free joints; False where ``H'`` is not definite.
-
-    A pinned joint (``lower == upper``: :func:`lpik.methods.kkt.pinned_system`)
-    keeps ``dq = d``: its criterion row is dropped, its column of ``J`` leaves
-    the Schur complement (``H'`` is the identity there), and ``c' = c - H_FP d``
-    on the free joints, ``d`` on the pinned ones. ``LH`` receives the Cholesky
-    factor of ``H'``; ``col`` and ``out`` are scratch.
-    """
-    m, n = J.shape
-    pins = False
-    for i in range(n):
-        if lower[i] == upper[i]:
-            pins = True
-    for i in range(n):  # LH = H', factorised in place
-        for j in range(n):
-            LH[i, j] = H[i, j]
-            if pins and (lower[i] == upper[i] or lower[j] == upper[j]):
-                LH[i, j] = 1.0 if i == j else 0.0
-    if not cholesky(LH, LH):
-        return False
-    for k in range(m):
-        for i in range(n):
-            col[i] = 0.0 if lower[i] == upper[i] else J[k, i]
-        cho_solve(LH, col, out)
-        for i in range(n):
-            HinvJt[i, k] = out[i]
-    for i in range(n):
-        if lower[i] == upper[i]:
-            col[i] = lower[i]
-        else:
-            s = c[i]
-            if pins:
-                for j in range(n):
-                    if lower[j] == upper[j]:
-                        s -= H[i, j] * lower[j]
-            col[i] = s
-    cho_solve(LH, col, Hinvc)
-    return True
-
-
-@njit(inline="always")
-def _schur(J, HinvJt, S, LS, scratch, max_condition):
-    """``S = J H'^-1 J^T`` and its Cholesky factor ``LS``; False where ``S`` is ill-conditioned.
-
-    Singular, or its condition over :data:`~lpik.tolerances.MAX_SCHUR_CONDITION`
-    by the factor's diagonal, or over ``max_condition`` by
-    :func:`~lpik.methods.kkt.condition_bound` (``scratch``: (m,)).
-    """
-    m, n = J.shape
-    for a in range(m):
-        for b in range(a, m):
-            s = 0.0
-            for i in range(n):
-                s += J[a, i] * HinvJt[i, b]
-            S[a, b] = s
-            S[b, a] = s
-    if not cholesky(S, LS):
-        return False
-    dmax, dmin = 0.0, np.inf
-    for a in range(m):
-        dmax = max(dmax, LS[a, a])
-        dmin = min(dmin, LS[a, a])
-    return not (
-        not dmin > 0.0
-        or dmax > math.sqrt(MAX_SCHUR_CONDITION) * dmin
-        or (max_condition < MAX_SCHUR_CONDITION and condition_bound(S, LS, scratch) > max_condition)
-    )
-
-
-@njit(inline="always")
-def _ratio_test(av, bv, lo, hi, total):
-    """The largest ``p`` in [0, 1] that keeps every entry ``a + p b`` within its bounds.
-
-    Returns ``(stop, p, binding)``: ``stop`` where no ``p`` is feasible (the
-    step is then the safe step, ``binding`` the limit that stops it); else
-    ``p`` and the limit that stops it (``-1``: none, ``p = 1``). A limit is
-    named only where one stops ``p`` (ties: :func:`lpik.fast.ratio.limit_code`).
-    """
     bmax = 0.0
     for k in range(total):
         bmax = max(bmax, abs(bv[k]))
@@ -335,18 +275,36 @@ def _ratio_test(av, bv, lo, hi, total):
             if stuck_lo < 0 and s_lo < 0:
                 stuck_lo = 2 * k
     if stuck_hi >= 0:
-        return True, 0.0, stuck_hi
+        return _stop(lower, upper, dq, stuck_hi)
     if stuck_lo >= 0:
-        return True, 0.0, stuck_lo
+        return _stop(lower, upper, dq, stuck_lo)
+    # a limit is named only where one stops p (ties: lpik.fast.ratio.limit_code)
     p_hi = min(1.0, min(up_hi, up_lo))
     p_lo = max(0.0, max(low_hi, low_lo))
     if p_hi < p_lo - INTERVAL_TOL:
         if p_lo > 1.0:
-            return True, 0.0, limit_code(av, bv, lo, hi, total, eps, False, low_hi, low_lo)
-        return True, 0.0, limit_code(av, bv, lo, hi, total, eps, True, up_hi, up_lo)
+            return _stop(lower, upper, dq, limit_code(av, bv, lo, hi, total, eps, False,
+                                                      low_hi, low_lo))  # fmt: skip
+        return _stop(lower, upper, dq, limit_code(av, bv, lo, hi, total, eps, True, up_hi, up_lo))
     p = max(p_hi, p_lo)
     binding = limit_code(av, bv, lo, hi, total, eps, True, up_hi, up_lo) if p < FULL_P else -1
-    return False, min(1.0, max(0.0, p)), binding
+    p = min(1.0, max(0.0, p))
+    # --- the step, clipped to solver-tolerance excursions, and its own check ---
+    for i in range(n):
+        dq[i] = min(max(a_q[i] + p * b_q[i], lower[i]), upper[i])
+    for k in range(m):
+        lam[k] = a_l[k] + p * b_l[k]
+    ok, res = _loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
+    if not ok:
+        # rounding beyond the check's tolerance: the singular path decides, as in lpik.methods.lp2
+        if singular_path == SINGULAR_PATH_NEVER:
+            return CHECK_FAILED, p, binding, res
+        code, p, binding, res = singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max,
+                                              G, g, dq, lam)  # fmt: skip
+        if code == SINGULAR and singular_path == SINGULAR_PATH_AFTER_CHECK:
+            return CHECK_FAILED, p, binding, res  # HiGHS decides: the caller's numpy method
+        return code, p, binding, res
+    return OK, p, binding, res
 
 
 #: :func:`lp2_core` inlined at numba's IR level, for the batch loop: a call with 14

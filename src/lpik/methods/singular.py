@@ -191,68 +191,7 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     """
     m, n = J.shape
     r = G.shape[0]
-    Hp, Jt, rhs, w_fixed = _pinned_system(J, H, c, c_ref, lower, upper)
-    L = np.linalg.cholesky(Hp)
-    Jh = _forward(L, Jt).T.copy()  # J L^-T, (m, n)
-    ch = _forward(L, rhs)  # L^-1 c and L^-1 c_ref, (n, 2)
-    U, sv, Vt = _svd(Jh)
-    regular = _regular_count(sv, min(m, n))
-    a_q, b_q, al, bl, e = _affine_parts(
-        L, Jh, ch, U, sv, Vt, w_fixed, regular, dw, lower, upper, lam_min, lam_max
-    )
-    sing = singularity_code(n, m, r)
-    consistent, fixed, p_fix = _singular_directions(U, e, w_fixed, dw, regular)
-    if not consistent:
-        return _stop(lower, upper, dq, sing)
-    stuck, p_lo, lo_code, p_hi, hi_code = _step_interval(a_q, b_q, lower, upper, G, g, m)
-    if stuck >= 0:
-        return _stop(lower, upper, dq, stuck)
-    # --- the multiplier bounds, the free directions eliminated ---
-    free = m - regular
-    bounded = False
-    for a in range(m):
-        if math.isfinite(lam_min[a]) or math.isfinite(lam_max[a]):
-            bounded = True
-    if bounded and free > MAX_FREE_MULTIPLIERS:
-        return SINGULAR, 0.0, -1, 0.0
-    nz = free if bounded else 0
-    stages = _eliminated(_multiplier_rows(al, bl, lam_min, lam_max, U, regular, nz, n), nz)
-    stuck, q_lo, q_lo_code, q_hi, q_hi_code = _stage_interval(stages[-1][0], stages[-1][1])
-    if stuck >= 0:
-        return _stop(lower, upper, dq, stuck)
-    if q_hi < p_hi:
-        p_hi, hi_code = q_hi, q_hi_code
-    if q_lo > p_lo:
-        p_lo, lo_code = q_lo, q_lo_code
-    top, bottom = min(1.0, p_hi), max(0.0, p_lo)
-    if top < bottom - INTERVAL_TOL:
-        return _stop(lower, upper, dq, lo_code if bottom > 1.0 else hi_code)
-    if fixed:
-        if p_fix > top + INTERVAL_TOL or p_fix < bottom - INTERVAL_TOL:
-            return _stop(lower, upper, dq, sing)
-        p = min(max(p_fix, bottom), max(top, bottom))
-        binding = sing if p < FULL_P else -1
-    else:
-        p = max(top, bottom)
-        binding = hi_code if p < FULL_P else -1
-    p = min(1.0, max(0.0, p))
-    z = _free_multipliers(stages, nz, p)
-    _write_step(a_q, b_q, al, bl, U, regular, z, nz, p, lower, upper, dq, lam)
-    ok, res = loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
-    if not ok:
-        return CHECK_FAILED, p, binding, res
-    return OK, p, binding, res
-
-
-def _pinned_system(J, H, c, c_ref, lower, upper):
-    """Eq. 18 over the free joints (:func:`lpik.methods.kkt.pinned_system`).
-
-    Returns ``(Hp, Jt, rhs, w_fixed)``: ``H'`` (the identity on the pinned
-    joints), ``J^T`` over the free joints, the right-hand sides ``c'`` and
-    ``c_ref`` as the two columns of ``rhs`` (``c'`` is ``d`` on a pinned joint),
-    and ``w_fixed = J d``, the pinned joints' motion ``d``.
-    """
-    m, n = J.shape
+    # --- eq. 18 over the free joints (lpik.methods.kkt.pinned_system) ---
     Hp = np.zeros((n, n))
     Jt = np.zeros((n, m))
     rhs = np.zeros((n, 2))
@@ -274,28 +213,17 @@ def _pinned_system(J, H, c, c_ref, lower, upper):
         rhs[i, 1] = c_ref[i]
         for a in range(m):
             Jt[i, a] = J[a, i]
-    return Hp, Jt, rhs, w_fixed
-
-
-def _regular_count(sv, k0):
-    """How many of the ``k0`` singular values ``sv`` are regular (above SINGULAR_RTOL's share)."""
+    L = np.linalg.cholesky(Hp)
+    Jh = _forward(L, Jt).T.copy()  # J L^-T, (m, n)
+    ch = _forward(L, rhs)  # L^-1 c and L^-1 c_ref, (n, 2)
+    U, sv, Vt = _svd(Jh)
+    k0 = min(m, n)
     smax = sv[0] if k0 > 0 else 0.0
     regular = 0
     for i in range(k0):
         if sv[i] > SINGULAR_RTOL * smax and sv[i] > 0.0:
             regular += 1
-    return regular
-
-
-def _affine_parts(L, Jh, ch, U, sv, Vt, w_fixed, regular, dw, lower, upper, lam_min, lam_max):
-    """The affine solution over the regular directions, with sec. 3.1's pull scaled in.
-
-    ``y = L^T dq = ay + p by`` and ``lam = al + p bl`` (plus the free
-    directions, later); the pull's shares ``ey`` and ``el`` are added scaled to
-    leave room for the command (:func:`lpik.methods.kkt.smoothing_scale`).
-    Returns ``(a_q, b_q, al, bl, e)`` with ``dq = a_q + p b_q`` and ``e = U^T dw``.
-    """
-    m, n = Jh.shape
+    # --- the affine parts: y = L^T dq = ay + p by, lam = al + p bl (+ free directions) ---
     jc, jr = w_fixed.copy(), np.zeros(m)
     for a in range(m):
         for j in range(n):
@@ -323,45 +251,32 @@ def _affine_parts(L, Jh, ch, U, sv, Vt, w_fixed, regular, dw, lower, upper, lam_
     _backward(L, ay, a_q)
     _backward(L, ey, e_q)
     _backward(L, by, b_q)
+    # --- sec. 3.1's pull, scaled to leave room for the command (smoothing_scale) ---
     scale = pull_room(al, el, lam_min, lam_max, pull_room(a_q, e_q, lower, upper, 1.0))
     for i in range(n):
         a_q[i] += scale * e_q[i]
     for a in range(m):
         al[a] += scale * el[a]
-    return a_q, b_q, al, bl, e
-
-
-def _singular_directions(U, e, w_fixed, dw, regular):
-    """The singular directions' rows ``t_i = p e_i``: what they leave of ``p``.
-
-    ``J`` is taken as the nearby matrix of lower rank: only the pinned joints'
-    motion lies along ``u_i``. Returns ``(consistent, fixed, p_fix)``: whether
-    the rows agree (else the outcome is the singularity), and whether they fix
-    ``p``, at ``p_fix``.
-    """
-    m = U.shape[0]
+    # --- the singular directions: t_i = p e_i ---
     wmax, fmax = 0.0, 0.0
     for a in range(m):
         wmax, fmax = max(wmax, abs(dw[a])), max(fmax, abs(w_fixed[a]))
     tol = 0.25 * EQUALITY_RTOL * max(1.0, wmax, fmax)
+    sing = singularity_code(n, m, r)
     fixed, p_fix = False, 0.0
     for i in range(regular, m):
+        # J as the nearby matrix of lower rank: only the pinned joints' motion lies along u_i
         ti = 0.0
         for a in range(m):
             ti += U[a, i] * w_fixed[a]
         if abs(e[i]) > tol:
             v = ti / e[i]
             if fixed and abs(v - p_fix) > INTERVAL_TOL * max(1.0, abs(v)):
-                return False, fixed, p_fix
+                return _stop(lower, upper, dq, sing)
             fixed, p_fix = True, v
         elif abs(ti) > tol:
-            return False, fixed, p_fix
-    return True, fixed, p_fix
-
-
-def _step_interval(a_q, b_q, lower, upper, G, g, m):
-    """:func:`_interval` of the bounds on ``dq`` and the rows, ``alpha + beta p <= 0``."""
-    n, r = a_q.shape[0], G.shape[0]
+            return _stop(lower, upper, dq, sing)
+    # --- bounds on dq and the rows: alpha + beta p <= 0 ---
     count = 2 * n + r
     alpha, beta = np.empty(count), np.empty(count)
     codes = np.empty(count, dtype=np.int64)
@@ -374,15 +289,18 @@ def _step_interval(a_q, b_q, lower, upper, G, g, m):
             sa += G[j, i] * a_q[i]
             sb += G[j, i] * b_q[i]
         alpha[2 * n + j], beta[2 * n + j], codes[2 * n + j] = sa - g[j], sb, 2 * (n + m + j) + 1
-    return _interval(alpha, beta, codes, count)
-
-
-def _multiplier_rows(al, bl, lam_min, lam_max, U, regular, nz, n):
-    """The finite multiplier bounds as rows ``(code, alpha, beta, gamma...)`` of :func:`_eliminate`.
-
-    ``gamma`` holds the ``nz`` free directions' coefficients. Returns the rows and their number.
-    """
-    m = al.shape[0]
+    stuck, p_lo, lo_code, p_hi, hi_code = _interval(alpha, beta, codes, count)
+    if stuck >= 0:
+        return _stop(lower, upper, dq, stuck)
+    # --- the multiplier bounds, the free directions eliminated ---
+    free = m - regular
+    bounded = False
+    for a in range(m):
+        if math.isfinite(lam_min[a]) or math.isfinite(lam_max[a]):
+            bounded = True
+    if bounded and free > MAX_FREE_MULTIPLIERS:
+        return SINGULAR, 0.0, -1, 0.0
+    nz = free if bounded else 0
     width = 3 + max(nz, 1)
     rows = np.zeros((2 * m, width))  # (code, alpha, beta, gamma...)
     nrows = 0
@@ -399,46 +317,53 @@ def _multiplier_rows(al, bl, lam_min, lam_max, U, regular, nz, n):
                 u = U[a, regular + j]
                 rows[nrows, 3 + j] = sign * u if abs(u) > RATE_TOL**0.5 else 0.0
             nrows += 1
-    return rows, nrows
-
-
-def _eliminated(first, nz):
-    """Every stage of Fourier-Motzkin from ``first`` (rows, count): the last has no free ``z``."""
-    stages = [first]
+    stages = [(rows, nrows)]
     for var in range(nz - 1, -1, -1):
         A, cnt = _eliminate(stages[-1][0], stages[-1][1], var)
         stages.append((A, cnt))
-    return stages
-
-
-def _stage_interval(last, cnt):
-    """:func:`_interval` of the rows ``last[:cnt]`` of the last stage, in ``p`` alone."""
+    last, cnt = stages[-1]
     lam_codes = np.empty(cnt, dtype=np.int64)
     for k in range(cnt):
         lam_codes[k] = int(last[k, 0])
-    return _interval(last[:cnt, 1].copy(), last[:cnt, 2].copy(), lam_codes, cnt)
-
-
-def _free_multipliers(stages, nz, p):
-    """The free directions' ``z``, by back-substitution, as close to 0 as the bounds allow."""
+    stuck, q_lo, q_lo_code, q_hi, q_hi_code = _interval(
+        last[:cnt, 1].copy(), last[:cnt, 2].copy(), lam_codes, cnt
+    )
+    if stuck >= 0:
+        return _stop(lower, upper, dq, stuck)
+    if q_hi < p_hi:
+        p_hi, hi_code = q_hi, q_hi_code
+    if q_lo > p_lo:
+        p_lo, lo_code = q_lo, q_lo_code
+    top, bottom = min(1.0, p_hi), max(0.0, p_lo)
+    if top < bottom - INTERVAL_TOL:
+        return _stop(lower, upper, dq, lo_code if bottom > 1.0 else hi_code)
+    if fixed:
+        if p_fix > top + INTERVAL_TOL or p_fix < bottom - INTERVAL_TOL:
+            return _stop(lower, upper, dq, sing)
+        p = min(max(p_fix, bottom), max(top, bottom))
+        binding = sing if p < FULL_P else -1
+    else:
+        p = max(top, bottom)
+        binding = hi_code if p < FULL_P else -1
+    p = min(1.0, max(0.0, p))
+    # --- the free directions, as close to 0 as the bounds allow ---
     z = np.zeros(max(nz, 1))
     for var in range(nz):
         A, cnt = stages[nz - 1 - var]
         lo, hi = _free_range(A, cnt, var, p, z)
         z[var] = min(max(0.0, lo), hi) if lo <= hi else 0.5 * (lo + hi)
-    return z
-
-
-def _write_step(a_q, b_q, al, bl, U, regular, z, nz, p, lower, upper, dq, lam):
-    """``dq`` (clipped to its bounds) and ``lam`` at ``p``, the free directions at ``z``."""
-    for i in range(dq.shape[0]):
+    for i in range(n):  # the step, and its own check (as lpik.check.check_step)
         dq[i] = min(max(a_q[i] + p * b_q[i], lower[i]), upper[i])
-    for a in range(lam.shape[0]):
+    for a in range(m):
         v = al[a] + p * bl[a]
         for j in range(nz):
             u = U[a, regular + j]
             v += u * z[j] if abs(u) > RATE_TOL**0.5 else 0.0
         lam[a] = v
+    ok, res = loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
+    if not ok:
+        return CHECK_FAILED, p, binding, res
+    return OK, p, binding, res
 
 
 def _stop(lower, upper, dq, binding):
