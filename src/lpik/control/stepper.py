@@ -60,6 +60,12 @@ from lpik.types import FloatArray
 __all__ = ["DEFAULT_METHOD", "Stepper"]
 
 
+def _under_bound(problem: Problem, bound: FloatArray) -> Problem:
+    """``problem`` with ``|lam_k| <= bound_k`` added to its multiplier bounds (sec. 3.2)."""
+    return problem.replace(lam_min=np.maximum(problem.lam_min, -bound),
+                           lam_max=np.minimum(problem.lam_max, bound))  # fmt: skip
+
+
 def _flag(name: str, value: Any) -> bool:
     if not isinstance(value, bool | np.bool_):
         raise ValueError(f"{name}: must be True or False, got {value!r}")
@@ -205,10 +211,7 @@ class Stepper:
             limits = (*limits, *self.avoidance.limits())
             weights = self.avoidance.weights(weights, q0, self.dt, J)
         P = build_problem(J, dw, q0, limits, dt=self.dt, q_prev=q_prev, **weights)
-        if bound is None:
-            return P
-        return P.replace(lam_min=np.maximum(P.lam_min, -bound),
-                         lam_max=np.minimum(P.lam_max, bound))  # fmt: skip
+        return P if bound is None else _under_bound(P, bound)
 
     def solve(self, problem: Problem, *, path: str | None = None) -> Result:
         """The method stage: the method on the problem (``path``: LP2's path, if it has one)."""
@@ -223,9 +226,7 @@ class Stepper:
         bound = self.bound_of(problem.q0, problem.J, result)
         if bound is None:
             return result
-        return self.solve(problem.replace(lam_min=np.maximum(problem.lam_min, -bound),
-                                          lam_max=np.minimum(problem.lam_max, bound)),
-                          path=path)  # fmt: skip
+        return self.solve(_under_bound(problem, bound), path=path)
 
     def bound_of(self, q0: FloatArray, J: FloatArray, result: Result) -> FloatArray | None:
         """The automatic bound's ``B`` for this step, or None where the step stays unbounded."""
