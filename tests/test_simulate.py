@@ -356,3 +356,18 @@ def test_planar_arm_without_limits_uses_model_limits() -> None:
     log = simulate(arm, ClampedTarget(np.array([0.0, 2.0, 0.0]), 1.0), [0.0, 0.0], 50, dt=0.1)
     assert np.abs(log.joint_velocities()).max() <= 0.5 + 1e-9
     assert log.q.max() <= 1.0 + 1e-12
+
+
+def test_simulate_and_reproduce_need_no_numba() -> None:
+    """`lpik reproduce`'s extra has no numba: the numpy engine imports nothing compiled."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; sys.modules['numba'] = None\n"
+        "import lpik, lpik.paper.reproduce, lpik.cli.main\n"
+        "from lpik.paper.scenarios import get_scenario\n"
+        "assert get_scenario('pull-in').run('lp2', steps=3).steps == 3\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr

@@ -108,11 +108,6 @@ def fuses_kinematics(model: TaskModel) -> bool:
     return isinstance(getattr(model, "kinematics", None), SerialChain)
 
 
-def placeholder_chain(n: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Chain blocks for a backend step, which does not read them: origins, axes, revolute, tip."""
-    return np.tile(np.eye(4), (n, 1, 1)), np.zeros((n, 3)), np.ones(n), np.eye(4)
-
-
 def step_functions(model: TaskModel, state: FloatArray) -> tuple[StepKernel, BatchRunner]:
     """The step and batch runner for ``model``: fused for a SerialChain, else the backend's."""
     if fuses_kinematics(model):

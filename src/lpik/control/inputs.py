@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 
 from lpik.command import TASK_ROWS, target_fits, task_rows
-from lpik.control.backend_step import placeholder_chain
 from lpik.limits import (
     AccelerationLimits,
     AutomaticMultiplierBounds,
@@ -192,6 +191,11 @@ def step_limits(
         G, h = extra_rows(G, h, n)
         held.append(LinearRows(G, h, row_names(row_labels)))
     return tuple(held)
+
+
+def placeholder_chain(n: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Chain blocks for a backend step, which does not read them: origins, axes, revolute, tip."""
+    return np.tile(np.eye(4), (n, 1, 1)), np.zeros((n, 3)), np.ones(n), np.eye(4)
 
 
 def chain_arrays(model: TaskModel) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
