@@ -302,6 +302,12 @@ class Lp2Controller:
         origins, axes, revolute, tip = chain_arrays(model)
         self._n, self._m = n, m
         self._labels = step_label_table(model.joint_names, m, template.row_labels)
+        #: An optimal step's fields as :func:`compiled_result` decodes them; the fast
+        #: path of :meth:`step` copies it and fills in the numbers.
+        self._optimal_fields = dict(
+            compiled_result(OK, np.empty(0), np.empty(0), 0.0, None, None, None, self.method,
+                            0.0, 0.0).__dict__
+        )  # fmt: skip
         return layout.pack(
             n, m, template.G.shape[0],
             h_diag=is_diagonal(H), dt=self.dt, v_max=self.v_max, w_max=self.w_max,
@@ -373,11 +379,15 @@ class Lp2Controller:
         if code == OK and out.item(self._outside) < 0:
             out = out.copy()
             label = out.item(self._label_at)
-            result = compiled_result(
-                OK, out[self._q], out[self._dq], out.item(self._p), out[self._lam],
-                None if label < 0 else self._labels[int(label)], None, self.method,
-                out.item(self._residual), perf_counter() - start,
-            )  # fmt: skip
+            fields = self._optimal_fields.copy()  # compiled_result's decoding, numbers filled in
+            fields["q"] = out[self._q]
+            fields["dq"] = out[self._dq]
+            fields["p"] = out.item(self._p)
+            fields["lam"] = out[self._lam]
+            fields["binding"] = None if label < 0 else self._labels[int(label)]
+            fields["residual"] = out.item(self._residual)
+            fields["solve_time"] = perf_counter() - start
+            result = Result.trusted(fields)
         else:
             result = self._not_optimal(code, q0, target, q_prev, start)
         if self.automatic_bound is not None and result.p < FULL_P:
