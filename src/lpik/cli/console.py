@@ -1,4 +1,4 @@
-"""``lpik console --robot NAME | --planar``: the live operator console in the browser.
+"""``lpik console --robot NAME | --urdf FILE --tip LINK | --planar``: the console in the browser.
 
 Starts the robot's controller in a server thread and a web page to drive it
 (:mod:`lpik.console`), prints the page's URL and runs until Ctrl-C (or
@@ -18,6 +18,7 @@ from typing import Any
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Register ``lpik console`` (light: viser is imported only when it runs)."""
+    from lpik.cli.robots import add_robot_arguments
     from lpik.console.app import DEFAULT_HOST, DEFAULT_PORT
     from lpik.methods.registry import METHODS
 
@@ -29,8 +30,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "the page shows the robot, the scene, a target gizmo, p and the binding limit. "
         "Needs viser: pip install 'lpik[console]'.",
     )
-    which = parser.add_mutually_exclusive_group(required=True)
-    which.add_argument("--robot", metavar="NAME", help="a bundled 3-D arm (lpik robots)")
+    which = add_robot_arguments(parser)
     which.add_argument("--planar", action="store_true", help="the paper's planar 4-link arm")
     parser.add_argument(
         "--scene", metavar="SCENE.json", help="obstacles to avoid (2-D for --planar)"
@@ -63,6 +63,7 @@ def _interrupt(signum: int, frame: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the console until interrupted; 0 after a clean stop."""
+    from lpik.cli.robots import robot_from_arguments
     from lpik.console.app import Console
     from lpik.console.gate import resolve_host
     from lpik.console.robot import console_robot
@@ -70,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     from lpik.paper.scenarios import PLANAR
 
     resolve_host(args.host)  # a host that is not this machine's: one line, at once
-    robot = console_robot(PLANAR if args.planar else args.robot, args.scene)
+    robot = console_robot(PLANAR if args.planar else robot_from_arguments(args), args.scene)
     settings = Settings(method=args.method, v_max=robot.v_max, w_max=robot.w_max)
     console = Console(
         robot, host=args.host, port=args.port, settings=settings, record_dir=args.record_dir

@@ -4,6 +4,10 @@
 ``n_joints``, ``joint_names``, ``q_min``, ``q_max`` [rad], ``qd_max`` [rad/s],
 ``tip_link`` and ``urdf`` (path of the file used); an unbounded limit is
 ``null``.
+
+Every command that drives an arm takes it the same way, through
+:func:`add_robot_arguments` and :func:`robot_from_arguments`: ``--robot NAME``
+(a bundled arm) or ``--urdf FILE --tip LINK [--base LINK]`` (any URDF's chain).
 """
 
 from __future__ import annotations
@@ -11,8 +15,101 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from lpik.robots.arm import Arm
 
 JSON_KEYS = ("name", "n_joints", "joint_names", "q_min", "q_max", "qd_max", "tip_link", "urdf")
+
+
+def add_robot_arguments(
+    parser: argparse.ArgumentParser,
+    *,
+    default: str | None = None,
+    robot_help: str = "a bundled 3-D arm (lpik robots)",
+) -> argparse._MutuallyExclusiveGroup:
+    """Add ``--robot NAME`` or ``--urdf FILE``, with ``--tip LINK`` and ``--base LINK``.
+
+    ``--robot`` and ``--urdf`` exclude each other; read the choice with
+    :func:`robot_from_arguments`.
+
+    Args:
+        parser: The command's parser.
+        default: ``--robot``'s default; None makes one of the group required.
+        robot_help: ``--robot``'s help.
+
+    Returns:
+        The group of ``--robot`` and ``--urdf``, for a command to add another
+        choice to (``lpik console --planar``).
+    """
+    which = parser.add_mutually_exclusive_group(required=default is None)
+    which.add_argument("--robot", metavar="NAME", default=default, help=robot_help)
+    which.add_argument(
+        "--urdf",
+        metavar="FILE.urdf",
+        help="any arm from a URDF file (with --tip), started in the middle of its end-stops",
+    )
+    parser.add_argument(
+        "--tip", metavar="LINK", help="with --urdf: the link that carries the task point"
+    )
+    parser.add_argument(
+        "--base",
+        metavar="LINK",
+        help="with --urdf: the link whose frame is the world frame (default: the URDF's root)",
+    )
+    return which
+
+
+def robot_from_arguments(args: argparse.Namespace) -> str | Arm:
+    """The arm that :func:`add_robot_arguments`' options name: ``--robot``'s name, or a URDF's.
+
+    ``--robot NAME`` is returned as the name (checked where it is used, as
+    before); ``--urdf FILE --tip LINK [--base LINK]`` as an
+    :class:`lpik.robots.arm.Arm`, which ``Scenario.setup``, ``reach_setup`` and
+    ``console_robot`` take in place of a name.
+
+    Raises:
+        ValueError: One line naming the option: ``--tip`` or ``--base`` without
+            ``--urdf``, ``--urdf`` without ``--tip``, a file that is missing or
+            not a valid URDF, a link the URDF does not have, a chain that is no
+            chain or has no moving joint.
+    """
+    if args.urdf is None:
+        for option in ("tip", "base"):
+            if getattr(args, option) is not None:
+                raise ValueError(f"--{option}: only with --urdf FILE")
+        return str(args.robot)
+    if args.tip is None:
+        raise ValueError("--tip: --urdf needs the link of the task point: --tip LINK")
+    return _urdf_arm(args.urdf, args.tip, args.base)
+
+
+def _urdf_arm(file: str, tip: str, base: str | None) -> Arm:
+    """``--urdf FILE --tip LINK [--base LINK]`` read, or a one-line error naming the option."""
+    from lpik.robots.arm import urdf_arm
+    from lpik.robots.urdf import parse_urdf
+
+    path = Path(file)
+    if not path.is_file():
+        reason = "it is a directory" if path.is_dir() else "no such file"
+        raise ValueError(f"--urdf: cannot read {file!r}: {reason}")
+    try:
+        robot = parse_urdf(path)
+    except ValueError as exc:
+        raise ValueError(f"--urdf: {exc}") from None
+    links = [link.name for link in robot.links]
+    for option, link in (("--tip", tip), ("--base", base)):
+        if link is not None and link not in robot.link_map:
+            raise ValueError(
+                f"{option}: {file!r} has no link {link!r}; its links: "
+                + ", ".join(repr(name) for name in links)
+            )
+    try:
+        return urdf_arm(path, tip_link=tip, base_link=base)
+    except ValueError as exc:
+        raise ValueError(f"--urdf: {exc}") from None
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

@@ -111,7 +111,11 @@ def _epilog() -> str:
                 "by distance rows (--avoid rows), the paper's potential field (--avoid field) "
                 "or both."
             ),
-            _paragraph(f"robots: {PLANAR} (default), {', '.join(robot_names())}."),
+            _paragraph(
+                f"robots: {PLANAR} (default), {', '.join(robot_names())}; or any arm of a URDF "
+                "file: --urdf FILE --tip LINK [--base LINK], started in the middle of its "
+                "end-stops."
+            ),
             _paragraph(
                 "CSV columns, one row per step: t, q1..qn [rad], x, y (planar) or x, y, z [m], "
                 "p, lam1..lamm (the state before the step, the step's dexterity and "
@@ -131,6 +135,7 @@ def _epilog() -> str:
 
 def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """The run: scenario or target, robot, method, limits, steps and period."""
+    from lpik.cli.robots import add_robot_arguments
     from lpik.paper.scenarios import PLANAR, SCENARIOS
 
     parser.add_argument(
@@ -144,11 +149,11 @@ def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
         help="reach: the point [m] the tool point moves to from the home configuration at "
         "v_max, its orientation held",
     )
-    parser.add_argument(
-        "--robot",
-        metavar="NAME",
+    add_robot_arguments(
+        parser,
         default=PLANAR,
-        help=f"'{PLANAR}' (the paper's 4-link arm, default) or a bundled 3-D arm (lpik robots)",
+        robot_help=f"'{PLANAR}' (the paper's 4-link arm, default) or a bundled 3-D arm "
+        "(lpik robots)",
     )
     parser.add_argument(
         "--method",
@@ -442,13 +447,15 @@ def run_options(args: argparse.Namespace) -> dict[str, object]:
 
 
 def _setup(args: argparse.Namespace) -> Setup:
-    """The run: a scenario on ``--robot``, or ``reach`` to ``--target``."""
+    """The run: a scenario on ``--robot`` (or ``--urdf``), or ``reach`` to ``--target``."""
+    from lpik.cli.robots import robot_from_arguments
     from lpik.paper.scenarios import get_scenario
 
+    robot = robot_from_arguments(args)
     if args.scenario != "reach":
         if args.target is not None:
             raise ValueError("--target: only for the scenario 'reach'")
-        return get_scenario(args.scenario).setup(args.robot)
+        return get_scenario(args.scenario).setup(robot)
     from lpik.paper.reach import reach_setup
 
     if args.target is None:
@@ -457,7 +464,7 @@ def _setup(args: argparse.Namespace) -> Setup:
         point = [float(v) for v in args.target.split(",")]
     except ValueError:
         raise ValueError(f"--target: must be numbers X,Y,Z [m], got {args.target!r}") from None
-    return reach_setup(args.robot, point)
+    return reach_setup(robot, point)
 
 
 def _avoidance(args: argparse.Namespace, setup: Setup) -> object:
@@ -473,12 +480,11 @@ def _avoidance(args: argparse.Namespace, setup: Setup) -> object:
 def run(args: argparse.Namespace) -> int:
     """Run the scenario; write the CSV, figure and animation that were asked for."""
     from lpik.cli.progress import LazyProgress
-    from lpik.paper.scenarios import PLANAR
 
     _check_options(args)
     out, fig, gif = _outputs(args)
     setup = _setup(args)
-    if gif is not None and args.robot != PLANAR:
+    if gif is not None and setup.model.position_dims != 2:
         raise ValueError("--animate: draws the planar arm only; use --plot for 3-D runs")
     avoid = _avoidance(args, setup)
     on_stdout = out == STDOUT

@@ -3,8 +3,9 @@
 :func:`console_robot` builds a :class:`ConsoleRobot` for the paper's planar arm
 (the ``pull-in`` scenario's arm of :mod:`lpik.paper.scenarios`: links 1 m,
 ``q1 <= 95`` deg, joint velocity limit 1 rad/s, period 0.01 s, ``v_max`` 0.5 m/s)
-or for a bundled 3-D arm (pose task from its home configuration, period 0.001 s,
-the command law's default speeds), optionally with a scene of obstacles.
+or for a 3-D arm, bundled or read from a URDF (:class:`lpik.robots.arm.Arm`;
+pose task from its start configuration, period 0.001 s, the command law's
+default speeds), optionally with a scene of obstacles.
 """
 
 from __future__ import annotations
@@ -18,8 +19,8 @@ import numpy as np
 from lpik.collision import LinkCapsule, Scene, default_capsules, frame_capsules, load_scene
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik.paper.scenarios import PLANAR, get_scenario
+from lpik.robots.arm import Arm, as_arm
 from lpik.robots.base import TaskModel
-from lpik.robots.registry import home_configuration, load_robot
 from lpik.types import FloatArray
 
 #: Control period of the 3-D arms [s] (1 kHz).
@@ -76,11 +77,15 @@ def _capsules(model: Any) -> tuple[LinkCapsule, ...]:
         return frame_capsules(model, DRAWING_RADIUS)
 
 
-def console_robot(name: str = PLANAR, scene: str | Path | Scene | None = None) -> ConsoleRobot:
-    """The robot called ``name`` (``"planar"`` or a bundled arm), with ``scene`` when given.
+def console_robot(
+    name: str | Arm = PLANAR, scene: str | Path | Scene | None = None
+) -> ConsoleRobot:
+    """The robot ``name`` (``"planar"``, a bundled arm or an ``Arm``), with ``scene`` when given.
 
     Args:
-        name: ``"planar"`` (the paper's arm) or a name of :func:`lpik.robots.registry.robot_names`.
+        name: ``"planar"`` (the paper's arm), a name of
+            :func:`lpik.robots.registry.robot_names` or an :class:`~lpik.robots.arm.Arm`
+            (a URDF's chain and its start).
         scene: A scene JSON file, a :class:`~lpik.collision.Scene`, or None.
 
     Raises:
@@ -88,18 +93,19 @@ def console_robot(name: str = PLANAR, scene: str | Path | Scene | None = None) -
     """
     if isinstance(scene, str | Path):
         scene = load_scene(scene)
-    if name == PLANAR:
-        setup = get_scenario("pull-in").setup(PLANAR)
+    planar = name == PLANAR
+    if planar:
+        label, setup = PLANAR, get_scenario("pull-in").setup(PLANAR)
         model, q0, dt, v_max, w_max = setup.model, setup.q0, setup.dt, setup.v_max, setup.w_max
     else:
-        model = load_robot(name)
-        q0, dt, v_max, w_max = home_configuration(name), ARM_DT, DEFAULT_V_MAX, DEFAULT_W_MAX
-    planar = name == PLANAR
+        arm = as_arm(name)
+        label, model = arm.name, arm.task("pose")
+        q0, dt, v_max, w_max = arm.home, ARM_DT, DEFAULT_V_MAX, DEFAULT_W_MAX
     if scene is not None and (scene.dims == 2) != planar:
         want = "a 2-D scene" if planar else "a 3-D scene"
-        raise ValueError(f"scene: the {name} arm needs {want}, got a {scene.dims}-D one")
+        raise ValueError(f"scene: the {label} arm needs {want}, got a {scene.dims}-D one")
     return ConsoleRobot(
-        name=name,
+        name=label,
         model=model,
         q0=np.array(q0, dtype=float),
         dt=float(dt),

@@ -15,8 +15,8 @@ import numpy as np
 
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik.paper.scenarios import PLANAR, PaperArm, Setup
+from lpik.robots.arm import Arm, as_arm
 from lpik.robots.planar import planar_arm
-from lpik.robots.registry import home_configuration, load_robot
 
 #: Default steps of a reach run (10 s at ``dt``).
 REACH_STEPS = 1000
@@ -24,11 +24,12 @@ REACH_STEPS = 1000
 REACH_DT = 0.01
 
 
-def reach_setup(robot: str, target: Sequence[float]) -> Setup:
+def reach_setup(robot: str | Arm, target: Sequence[float]) -> Setup:
     """The run toward ``target`` on ``robot`` (see the module docstring).
 
     Args:
-        robot: :data:`~lpik.paper.scenarios.PLANAR` or a bundled arm's name.
+        robot: :data:`~lpik.paper.scenarios.PLANAR`, a bundled arm's name or an
+            :class:`~lpik.robots.arm.Arm` (a URDF's).
         target: The point [m]: x, y, z (a planar arm takes x, y, or z = 0).
 
     Raises:
@@ -51,13 +52,13 @@ def reach_setup(robot: str, target: Sequence[float]) -> Setup:
         )  # fmt: skip
     if point.size != 3:
         raise ValueError(f"--target: a 3-D arm needs X,Y,Z [m], got {list(target)}")
-    model = load_robot(robot, task="pose")
-    q0 = home_configuration(robot)
+    arm = as_arm(robot)
+    model, q0 = arm.task("pose"), arm.home.copy()
     pose = np.array(model.kinematics.fk(q0), dtype=np.float64)  # type: ignore[attr-defined]
     pose[:3, 3] = point
     n = model.n_joints
     return Setup(
-        name=f"reach {robot}", robot=robot, model=model, q0=q0, target=pose,
+        name=f"reach {arm.name}", robot=arm.name, model=model, q0=q0, target=pose,
         v_max=DEFAULT_V_MAX, w_max=DEFAULT_W_MAX, dt=REACH_DT, steps=REACH_STEPS,
         weights={"M": np.ones(n), "f": np.zeros(n)},
     )  # fmt: skip

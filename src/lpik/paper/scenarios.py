@@ -42,9 +42,10 @@ from lpik.command import DEFAULT_W_MAX
 from lpik.methods.registry import DEFAULT_METHOD
 from lpik.naming import lookup
 from lpik.paper.setup import Setup
+from lpik.robots.arm import Arm, as_arm
 from lpik.robots.base import TaskModel
 from lpik.robots.planar import planar_arm
-from lpik.robots.registry import home_configuration, load_robot, robot_names
+from lpik.robots.registry import robot_names
 from lpik.types import FloatArray
 
 if TYPE_CHECKING:
@@ -187,8 +188,8 @@ class Scenario:
             f"at {arm.v_max:g} m/s, {held}; the URDF's end-stops and velocity limits.{defaults}"
         )
 
-    def setup(self, robot: str = PLANAR) -> Setup:
-        """This scenario on ``robot`` (:data:`PLANAR` or a bundled robot's name).
+    def setup(self, robot: str | Arm = PLANAR) -> Setup:
+        """This scenario on ``robot`` (:data:`PLANAR`, a bundled robot's name or an ``Arm``).
 
         Raises:
             ValueError: For an unknown robot (the message lists the names).
@@ -206,17 +207,18 @@ class Scenario:
                 weights={"M": np.ones(n), "f": np.zeros(n), "Lambda": np.zeros(n)},
                 scene=None if arm.obstacle is None else _circle_scene(arm.obstacle),
             )  # fmt: skip
-        lookup(dict.fromkeys((PLANAR, *robot_names())), robot, "robot: unknown robot")
+        if not isinstance(robot, Arm):
+            lookup(dict.fromkeys((PLANAR, *robot_names())), robot, "robot: unknown robot")
         if self.arm is None:
             raise ValueError(
                 f"robot: scenario '{self.name}' runs on the '{PLANAR}' arm only; on a 3-D arm "
                 "use lpik simulate reach --robot NAME --target X,Y,Z --scene SCENE.json"
             )
-        model = load_robot(robot, task=self.arm.task)
-        q0 = home_configuration(robot)
+        arm = as_arm(robot)
+        model, q0 = arm.task(self.arm.task), arm.home.copy()
         n = model.n_joints
         return Setup(
-            name=f"{self.name} {robot}", robot=robot, model=model, q0=q0,
+            name=f"{self.name} {arm.name}", robot=arm.name, model=model, q0=q0,
             target=self.arm.target(model, q0), v_max=self.arm.v_max, w_max=DEFAULT_W_MAX,
             dt=self.dt, steps=self.steps, weights={"M": np.ones(n), "f": np.zeros(n)},
         )  # fmt: skip
@@ -225,7 +227,7 @@ class Scenario:
         self,
         method: str = DEFAULT_METHOD,
         *,
-        robot: str = PLANAR,
+        robot: str | Arm = PLANAR,
         lambda_bound: float | str | None = "auto",
         steps: int | None = None,
         dt: float | None = None,
