@@ -63,15 +63,16 @@ def _interrupt(signum: int, frame: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the console until interrupted; 0 after a clean stop."""
-    from lpik.cli.robots import robot_from_arguments
+    from lpik.cli.robots import check_scene_fits, robot_from_arguments
     from lpik.console.app import Console
     from lpik.console.gate import resolve_host
     from lpik.console.robot import console_robot
     from lpik.console.stepper import Settings
-    from lpik.paper.scenarios import PLANAR
 
     resolve_host(args.host)  # a host that is not this machine's: one line, at once
-    robot = console_robot(PLANAR if args.planar else robot_from_arguments(args), args.scene)
+    arm = robot_from_arguments(args)  # the planar arm's name with --planar
+    check_scene_fits(arm, args.scene)
+    robot = console_robot(arm, args.scene)
     settings = Settings(method=args.method, v_max=robot.v_max, w_max=robot.w_max)
     console = Console(
         robot, host=args.host, port=args.port, settings=settings, record_dir=args.record_dir

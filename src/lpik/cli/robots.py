@@ -65,8 +65,9 @@ def add_robot_arguments(
 def robot_from_arguments(args: argparse.Namespace) -> str | Arm:
     """The arm that :func:`add_robot_arguments`' options name: ``--robot``'s name, or a URDF's.
 
-    ``--robot NAME`` is returned as the name (checked where it is used, as
-    before); ``--urdf FILE --tip LINK [--base LINK]`` as an
+    ``--robot NAME`` is returned as the name (checked where it is used); neither
+    ``--robot`` nor ``--urdf`` (``lpik console --planar``) as the planar arm's
+    name; ``--urdf FILE --tip LINK [--base LINK]`` as an
     :class:`lpik.robots.arm.Arm`, which ``Scenario.setup``, ``reach_setup`` and
     ``console_robot`` take in place of a name.
 
@@ -76,11 +77,13 @@ def robot_from_arguments(args: argparse.Namespace) -> str | Arm:
             not a valid URDF, a link the URDF does not have, a chain that is no
             chain or has no moving joint.
     """
+    from lpik.paper.scenarios import PLANAR
+
     if args.urdf is None:
         for option in ("tip", "base"):
             if getattr(args, option) is not None:
                 raise ValueError(f"--{option}: only with --urdf FILE")
-        return str(args.robot)
+        return PLANAR if args.robot is None else str(args.robot)
     if args.tip is None:
         raise ValueError("--tip: --urdf needs the link of the task point: --tip LINK")
     return _urdf_arm(args.urdf, args.tip, args.base)
@@ -110,6 +113,32 @@ def _urdf_arm(file: str, tip: str, base: str | None) -> Arm:
         return urdf_arm(path, tip_link=tip, base_link=base)
     except ValueError as exc:
         raise ValueError(f"--urdf: {exc}") from None
+
+
+def check_scene_fits(robot: str | Arm, scene: object) -> None:
+    """Refuse ``--scene`` for a ``--urdf`` arm whose links' collision radii lpik does not know.
+
+    Collision avoidance needs every link's capsule; lpik knows them for the
+    bundled arms (and a URDF's chain only when it is one of them, by name).
+
+    Raises:
+        ValueError: One line naming ``--scene``.
+    """
+    from lpik.robots.arm import Arm
+
+    if scene is None or not isinstance(robot, Arm):
+        return
+    from lpik.collision import default_capsules
+    from lpik.robots.registry import robot_names
+
+    try:
+        default_capsules(robot.chain)
+    except (ValueError, KeyError):
+        raise ValueError(
+            f"--scene: collision avoidance needs the links' radii, which lpik knows for the "
+            f"bundled arms only ({', '.join(robot_names())}), not for {robot.name!r} of --urdf; "
+            "in Python, pass radii= to lpik.collision.collision_avoidance"
+        ) from None
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

@@ -448,10 +448,11 @@ def run_options(args: argparse.Namespace) -> dict[str, object]:
 
 def _setup(args: argparse.Namespace) -> Setup:
     """The run: a scenario on ``--robot`` (or ``--urdf``), or ``reach`` to ``--target``."""
-    from lpik.cli.robots import robot_from_arguments
+    from lpik.cli.robots import check_scene_fits, robot_from_arguments
     from lpik.paper.scenarios import get_scenario
 
     robot = robot_from_arguments(args)
+    check_scene_fits(robot, args.scene)
     if args.scenario != "reach":
         if args.target is not None:
             raise ValueError("--target: only for the scenario 'reach'")
