@@ -1,11 +1,12 @@
 """The target gizmo works by mouse: a drag in headless Chromium moves the target, the arm follows.
 
 The test sets the page's camera (through viser's client handle) to look down
-at the target, projects a point of the gizmo's x arrow to the screen with that
-camera (viser's camera frame is OpenCV's: x right, y down, z forward; ``fov``
-is vertical), and drags it 1 m towards the base with ``page.mouse``. Only the
-page's own events move the target: nothing is set through Python. Skipped, with
-the reason, where Playwright or Chromium is missing (as ``test_console_browser``).
+near the target and waits until the page reports it, projects a point of the
+gizmo's x arrow to the screen with that camera (viser's camera frame is
+OpenCV's: x right, y down, z forward; ``fov`` is vertical), and drags it 1 m
+towards the base with ``page.mouse``. Only the page's own events move the
+target: nothing is set through Python. Skipped, with the reason, where
+Playwright or Chromium is missing (as ``test_console_browser``).
 """
 
 from __future__ import annotations
@@ -25,12 +26,13 @@ from console_browser import browser_problem, chromium, open_console  # noqa: E40
 PROBLEM = browser_problem()
 pytestmark = pytest.mark.skipif(PROBLEM is not None, reason=f"no browser test: {PROBLEM}")
 
-#: The camera's offset from the target [m]: above it and towards -y, looking at it.
-CAMERA_OFFSET = (0.0, -0.8, 1.6)
+#: The camera's offset from the target [m] (above it, towards -y), and where it looks: right
+#: of the target, so that the drag runs left of the page's panel (on the right).
+CAMERA_OFFSET, LOOK_AT = (0.3, -0.8, 1.6), (0.3, 0.0, 0.0)
 #: The point of the gizmo's x arrow that is grabbed, as a share of the gizmo's scale.
 GRAB_AT = 0.6
-#: The page's size [px]: small, since every mouse event waits for a frame rendered in software.
-VIEW = (960, 600)
+#: The page's size [px]: small, since its WebGL renders in software.
+VIEW = (800, 500)
 #: How far the drag moves the target along -x [m].
 DRAG = 1.0
 #: The arm has followed when the tool is this share of the way from the target, or closer.
@@ -58,6 +60,20 @@ def _camera(console) -> object:
     return reported()[0].camera
 
 
+def _aim(camera, position: np.ndarray, look_at: np.ndarray) -> None:
+    """Set the page's camera, and wait until the page reports it has taken it."""
+    camera.position = position
+    camera.look_at = look_at
+    sent = camera.update_timestamp
+
+    def taken() -> bool:
+        return camera.update_timestamp > sent and np.allclose(
+            [camera.position, camera.look_at], [position, look_at], atol=1e-4
+        )
+
+    assert _wait(taken, 10), "the page did not take the camera"
+
+
 def _canvas_box(page) -> list[float]:
     """x, y, width, height [px] of the 3-D view: the page's largest canvas."""
     return page.evaluate(
@@ -82,7 +98,7 @@ def _screen(camera, box: list[float], point: np.ndarray) -> tuple[float, float]:
     )
 
 
-def _drag(page, start: tuple[float, float], end: tuple[float, float], steps: int = 2) -> None:
+def _drag(page, start: tuple[float, float], end: tuple[float, float], steps: int = 1) -> None:
     page.mouse.move(*start)
     page.mouse.down()
     for k in range(1, steps + 1):
@@ -100,9 +116,7 @@ def test_dragging_the_gizmo_moves_the_target_and_the_arm_follows() -> None:
         loop, robot = console.loop, console.loop.robot
         home = np.asarray(loop.target(), dtype=float)
         camera = _camera(console)
-        camera.position = home + np.asarray(CAMERA_OFFSET)
-        camera.look_at = home
-        time.sleep(1.0)  # the page applies the camera
+        _aim(camera, home + np.asarray(CAMERA_OFFSET), home + np.asarray(LOOK_AT))
         grab = home + [GRAB_AT * console.view.gizmo.scale, 0.0, 0.0]
         box = _canvas_box(page)
         _drag(page, _screen(camera, box, grab), _screen(camera, box, grab - [DRAG, 0.0, 0.0]))
