@@ -39,6 +39,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("fast", ("lpik.fast",)),
     ("control", ("lpik.control",)),
     ("paper", ("lpik.paper",)),
+    ("maps", ("lpik.maps",)),
     ("console", ("lpik.console",)),
     ("cli", ("lpik.cli",)),
     ("facade", ("lpik",)),

@@ -17,7 +17,7 @@ from typing import NoReturn
 from lpik.version import __version__
 
 #: Subcommand modules under ``lpik.cli``, in the order ``--help`` lists them.
-SUBCOMMANDS = ("solve", "simulate", "reproduce", "robots", "console", "bench", "compile")
+SUBCOMMANDS = ("solve", "simulate", "reproduce", "robots", "console", "map", "bench", "compile")
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 1
