@@ -64,9 +64,15 @@ def two_workers(one_worker):  # after one_worker: the workers load the compiled 
 
 
 @pytest.fixture(scope="module")
-def planar_map(one_worker, tmp_path_factory):
+def planar_path(one_worker, tmp_path_factory):
     out = tmp_path_factory.mktemp("maps") / "planar"
-    return build_map("planar", out=out, scheduler=one_worker, chunk=3, **PLANAR)
+    run_map("planar", out=out, scheduler=one_worker, chunk=3, **PLANAR)
+    return out
+
+
+@pytest.fixture(scope="module")
+def planar_map(planar_path):
+    return open_map(planar_path)
 
 
 def _arrays(dataset):
@@ -381,3 +387,44 @@ def test_base_placement_ranks_the_bases_by_the_weakest_task_row(two_workers, tmp
     ds = open_map(tmp_path / "p")
     assert ds.attrs["kind"] == "base placement" and ds["task_position"].shape == (2, 3)
     assert "best base position" in out and (tmp_path / "place.png").exists()
+
+
+class _Scene:
+    """A viser scene that records what is added to it."""
+
+    def __init__(self) -> None:
+        self.added: dict[str, dict] = {}
+
+    def add_batched_meshes_simple(self, name, **kwargs):
+        self.added[name] = kwargs
+
+    def add_line_segments(self, name, points, colors, **kwargs):
+        self.added[name] = {"points": points, "colors": colors, **kwargs}
+
+
+def test_the_console_draws_the_map_as_voxels_coloured_by_p(
+    planar_path, planar_map, tmp_path
+) -> None:
+    from lpik.console.map_layer import add_map_layer, map_voxels, p_colour
+
+    layer = map_voxels(planar_path)
+    share = planar_map["reach_share"].values
+    assert len(layer.centres) == int((share > 0).sum()) and layer.edge == 1.0
+    assert (layer.centres[:, 2] == 0.0).all()
+    p_min = planar_map["p_min"].values
+    i = np.argwhere(share > 0)[0]
+    at = np.flatnonzero(
+        (layer.centres == [planar_map[a].values[k] for a, k in zip("xyz", i)]).all(1)
+    )
+    assert (layer.colours[at[0]] == p_colour(p_min[tuple(i)])).all()
+    weak = int((planar_map["weakest_direction"].values >= 0).sum())
+    assert len(layer.segments) == weak and weak > 0
+    scene = _Scene()
+    add_map_layer(scene, layer)
+    assert scene.added["/map/voxels"]["batched_positions"].shape == (len(layer.centres), 3)
+    assert scene.added["/map/weakest"]["points"].shape == (weak, 2, 3)
+    (tmp_path / "nomap").mkdir()
+    (tmp_path / "nomap" / "x").write_text("")
+    with pytest.raises(ValueError, match="--map: .* is no map"):
+        map_voxels(tmp_path / "nomap")
+    assert p_colour(np.array([0.0, 1.0])).tolist() == [[220, 0, 40], [0, 190, 40]]

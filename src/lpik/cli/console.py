@@ -54,6 +54,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         help="the one folder the page may write recordings to and replay them from "
         "(default: no recording)",
     )
+    parser.add_argument(
+        "--map",
+        metavar="DIR",
+        help="show a capability map (lpik map) as voxels coloured by p, its weakest direction "
+        "drawn",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -75,7 +81,12 @@ def run(args: argparse.Namespace) -> int:
     robot = console_robot(arm, args.scene)
     settings = Settings(method=args.method, v_max=robot.v_max, w_max=robot.w_max)
     console = Console(
-        robot, host=args.host, port=args.port, settings=settings, record_dir=args.record_dir
+        robot,
+        host=args.host,
+        port=args.port,
+        settings=settings,
+        record_dir=args.record_dir,
+        map_dir=args.map,
     )
     try:
         if threading.current_thread() is threading.main_thread():

@@ -36,6 +36,13 @@ def viser_module() -> Any:
     return viser
 
 
+def _read_map(map_dir: str | Path) -> Any:
+    """The map's layer, read before anything starts (a bad ``--map`` fails at once)."""
+    from lpik.console.map_layer import map_voxels
+
+    return map_voxels(map_dir)
+
+
 class Console:
     """A running console (use as a context manager, or call :meth:`close`).
 
@@ -45,6 +52,8 @@ class Console:
         port: The port (0: any free one).
         settings: The first settings.
         record_dir: The one folder recordings go to and are replayed from.
+        map_dir: A capability map (``lpik map``) to show as voxels
+            (:mod:`lpik.console.map_layer`).
         token: The access token; default a fresh one when ``host`` is not loopback,
             none on loopback.
         quiet: Keep viser's own messages off the terminal.
@@ -64,6 +73,7 @@ class Console:
         record_dir: str | Path | None = None,
         token: str | None = None,
         quiet: bool = True,
+        map_dir: str | Path | None = None,
     ) -> None:
         from lpik.console.view import ConsoleView
 
@@ -72,6 +82,7 @@ class Console:
             raise ValueError(f"port: must be a whole number in [0, 65535], got {port!r}")
         if record_dir is not None and not Path(record_dir).is_dir():
             raise ValueError(f"record-dir: {str(record_dir)!r} is not a directory")
+        map_layer = None if map_dir is None else _read_map(map_dir)
         if not isinstance(host, str):
             raise ValueError(f"host: must be a name or an address, got {host!r}")
         resolve_host(host)  # a bad host fails here, before anything starts
@@ -83,6 +94,10 @@ class Console:
             self.server = viser.ViserServer(host=private, port=0, verbose=not quiet)
         try:
             self.view = ConsoleView(self.server, self.loop)
+            if map_layer is not None:
+                from lpik.console.map_layer import add_map_layer
+
+                add_map_layer(self.server.scene, map_layer)
             self.gate = Gate((private, int(self.server.get_port())), self.token, host, port)
             self.gate.start()
         except Exception:

@@ -16,11 +16,10 @@ solved in: the map is the same for any number of workers or blocks.
 
 Why not lpik's LP step as the solver: iterating :func:`lpik.lp2_batch`
 towards the pose is as sound (every iterate within the end-stops) but takes
-the full Newton step with no damping, and is stopped by the first end-stop
-in the way (``p < 1``) where a damped least-squares step slides along it;
-both need the same kinematics per iteration, and the damped solve converged
-from more seeds in fewer iterations on the bundled arms
-(``benchmarks/bench_maps.py`` times it).
+the full, undamped Newton step, and is stopped by the first end-stop in the
+way (``p < 1``) where a damped least-squares step slides along it; both
+need the same kinematics per iteration. ``benchmarks/bench_maps.py`` times
+this solve against scipy's bounded least squares on the same poses.
 """
 
 from __future__ import annotations

@@ -64,7 +64,7 @@ class MapRobot:
         origins, axes, revolute, tip = self.chain.arrays()
         return (np.ascontiguousarray(origins, dtype=np.float64),
                 np.ascontiguousarray(axes, dtype=np.float64),
-                np.ascontiguousarray(revolute, dtype=np.bool_),
+                np.ascontiguousarray(revolute, dtype=np.float64),  # 1.0: revolute
                 np.ascontiguousarray(tip, dtype=np.float64))  # fmt: skip
 
     def home_rotation(self) -> FloatArray:
