@@ -423,6 +423,7 @@ def test_the_console_draws_the_map_as_voxels_coloured_by_p(
     add_map_layer(scene, layer)
     assert scene.added["/map/voxels"]["batched_positions"].shape == (len(layer.centres), 3)
     assert scene.added["/map/weakest"]["points"].shape == (weak, 2, 3)
+    assert scene.added["/map/weakest"]["colors"].shape == (weak, 2, 3)  # as viser takes them
     (tmp_path / "nomap").mkdir()
     (tmp_path / "nomap" / "x").write_text("")
     with pytest.raises(ValueError, match="--map: .* is no map"):

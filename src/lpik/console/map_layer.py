@@ -134,5 +134,6 @@ def add_map_layer(scene: Any, layer: MapLayer) -> None:
             receive_shadow=False,
         )
     if len(layer.segments):
-        scene.add_line_segments(f"{LAYER}/weakest", layer.segments.astype(np.float32),
-                                layer.segment_colours, thickness=0.05 * layer.edge)  # fmt: skip
+        ends = np.repeat(layer.segment_colours[:, None, :], 2, axis=1)  # (W, 2, 3): both ends
+        scene.add_line_segments(f"{LAYER}/weakest", layer.segments.astype(np.float32), ends,
+                                thickness=0.05 * layer.edge)  # fmt: skip

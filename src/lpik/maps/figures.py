@@ -4,7 +4,8 @@ A slice is one layer of cells across an axis. Its panels: each cell's
 smallest ``p`` with a marker for the kind of limit that binds most often;
 the mean ``p`` with an arrow along the weakest direction (its motion part,
 where it has one, drawn in the slice's plane); and the share of orientations
-reached. Cells with nothing reached are left blank.
+reached. Cells with nothing reached are left blank; on a fine map the
+markers and arrows show on every k-th cell only.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ BINDING_MARKERS = {"end-stop": "s", "velocity": "^", "acceleration": "v", "multi
                    "row": "P", "collision": "*", "singularity": "x"}  # fmt: skip
 #: The colour map of p (0 red .. 1 green reads as "how much of the motion is followed").
 P_COLOURS = "RdYlGn"
+#: Most markers and arrows along an axis of a slice (a finer map shows every k-th cell's).
+MARKS_PER_AXIS = 28
 #: The colour map of the share of orientations reached.
 REACH_COLOURS = "Blues"
 
@@ -37,6 +40,14 @@ def pick_slice(dataset: Any, axis: str, value: float | None) -> int:
     share = np.nan_to_num(np.asarray(dataset["reach_share"].values))
     others = tuple(i for i, a in enumerate("xyz") if a != axis)
     return int(share.sum(axis=others).argmax())
+
+
+def _sparse(shape: tuple[int, ...]) -> Any:
+    """Every k-th cell along each axis, so that at most :data:`MARKS_PER_AXIS` marks show."""
+    keep = np.zeros(shape, dtype=bool)
+    strides = [max(1, -(-size // MARKS_PER_AXIS)) for size in shape]
+    keep[tuple(slice(None, None, s) for s in strides)] = True
+    return keep
 
 
 def _layer(dataset: Any, name: str, axis: str, index: int) -> Any:
@@ -91,9 +102,9 @@ def _binding_markers(ax: Any, dataset: Any, axis: str, index: int, u: Any, v: An
     mode = _layer(dataset, "binding_mode", axis, index)
     gu, gv = np.meshgrid(u, v, indexing="ij")
     for code, word in enumerate(BINDING_WORDS):
-        cells = mode == code
+        cells = (mode == code) & _sparse(mode.shape)
         if word in BINDING_MARKERS and cells.any():
-            ax.scatter(gu[cells], gv[cells], marker=BINDING_MARKERS[word], s=14, c="k",
+            ax.scatter(gu[cells], gv[cells], marker=BINDING_MARKERS[word], s=10, c="k",
                        linewidths=0.6, label=word)  # fmt: skip
     if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="upper right", fontsize=8)
@@ -108,12 +119,13 @@ def _weakest_arrows(ax: Any, dataset: Any, axis: str, index: int, u: Any, v: Any
     twists = np.asarray(dataset["direction_twist"].values)
     columns = ["xyz".index(a) for a in across]
     picked = twists[np.maximum(weakest, 0)][..., columns]
-    cells = (weakest >= 0) & (np.abs(picked).sum(axis=-1) > 0)
+    cells = (weakest >= 0) & (np.abs(picked).sum(axis=-1) > 0) & _sparse(weakest.shape)
     gu, gv = np.meshgrid(u, v, indexing="ij")
+    stride = max(1, -(-max(weakest.shape) // MARKS_PER_AXIS))  # as _sparse keeps them
+    length = 0.7 * stride * float(dataset.attrs.get("resolution", 1.0))
     ax.quiver(gu[cells], gv[cells], picked[cells, 0], picked[cells, 1], angles="xy",
-              pivot="middle",
-              scale_units="xy", scale=1.0 / (0.7 * float(dataset.attrs.get("resolution", 1.0))),
-              width=0.004, color="k")  # fmt: skip
+              pivot="middle", scale_units="xy", scale=1.0 / length, width=0.004,
+              color="k")  # fmt: skip
 
 
 @styled

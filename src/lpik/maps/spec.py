@@ -22,9 +22,9 @@ from lpik.version import __version__
 #: The control period of a map's step [s]: the 10 ms of the paper's runs.
 MAP_DT = 0.01
 #: IK seeds per pose by default: the arm's home configuration and 15 random
-#: ones; a reachable pose of a bundled arm was found from 16 in 99 % of
-#: random trials (``benchmarks/bench_maps.py``), and seeds after the first
-#: that reaches the pose cost nothing.
+#: ones. From 16, the Panda's poses of random configurations were reached in
+#: 93 to 100 % of samples (``benchmarks/bench_maps.py``, docs/maps.md); seeds
+#: after the first that reaches a pose cost nothing, an unreachable pose all 16.
 MAP_SEEDS = 16
 #: (cell, orientation) pairs per block by default: about a second of work on one core.
 POSES_PER_BLOCK = 1024
