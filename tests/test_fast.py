@@ -26,6 +26,7 @@ from lpik.problem import Problem  # noqa: E402
 from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, SOLVER_ERROR  # noqa: E402
 from lpik.robots.base import TaskModel  # noqa: E402
 from lpik.robots.planar import planar_arm  # noqa: E402
+from lpik.tolerances import EQUALITY_RTOL  # noqa: E402
 
 N_RANDOM = 20000  # instances held to the HiGHS path
 
@@ -395,8 +396,10 @@ def _closed_loop_matches(controller, q, target, steps: int) -> dict[str, int]:
     seen = {"compiled": 0, "binding": 0, "infeasible": 0}
     q_prev = None
     reference = lp2s if controller.method == "lp2s" else lp2
-    # lp2s re-solves pass after pass: each pass's rounding adds up (1e-11 rad seen)
-    tol = 1e-9 if controller.method == "lp2s" else 1e-12
+    # lp2s re-solves pass after pass: each pass's rounding adds up (1e-11 rad seen); under
+    # acceleration limits p is the share of a change of the motion, dw - J last
+    # (lpik.continuation), whose two terms nearly cancel while the arm cruises (3e-12 seen)
+    tol = 1e-9 if controller.method == "lp2s" else 1e-10
     for _ in range(steps):
         fast = controller.step(q, target, q_prev)
         problem = controller.problem(q, target, q_prev)
@@ -406,8 +409,9 @@ def _closed_loop_matches(controller, q, target, steps: int) -> dict[str, int]:
         np.testing.assert_allclose(fast.q, ref.q, atol=tol, rtol=0)
         if fast.lam is not None:
             np.testing.assert_allclose(fast.lam, ref.lam, atol=100 * tol, rtol=100 * tol)
-            # (1e-14: the two paths' second-order terms of the command differ by rounding)
-            assert abs(fast.residual - task_residual(problem, fast.dq, fast.p)) <= 1e-14
+            # (the two paths' second-order terms of the command, and their continued
+            # motions, differ by rounding)
+            assert abs(fast.residual - task_residual(problem, fast.dq, fast.p)) <= 1e-12
         seen["compiled"] += fast.path == "compiled"
         seen["binding"] += fast.binding is not None
         seen["infeasible"] += fast.status == INFEASIBLE
@@ -577,9 +581,9 @@ def test_controller_labels_every_kind_of_binding_limit_as_the_numpy_layers(satur
     assert {OPTIMAL, INFEASIBLE} <= set(kinds), kinds
 
 
-def test_controller_brings_a_speed_beyond_its_limit_back_at_the_acceleration_limit() -> None:
-    """A last step twice the velocity limit: the acceleration limits take precedence and the
-    joint decelerates at its limit; both paths say the state was outside its velocity limit."""
+def test_controller_takes_a_speed_beyond_its_limit_at_the_limit() -> None:
+    """A last step twice the velocity limit is a fault of the state (lpik.bands): the joint
+    is taken to move at its limit and decelerates from there; both paths say so."""
     from lpik.control.controller import Lp2Controller
 
     arm = planar_arm([1.0, 1.0, 1.0], qd_max=1.0)
@@ -589,8 +593,8 @@ def test_controller_brings_a_speed_beyond_its_limit_back_at_the_acceleration_lim
     target = np.array([1.5, 1.5, 0.0])
     result = controller.step(q, target, prev)
     assert (result.status, result.binding) == (RECOVERING, "joint 1 upper velocity limit")
-    assert result.dq[0] == pytest.approx(0.02 - 10.0 * 0.01**2)  # full deceleration
-    ref = lp2(controller.problem(q, target, prev), path="ratio-test")
+    assert result.dq[0] == pytest.approx(0.01 - 10.0 * 0.01**2)  # full deceleration from 1 rad/s
+    ref = lp2s(controller.problem(q, target, prev), path="ratio-test")
     assert (ref.status, ref.binding) == (result.status, result.binding)
     np.testing.assert_allclose(result.q, ref.q, atol=1e-12, rtol=0)
 
@@ -617,7 +621,7 @@ def test_step_into_gives_the_steps_answers_without_a_result() -> None:
         seen.add(ref.status)
         prev, q = q, out.copy()
     assert OPTIMAL in seen
-    # A speed far beyond its limit: the step decelerates joint 1 at its acceleration limit.
+    # A speed far beyond its limit: joint 1 is taken at its limit and decelerates from there.
     far = np.array([0.3, 0.4, 0.5, -1.0, 0.1, 1.0, 0.2])
     beyond = far - np.array([0.01, 0, 0, 0, 0, 0, 0])  # 10 rad/s: beyond reach in one step
     p = twin.step_into(far, target, beyond, out=out)
@@ -625,7 +629,7 @@ def test_step_into_gives_the_steps_answers_without_a_result() -> None:
     assert (p, twin.last_status, twin.last_binding) == (ref.p, ref.status, ref.binding)
     np.testing.assert_array_equal(out, ref.q)
     assert ref.status == RECOVERING and ref.binding == "panda_joint1 upper velocity limit"
-    assert out[0] - far[0] == pytest.approx(0.01 - 10.0 * 0.001**2)
+    assert out[0] - far[0] == pytest.approx(model.qd_max[0] * 0.001 - 10.0 * 0.001**2)
     for bad in (np.empty(6), np.empty((2, 7)), np.empty(7, dtype=np.float32), [0.0] * 7):
         with pytest.raises(ValueError, match="out: must be a float64 array of shape"):
             twin.step_into(q, target, out=bad)
@@ -657,7 +661,7 @@ def test_step_batch_equals_steps_panda() -> None:
     B = 400
     span = model.q_max - model.q_min
     q0 = model.q_min + span * rng.uniform(0.02, 0.98, size=(B, 7))
-    # at rest, moving within reach, and moving too fast to stop (infeasible)
+    # at rest, moving within reach, and moving fast (solved around the motion: lpik.continuation)
     speed = rng.choice([0.0, 1e-5, 1e-4, 1e-3], size=(B, 1))
     q_prev = q0 - speed * rng.normal(size=(B, 7))
     poses = np.stack([model.pose(q) for q in q0])
@@ -665,7 +669,7 @@ def test_step_batch_equals_steps_panda() -> None:
     batch = controller.step_batch(q0, poses, q_prev)
     _assert_rows_equal_steps(controller, batch, q0, poses, q_prev)
     statuses = set(batch.status)
-    assert {OPTIMAL, INFEASIBLE, RECOVERING} >= statuses >= {OPTIMAL, INFEASIBLE}
+    assert {OPTIMAL, INFEASIBLE, RECOVERING} >= statuses >= {OPTIMAL}
     assert (batch.p == 1).any() and ((batch.p > 0) & (batch.p < 1)).any()
     # at rest (q_prev None), lists in
     at_rest = controller.step_batch(q0[:50].tolist(), poses[:50].tolist())
@@ -780,7 +784,10 @@ def test_fused_step_keeps_every_hard_limit_and_moves_along_the_command(state) ->
         np.testing.assert_allclose(res.dq, np.clip(0.0, lower, upper), rtol=0, atol=1e-12)
         assert res.p == 0.0 and (res.binding is not None or res.status != INFEASIBLE)
         return
-    np.testing.assert_allclose(problem.J @ res.dq, res.p * problem.dw, rtol=0, atol=1e-9)
+    # J dq = p dw (eq. 12), around the current motion under acceleration limits, within the
+    # library's own check (lpik.check): at a singular configuration the part of a tiny
+    # second-order command that no joint can make (5e-9 m seen) is left as residual
+    assert task_residual(problem, res.dq, res.p) <= EQUALITY_RTOL
     batch = controller.step_batch(q0[None], goal[None], None if q_prev is None else q_prev[None])
     assert (batch.status_of(0), batch.binding_of(0)) == (res.status, res.binding)
     np.testing.assert_allclose(batch.q[0], res.q, rtol=0, atol=1e-12)

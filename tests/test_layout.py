@@ -31,7 +31,8 @@ OURS = ("lpik", "lpik_bench")
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("facts", ("lpik.types", "lpik.defaults", "lpik.tolerances", "lpik.labels", "lpik.exceptions",
                "lpik.naming", "lpik.robots.base", "lpik.version", "lpik.bands")),
-    ("core", ("lpik.problem", "lpik.result", "lpik.check", "lpik.limits", "lpik.highs")),
+    ("core", ("lpik.problem", "lpik.result", "lpik.check", "lpik.limits", "lpik.highs",
+              "lpik.continuation")),
     ("robots", ("lpik.robots",)),
     ("command", ("lpik.command",)),
     ("collision", ("lpik.collision",)),

@@ -151,18 +151,40 @@ def test_a_start_past_an_end_stop_recovers_on_every_path(
     assert np.isfinite(log.q).all()
 
 
-def test_a_speed_above_its_limit_is_brought_down_at_the_acceleration_limit() -> None:
+def test_a_speed_above_its_limit_is_a_fault_taken_at_the_limit_and_named() -> None:
+    # 3 rad/s against a limit of 1 rad/s: a bad q_prev sample, not a motion to continue
     arm = planar()
     q = np.array([0.3, 0.4, 0.5, 0.6])
-    prev = q - np.array([0.003, 0.0, 0.0, 0.0])  # 3 rad/s against 1 rad/s
+    prev = q - np.array([0.003, 0.0, 0.0, 0.0])
     limits = [*standard_limits(arm), AccelerationLimits(np.full(4, 100.0))]
     from lpik.limits import build_problem
 
     problem = build_problem(arm.jacobian(q), np.zeros(2), q, limits, dt=DT, q_prev=prev,
-                            joint_names=arm.joint_names)  # fmt: skip
+                            joint_names=arm.joint_names, continuation=True)  # fmt: skip
     assert problem.recovering() == ("joint 1 upper velocity limit",)
     lower, upper = problem.step_bounds()[:2]
-    assert lower[0] == upper[0] == pytest.approx(0.003 - 100.0 * DT**2)
+    assert upper[0] == pytest.approx(0.001)  # the band is taken around the limit
+    assert lower[0] == pytest.approx(0.001 - 100.0 * DT**2)
+    assert problem.motion[0] == pytest.approx(0.001)  # the motion continued: at the limit
+
+
+def test_a_bad_q_prev_sample_never_runs_a_joint_past_its_end_stop() -> None:
+    # issue 23: one q_prev off by 0.05 rad (an implied 50 rad/s) once ran a joint 122 rad past
+    from lpik.control.controller import Lp2Controller
+
+    arm = planar()
+    controller = Lp2Controller(arm, dt=DT, qdd_max=10.0)
+    q = np.array([1.0, 0.4, 0.5, 0.6])
+    q_prev = q - np.array([0.05, 0.0, 0.0, 0.0])
+    goal = arm.pose(q)
+    statuses = set()
+    for _ in range(3000):
+        res = controller.step(q, goal, q_prev)
+        statuses.add(res.status)
+        q_prev, q = q, res.q
+        assert (q <= arm.q_max + 1e-9).all() and (q >= arm.q_min - 1e-9).all()
+    assert RECOVERING in statuses  # the first step says the state was at fault
+    assert np.abs(q - q_prev).max() < 1e-9  # and the arm comes to rest
 
 
 # -------------------------------------------------------------------- random states
@@ -192,6 +214,7 @@ def moving_states(draw: st.DrawFn):
 @settings(max_examples=examples(300), deadline=None)
 @given(state=moving_states())
 def test_every_step_from_any_state_keeps_the_contract(state) -> None:
+    from lpik.check import task_residual
     from lpik.methods import solve
     from lpik.methods.lp2 import lp2
 
@@ -210,7 +233,8 @@ def test_every_step_from_any_state_keeps_the_contract(state) -> None:
             if compiled.status != INFEASIBLE:  # an infeasible step's conflict may be a tie
                 assert compiled.binding == reference.binding
             np.testing.assert_allclose(compiled.q, reference.q, rtol=0, atol=atol)
-    last = q0 - q_prev
+    # a speed above the limit is a fault of the state, taken at the limit (lpik.bands)
+    last = np.clip(q0 - q_prev, -arm.qd_max * dt, arm.qd_max * dt)
     tol = 1e-9
     for res in (fast, solve(problem, "lp1"), solve(problem, "l1")):
         assert np.isfinite(res.q).all() and 0.0 <= res.p <= 1.0
@@ -225,4 +249,5 @@ def test_every_step_from_any_state_keeps_the_contract(state) -> None:
             assert not problem.recovering()
             assert (after <= tol).all() and (np.abs(res.dq) <= arm.qd_max * dt + tol).all()
         if res.moved and not (res.status == RECOVERING and res.p == 0.0):  # a safe step may not
-            np.testing.assert_allclose(problem.J @ res.dq, res.p * problem.dw, atol=1e-7)
+            # J dq = p dw, around the current motion (lpik.continuation; l1 takes LP1's p)
+            assert task_residual(problem, res.dq, res.p) <= 1e-7

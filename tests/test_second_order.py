@@ -34,7 +34,7 @@ def _miss(model: PoseTask, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
 
     e6 = pose_difference(model.pose(q), model.pose(q + dq))
     screw = np.empty(6)
-    command_rows(e6, task_rows(model), screw, np.inf, np.inf, 1.0)
+    command_rows(e6, task_rows(model), screw, np.inf, np.inf, 1.0, np.inf)
     return screw - model.jacobian(q) @ dq
 
 

@@ -30,7 +30,7 @@ def short_run(method: str = "lp2", steps: int = 20, **kw: object) -> SimulationL
 
 def clamped(dw: list[float], rows: list[int], v_max: float, w_max: float = 1.0) -> np.ndarray:
     out = np.array(dw, dtype=float)
-    clamp_command(out, np.array(rows, dtype=float), v_max, w_max, 1.0)
+    clamp_command(out, np.array(rows, dtype=float), v_max, w_max, 1.0, np.inf)
     return out
 
 

@@ -6,6 +6,7 @@ tolerances are what they are.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -278,7 +279,7 @@ def _chord_step(controller: Any, q: FloatArray, target: FloatArray) -> FloatArra
 
     model = controller.model
     dw = np.array(model.difference(model.pose(q), target), dtype=np.float64)
-    clamp_command(dw, task_rows(model), controller.v_max, controller.w_max, controller.dt)
+    clamp_command(dw, task_rows(model), controller.v_max, controller.w_max, controller.dt, math.inf)
     return lp2(controller.problem(q, target).replace(dw=dw)).dq
 
 

@@ -111,7 +111,51 @@ def rate_band(
         acceleration: :data:`lpik.labels.BOUND_KINDS`); and :func:`yield_to`'s
         verdict of the acceleration band over the others. When a side yielded,
         both kinds name the limit the motion is outside of on that side.
+
+    A ``last`` faster than the velocity limits is a fault of the state (a bad
+    ``q_prev`` sample: the drives cannot move the joint that fast), not a
+    motion to continue: the band is taken around the limit instead
+    (:func:`plausible_step`), and the verdict names the velocity limit on that side.
     """
+    fault = MET
+    if qdd_min > -math.inf or qdd_max < math.inf:  # else the last step binds nothing
+        last, fault = plausible_step(last, vel_lo, vel_hi)
+    lo, hi, lo_kind, hi_kind, verdict = _rate_band(
+        last, room_lo, room_hi, vel_lo, vel_hi, qdd_min, qdd_max, dt
+    )
+    if verdict == MET and fault != MET:
+        return lo, hi, 1, 1, fault
+    return lo, hi, lo_kind, hi_kind, verdict
+
+
+def plausible_step(last: float, vel_lo: float, vel_hi: float) -> tuple:
+    """The last step as the limits allow it: ``last`` clipped to ``[vel_lo, vel_hi]``.
+
+    Returns:
+        ``(step, verdict)``: the step, and :data:`MET`, or :data:`UPPER_YIELDED`
+        (:data:`LOWER_YIELDED`) where ``last`` was above (below) the velocity band
+        by more than the ratio test's :data:`~lpik.tolerances.SLACK_TOL`.
+    """
+    if last > vel_hi:
+        fault = UPPER_YIELDED if last - vel_hi > SLACK_TOL * max(1.0, abs(vel_hi)) else MET
+        return vel_hi, fault
+    if last < vel_lo:
+        fault = LOWER_YIELDED if vel_lo - last > SLACK_TOL * max(1.0, abs(vel_lo)) else MET
+        return vel_lo, fault
+    return last, MET
+
+
+def _rate_band(
+    last: float,
+    room_lo: float,
+    room_hi: float,
+    vel_lo: float,
+    vel_hi: float,
+    qdd_min: float,
+    qdd_max: float,
+    dt: float,
+) -> tuple:
+    """:func:`rate_band` for a ``last`` within the velocity limits."""
     dt2 = dt * dt
     acc_lo, acc_hi = last + qdd_min * dt2, last + qdd_max * dt2
     brake_hi = braking_room(room_hi, -qdd_min * dt2)

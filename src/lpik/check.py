@@ -58,8 +58,16 @@ def worst_violation(problem: Problem, dq: FloatArray, lam: FloatArray | None = N
 
 
 def task_residual(problem: Problem, dq: FloatArray, p: float) -> float:
-    """``max |J dq - p dw|``: how far a step is from the linearised task (eqs. 12, 15)."""
-    return float(np.abs(problem.J @ dq - p * problem.dw).max())
+    """``max |J dq - p dw|``: how far a step is from the linearised task (eqs. 12, 15).
+
+    For a step around the current motion (``problem.last``, :mod:`lpik.continuation`)
+    ``max |J (dq - last) - p (dw - J last)|``, with ``last`` as the bounds clip it.
+    """
+    motion = problem.motion
+    if motion is None:
+        return float(np.abs(problem.J @ dq - p * problem.dw).max())
+    kept = problem.J @ motion
+    return float(np.abs(problem.J @ dq - kept - p * (problem.dw - kept)).max())
 
 
 def check_step(problem: Problem, dq: FloatArray, p: float, lam: FloatArray | None) -> str | None:

@@ -37,6 +37,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from lpik.bands import braking_room
 from lpik.robots.base import TaskModel
 from lpik.robots.rotations import check_rotation
 from lpik.robots.tasks import pose_difference
@@ -58,10 +59,13 @@ def task_rows(model: TaskModel) -> FloatArray:
     return np.array([TASK_ROWS.index(name) for name in names], dtype=np.float64)
 
 
-def clamp_command(dw: FloatArray, rows: FloatArray, v_max: float, w_max: float, dt: float) -> float:
+def clamp_command(
+    dw: FloatArray, rows: FloatArray, v_max: float, w_max: float, dt: float, brake: float
+) -> float:
     """Scale ``dw`` in place: linear part at most ``v_max dt``, angular part at most ``w_max dt``.
 
-    The whole displacement is scaled by one factor, so that its direction is kept.
+    The whole displacement is scaled by one factor, so that its direction is kept;
+    the factor is at most ``brake`` (:func:`braking_scale`; ``inf``: no braking).
     Written in plain loops so that :mod:`lpik.fast` compiles this very function.
 
     Args:
@@ -70,6 +74,7 @@ def clamp_command(dw: FloatArray, rows: FloatArray, v_max: float, w_max: float, 
         v_max: Largest linear speed [m/s].
         w_max: Largest angular speed [rad/s].
         dt: Control period [s].
+        brake: Largest share of ``dw`` the step may take to stop in time.
 
     Returns:
         The factor, in (0, 1].
@@ -81,7 +86,7 @@ def clamp_command(dw: FloatArray, rows: FloatArray, v_max: float, w_max: float, 
         else:
             ang += dw[k] * dw[k]
     lin, ang = math.sqrt(lin), math.sqrt(ang)
-    scale = 1.0
+    scale = min(1.0, brake)
     if lin > v_max * dt:
         scale = min(scale, v_max * dt / lin)
     if ang > w_max * dt:
@@ -89,6 +94,99 @@ def clamp_command(dw: FloatArray, rows: FloatArray, v_max: float, w_max: float, 
     for k in range(dw.shape[0]):
         dw[k] *= scale
     return scale
+
+
+#: Share of the joints' acceleration limits that the command law plans its stop
+#: with; the rest is left for what the plan does not see (the motion's
+#: curvature, the second-order term, the redundancy's own motion).
+BRAKING_SHARE = 0.8
+
+
+#: Damping of :func:`least_motion`, relative to the largest entry of ``J J^T``.
+MOTION_DAMPING = 1e-4
+
+
+def least_motion(J: FloatArray, e: FloatArray, x: FloatArray, scratch: FloatArray) -> None:
+    """``x = J^T (J J^T + d I)^-1 e``: the least joint motion that moves the task by ``e``.
+
+    The damped least-squares solution of ``J x = e`` (as eq. 19's robust inverse),
+    with a damping ``d`` of :data:`MOTION_DAMPING` times the largest diagonal
+    entry of ``J J^T``: directions the arm can hardly move in (near a singular
+    configuration) count for little instead of making ``x`` blow up. Gaussian
+    elimination with partial pivoting, in plain loops, so that :mod:`lpik.fast`
+    compiles this very function.
+
+    Args:
+        J: Task Jacobian, (m, n).
+        e: Task motion, (m,).
+        x: Receives the joint motion, (n,).
+        scratch: Work space, (m, m + 1).
+    """
+    m, n = J.shape[0], J.shape[1]
+    big = 0.0
+    for a in range(m):
+        for b in range(m):
+            s = 0.0
+            for i in range(n):
+                s += J[a, i] * J[b, i]
+            scratch[a, b] = s
+        scratch[a, m] = e[a]
+        big = max(big, scratch[a, a])
+    for a in range(m):
+        scratch[a, a] += MOTION_DAMPING * max(big, 1e-300)
+    for col in range(m):
+        pivot = col
+        for a in range(col + 1, m):
+            if abs(scratch[a, col]) > abs(scratch[pivot, col]):
+                pivot = a
+        for b in range(m + 1):
+            scratch[col, b], scratch[pivot, b] = scratch[pivot, b], scratch[col, b]
+        for a in range(col + 1, m):
+            factor = scratch[a, col] / scratch[col, col]
+            for b in range(col, m + 1):
+                scratch[a, b] -= factor * scratch[col, b]
+    for a in range(m - 1, -1, -1):
+        s = scratch[a, m]
+        for b in range(a + 1, m):
+            s -= scratch[a, b] * scratch[b, m]
+        scratch[a, m] = s / scratch[a, a]
+    for i in range(n):
+        s = 0.0
+        for a in range(m):
+            s += J[a, i] * scratch[a, m]
+        x[i] = s
+
+
+def braking_scale(motion: FloatArray, qdd_max: FloatArray, dt: float) -> float:
+    """The largest share of the error a step may command and still stop on the target.
+
+    The command moves the task along the remaining error ``e`` toward the
+    target; ``motion`` is the joint motion per unit of it (:func:`least_motion`
+    of ``e``). Slowing down along ``e`` at a rate ``a`` (shares of ``e`` per
+    s^2) takes joint accelerations ``a |motion_i|``; within
+    :data:`BRAKING_SHARE` of each joint's limit, ``a`` is at most
+    ``BRAKING_SHARE min_i qdd_max_i / |motion_i|``. The step's share is then the
+    largest after which the motion can still stop within the rest of ``e``
+    (:func:`lpik.bands.braking_room`, the same discrete rule that keeps a joint
+    clear of its end-stop, here with room 1: the whole error). A step that can
+    stop at once takes the whole error: the command ends on the target.
+
+    Args:
+        motion: Joint motion per unit of the error, (n,).
+        qdd_max: Each joint's acceleration limit (the smaller side) [rad/s^2]; inf: none.
+        dt: Control period [s].
+
+    Returns:
+        The share, > 0; ``inf`` without acceleration limits (no braking needed).
+    """
+    rate = math.inf
+    for i in range(motion.shape[0]):
+        need = abs(motion[i])
+        if need > 0.0 and qdd_max[i] < math.inf:
+            rate = min(rate, qdd_max[i] / need)
+    if not rate < math.inf:
+        return math.inf
+    return braking_room(1.0, BRAKING_SHARE * rate * dt * dt)
 
 
 def along_screw(e6: FloatArray, rows: FloatArray, scale: float) -> bool:
@@ -145,7 +243,13 @@ def along_screw(e6: FloatArray, rows: FloatArray, scale: float) -> bool:
 
 
 def command_rows(
-    e6: FloatArray, rows: FloatArray, dw: FloatArray, v_max: float, w_max: float, dt: float
+    e6: FloatArray,
+    rows: FloatArray,
+    dw: FloatArray,
+    v_max: float,
+    w_max: float,
+    dt: float,
+    brake: float,
 ) -> None:
     """``dw``: the kept rows of the pose difference ``e6``, clamped, along the step's own screw.
 
@@ -160,13 +264,15 @@ def command_rows(
         v_max: Largest linear speed [m/s].
         w_max: Largest angular speed [rad/s].
         dt: Control period [s].
+        brake: Largest share of the difference the step may take (:func:`braking_scale`).
     """
     for k in range(rows.shape[0]):
         dw[k] = e6[int(rows[k])]
-    if along_screw(e6, rows, clamp_command(dw, rows, v_max, w_max, dt)):
+    if along_screw(e6, rows, clamp_command(dw, rows, v_max, w_max, dt, brake)):
         for k in range(rows.shape[0]):
             dw[k] = e6[int(rows[k])]
-        clamp_command(dw, rows, v_max, w_max, dt)  # the screw may lengthen dp by O(t^2)
+        # the screw may lengthen dp by O(t^2); the braking share is already in e6
+        clamp_command(dw, rows, v_max, w_max, dt, math.inf)
 
 
 def second_order_rows(e6: FloatArray, rows: FloatArray, jdq: FloatArray, rho: FloatArray) -> None:
@@ -190,7 +296,7 @@ def second_order_rows(e6: FloatArray, rows: FloatArray, jdq: FloatArray, rho: Fl
         jdq: ``J(q_prev) dq`` in the task's rows, (m,).
         rho: Receives the second-order term, (m,).
     """
-    command_rows(e6, rows, rho, math.inf, math.inf, 1.0)
+    command_rows(e6, rows, rho, math.inf, math.inf, 1.0, math.inf)
     for k in range(rows.shape[0]):
         rho[k] -= jdq[k]
 
@@ -232,7 +338,13 @@ def second_order_term(model: TaskModel, q_prev: Any, q0: Any) -> FloatArray:
 
 
 def commanded_displacement(
-    model: TaskModel, pose: Any, target: Any, v_max: float, w_max: float, dt: float
+    model: TaskModel,
+    pose: Any,
+    target: Any,
+    v_max: float,
+    w_max: float,
+    dt: float,
+    stop: tuple[FloatArray, FloatArray] | None = None,
 ) -> FloatArray:
     """The step's ``dw`` from the task value ``pose`` at ``q`` towards ``target`` (the law above).
 
@@ -243,6 +355,9 @@ def commanded_displacement(
         v_max: Largest linear speed [m/s].
         w_max: Largest angular speed [rad/s].
         dt: Control period [s].
+        stop: ``(J, qdd_max)``, the Jacobian at ``q`` and the joints' acceleration
+            limits (the smaller side, inf: none): the command then slows down in
+            time to stop on the target (:func:`braking_scale`); None: it does not.
     """
     if np.shape(target) != np.shape(pose):
         raise ValueError(
@@ -252,11 +367,23 @@ def commanded_displacement(
     rows = task_rows(model)
     if getattr(model, "KIND", None) != "pose":
         dw = np.array(model.difference(pose, target), dtype=np.float64)
-        clamp_command(dw, rows, v_max, w_max, dt)
+        clamp_command(dw, rows, v_max, w_max, dt, _brake(stop, dw, dt))
         return dw
+    e6 = pose_difference(pose, target)
     dw = np.empty(rows.size)
-    command_rows(pose_difference(pose, target), rows, dw, v_max, w_max, dt)
+    error = np.array([e6[int(row)] for row in rows])
+    command_rows(e6, rows, dw, v_max, w_max, dt, _brake(stop, error, dt))
     return dw
+
+
+def _brake(stop: tuple[FloatArray, FloatArray] | None, error: FloatArray, dt: float) -> float:
+    """:func:`braking_scale` of ``error`` under ``stop = (J, qdd_max)``; inf without."""
+    if stop is None:
+        return math.inf
+    J, qdd = stop
+    motion = np.empty(J.shape[1])
+    least_motion(J, error, motion, np.empty((J.shape[0], J.shape[0] + 1)))
+    return braking_scale(motion, qdd, dt)
 
 
 class CommandLaw(Protocol):

@@ -292,6 +292,7 @@ def build_problem(
     *,
     dt: float,
     q_prev: Any = None,
+    continuation: bool = False,
     **weights: Any,
 ) -> Problem:
     """Stack the limits' pieces into one validated :class:`~lpik.problem.Problem`.
@@ -303,6 +304,9 @@ def build_problem(
         limits: The limits in force.
         dt: Control period [s] (> 0).
         q_prev: Joint coordinates one period ago, for acceleration limits.
+        continuation: Under acceleration limits, with the arm moving, give the
+            problem ``last = q0 - q_prev``: LP1 and LP2 then solve the step around
+            the current motion (:mod:`lpik.continuation`), as the controllers do.
         **weights: ``M``, ``f``, ``Lambda``, ``q_ref``, ``k`` of the problem, and
             ``joint_names``, the names binding labels use (default: the names an
             :class:`EndStops` carries, as :func:`standard_limits` gives them, else
@@ -326,7 +330,8 @@ def build_problem(
     names = weights.get("joint_names") or labels.default_joint_names(n)
     last = np.zeros(n) if context.q_prev is None else context.q0 - context.q_prev
     outside: list[str] = []
-    if np.isfinite(stack.qdd_min).any() or np.isfinite(stack.qdd_max).any():
+    accelerations = np.isfinite(stack.qdd_min).any() or np.isfinite(stack.qdd_max).any()
+    if accelerations:
         _rate_bands(q0, last, (stack.q_min, stack.q_max, stack.dq_min, stack.dq_max,
                                stack.qdd_min, stack.qdd_max), dt,
                     (stack.lo_kind, stack.hi_kind), names, outside)  # fmt: skip
@@ -343,6 +348,7 @@ def build_problem(
         lam_min=stack.lam_min,
         lam_max=stack.lam_max,
         outside_limits=outside,
+        last=last if continuation and accelerations and last.any() else None,
         **stack.rows(),
         **weights,
     )

@@ -153,6 +153,11 @@ class Problem:
             cannot bring back in one step), as :func:`lpik.limits.build_problem`
             finds them; the step is then ``recovering``. End-stops the state is
             outside of are found from ``q0`` (:meth:`recovering`).
+        last: The motion to solve the step around, ``q0 - q_prev`` (n,): LP1, LP2
+            and LP2 with saturation then solve the continuation form
+            ``J (dq - last) = p (dw - J last)`` (:mod:`lpik.continuation`), as
+            :func:`lpik.limits.build_problem` sets it under acceleration limits;
+            default None: the paper's ``J dq = p dw`` (eq. 12).
 
     Raises:
         InvalidProblemError: (a ``ValueError``) naming the field that is wrong.
@@ -179,6 +184,7 @@ class Problem:
     dq_max_kind: Sequence[str] | None = None
     joint_names: Sequence[str] | None = None
     outside_limits: Sequence[str] | None = None
+    last: Any = None
     _cache: dict[str, Any] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -201,6 +207,8 @@ class Problem:
         self._init_rows(n)
         self._init_damping()
         self._init_labels(n)
+        if self.last is not None:
+            set_(self, "last", _vector("last", self.last, n))
 
     def _init_jacobian(self) -> tuple[int, int]:
         """Validate ``J``; returns its shape ``(m, n)``."""
@@ -339,6 +347,18 @@ class Problem:
             self._cache["bounds"] = (lower, upper, tuple(lower_labels), tuple(upper_labels))
             self._cache["outside"] = tuple(outside)
         return self._cache["bounds"]  # type: ignore[no-any-return]
+
+    @property
+    def motion(self) -> FloatArray | None:
+        """``last`` clipped to the step's bounds: the motion the step continues, or None.
+
+        The continuation form (:mod:`lpik.continuation`) keeps this motion at
+        ``p = 0``; clipped, so that it is always within the joints' bounds.
+        """
+        if self.last is None:
+            return None
+        lower, upper = self.step_bounds()[:2]
+        return np.clip(self.last, lower, upper)
 
     def recovering(self) -> tuple[str, ...]:
         """Labels of the limits the state is outside of: end-stops past ``q0``, then rate limits.

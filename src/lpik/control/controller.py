@@ -181,6 +181,13 @@ class Lp2Controller:
             from ``q_prev`` to ``q0``; the default): the error each step leaves on a
             curved path is then third order in the step, not second. ``False``:
             the command law alone, as the paper's runs command it.
+        continuation: Under acceleration limits (the default ``True``), solve
+            each step around the current motion, ``J (dq - last) = p (dw - J last)``
+            with ``last = q0 - q_prev`` (:mod:`lpik.continuation`: ``p`` is the
+            share of the commanded change of the task motion), and slow the
+            command down in time to stop on its target
+            (:func:`lpik.command.braking_scale`). ``False``: the paper's step
+            through ``dq = 0`` and the command law alone.
         scene: Obstacles to keep clear of, as one more limit: a
             :class:`~lpik.collision.Scene` (the velocity damper's rows) or a
             :class:`~lpik.collision.CollisionAvoidance` (rows, field or both). Not
@@ -215,6 +222,7 @@ class Lp2Controller:
         saturate: bool = True,
         on_stall: int | None = None,
         second_order: bool = True,
+        continuation: bool = True,
         scene: Any = None,
         home: ArrayLike | None = None,
         compiled_distances: bool = True,
@@ -230,6 +238,7 @@ class Lp2Controller:
             velocity_limits=velocity_limits,
             rows=(G, h, row_labels) if scene_rows is None else scene_rows.reserved(),
             second_order=second_order, on_stall=on_stall, warm_start=False,
+            continuation=continuation,
         )  # fmt: skip
         s = self.stepper
         self.model, self.dt, self.method = s.model, s.dt, s.method
@@ -318,6 +327,7 @@ class Lp2Controller:
             lam_bounds=np.vstack([template.lam_min, template.lam_max]), G=template.G,
             h=template.h, auto_bound=settings(self.automatic_bound, fuses_kinematics(model)),
             second_order=[float(self.second_order), 0.0],
+            continuation=[float(self.stepper.continues)],
         )  # fmt: skip
 
     def _read_out_blocks(self) -> None:

@@ -71,6 +71,7 @@ def simulate(
     on_stall: int | None = None,
     scene: Any = None,
     second_order: bool = True,
+    continuation: bool = True,
 ) -> SimulationLog:
     """Run the closed loop for ``steps`` control steps and return the log.
 
@@ -112,6 +113,9 @@ def simulate(
             last step's task motion (:func:`lpik.command.second_order_term`),
             the default of every way to take a step. ``False``: the command law
             alone (the paper's runs).
+        continuation: Under acceleration limits, solve each step around the current
+            motion and brake the command in time (:mod:`lpik.continuation`; the
+            default of every way to take a step). ``False``: the paper's step.
 
     Returns:
         The :class:`SimulationLog` of the run.
@@ -141,6 +145,7 @@ def simulate(
         second_order=second_order,
         on_stall=on_stall,
         warm_start=warm_start,
+        continuation=continuation,
     )
     log = _LogRows(model, stepper)
     q_prev: FloatArray | None = None

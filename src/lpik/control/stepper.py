@@ -36,6 +36,7 @@ from lpik.collision.model import as_avoidance
 from lpik.command import (
     DEFAULT_V_MAX,
     DEFAULT_W_MAX,
+    ClampedTarget,
     commanded_displacement,
     second_order_term,
     task_rows,
@@ -43,6 +44,7 @@ from lpik.command import (
 from lpik.control.inputs import positive_number, step_limits, task_value
 from lpik.highs import HighsSolver
 from lpik.limits import (
+    AccelerationLimits,
     AutomaticMultiplierBounds,
     LambdaBound,
     Limit,
@@ -64,6 +66,20 @@ def _under_bound(problem: Problem, bound: FloatArray) -> Problem:
     """``problem`` with ``|lam_k| <= bound_k`` added to its multiplier bounds (sec. 3.2)."""
     return problem.replace(lam_min=np.maximum(problem.lam_min, -bound),
                            lam_max=np.minimum(problem.lam_max, bound))  # fmt: skip
+
+
+def _stop_accelerations(limits: Sequence[Limit], n: int) -> FloatArray | None:
+    """Each joint's smaller acceleration limit over ``limits``' :class:`AccelerationLimits`."""
+    found = [lim for lim in limits if isinstance(lim, AccelerationLimits)]
+    if not found:
+        return None
+    qdd = np.full(n, np.inf)
+    for lim in found:
+        hi = np.broadcast_to(np.asarray(lim.qdd_max, dtype=np.float64), (n,))
+        lo = -hi if lim.qdd_min is None else np.broadcast_to(
+            np.asarray(lim.qdd_min, dtype=np.float64), (n,))  # fmt: skip
+        qdd = np.minimum(qdd, np.minimum(hi, -lo))
+    return qdd
 
 
 def _flag(name: str, value: Any) -> bool:
@@ -100,6 +116,10 @@ class Stepper:
             (:func:`lpik.command.second_order_term`); ``False``: the law alone.
         on_stall: The progress step after this many steps with ``p = 0``; None: never.
         warm_start: Reuse one HiGHS instance across the steps of the LP methods.
+        continuation: Under acceleration limits, solve LP1 and LP2's steps around the
+            current motion (:mod:`lpik.continuation`) and slow the command down in
+            time to stop on its target (:func:`lpik.command.braking_scale`);
+            ``False``: the paper's step through ``dq = 0`` and the law alone.
 
     Raises:
         ValueError: Naming the argument that is wrong.
@@ -124,6 +144,7 @@ class Stepper:
         second_order: bool = True,
         on_stall: int | None = None,
         warm_start: bool = True,
+        continuation: bool = True,
     ) -> None:
         self.model = model = as_task_model(model)
         self.dt = positive_number("dt", dt)
@@ -141,6 +162,11 @@ class Stepper:
                                          qdd_max=qdd_max, lambda_bound=lambda_bound, rows=rows)
             if self.spec.bounds_multipliers or not isinstance(lim, AutomaticMultiplierBounds)
         )  # fmt: skip
+        #: The joints' acceleration limits the command brakes within (smaller side), or None.
+        self.stop_accelerations = _stop_accelerations(self.limits, model.n_joints) if _flag(
+            "continuation", continuation) else None  # fmt: skip
+        #: Whether the method's steps are solved around the current motion.
+        self.continues = self.stop_accelerations is not None and self.spec.continuable
         #: The automatic multiplier bound in force, or None.
         self.automatic_bound = next(
             (lim for lim in self.limits if isinstance(lim, AutomaticMultiplierBounds)), None
@@ -161,19 +187,27 @@ class Stepper:
 
     # -- the stages ---------------------------------------------------------------------
 
-    def command(self, q0: FloatArray, target: Any, q_prev: FloatArray | None) -> FloatArray:
+    def command(
+        self, q0: FloatArray, target: Any, q_prev: FloatArray | None, J: FloatArray | None = None
+    ) -> FloatArray:
         """The step's commanded displacement ``dw`` (eq. 2, :mod:`lpik.command`).
 
-        ``target`` is a task value (moved to at ``v_max``, ``w_max``) or a command
-        law (:class:`~lpik.command.CommandLaw`); less the second-order term of the
-        motion ``q_prev -> q0`` where ``second_order`` is on.
+        ``target`` is a task value (moved to at ``v_max``, ``w_max``, and under
+        acceleration limits slowed down in time to stop on it, given ``J``) or a
+        command law (:class:`~lpik.command.CommandLaw`); less the second-order
+        term of the motion ``q_prev -> q0`` where ``second_order`` is on.
         """
         model = self.model
+        v_max, w_max = self.v_max, self.w_max
+        if isinstance(target, ClampedTarget):  # the law itself: brakes as a target does
+            target, v_max, w_max = target.target, target.v_max, target.w_max
         if callable(target):
             dw = np.array(target(model, q0, self.dt), dtype=np.float64)
         else:
+            stop = None if J is None or self.stop_accelerations is None else (
+                J, self.stop_accelerations)  # fmt: skip
             dw = commanded_displacement(model, model.pose(q0), task_value(model, target),
-                                        self.v_max, self.w_max, self.dt)  # fmt: skip
+                                        v_max, w_max, self.dt, stop)  # fmt: skip
         if self.second_order and q_prev is not None:
             dw -= second_order_term(model, q_prev, q0)
         return dw
@@ -194,7 +228,7 @@ class Stepper:
         q = np.asarray(q0, dtype=np.float64)
         prev = None if q_prev is None else np.asarray(q_prev, dtype=np.float64)
         J = self.model.jacobian(q)
-        return self.limited(q, self.command(q, target, prev), prev, J, bound=bound)
+        return self.limited(q, self.command(q, target, prev, J), prev, J, bound=bound)
 
     def limited(
         self,
@@ -210,7 +244,8 @@ class Stepper:
         if self.avoidance is not None:
             limits = (*limits, *self.avoidance.limits())
             weights = self.avoidance.weights(weights, q0, self.dt, J)
-        P = build_problem(J, dw, q0, limits, dt=self.dt, q_prev=q_prev, **weights)
+        P = build_problem(J, dw, q0, limits, dt=self.dt, q_prev=q_prev,
+                          continuation=self.continues, **weights)  # fmt: skip
         return P if bound is None else _under_bound(P, bound)
 
     def solve(self, problem: Problem, *, path: str | None = None) -> Result:

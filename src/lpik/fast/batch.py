@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lpik.check import task_residual
+from lpik.continuation import around_motion
 from lpik.exceptions import InvalidProblemError
 from lpik.fast import lp2_kernel as K
 from lpik.fast.arrays import BatchArrays, raw_problem
@@ -43,6 +44,7 @@ def problem_labels(problem: Problem) -> tuple[str, ...]:
     return code_labels(*problem.step_bounds()[2:], problem.m, problem.row_labels)
 
 
+@around_motion
 def solve_compiled(
     problem: Problem, solver: HighsSolver | None = None, *, saturate: bool = False
 ) -> Result:
@@ -196,8 +198,9 @@ def lp2_batch(problems: Sequence[Problem] | BatchArrays, method: str = "lp2s") -
     infeasible = codes == K.INFEASIBLE
     ps[infeasible], lam[infeasible] = 0.0, np.nan  # dq: the kernel's safe step
     one_by_one = (codes != K.OK) & ~infeasible
-    if problem_list is not None:  # steps from outside the limits say so: solved one by one
-        one_by_one |= np.array([bool(P.recovering()) for P in problem_list])
+    if problem_list is not None:  # steps from outside the limits say so, and steps around
+        # the current motion (lpik.continuation) are solved so: one by one
+        one_by_one |= np.array([bool(P.recovering()) or P.last is not None for P in problem_list])
     fallback: dict[int, Result] = {}
     for i in np.nonzero(one_by_one)[0].tolist():
         problem = problem_list[i] if problem_list is not None else raw_problem(arrays, i)
@@ -205,10 +208,13 @@ def lp2_batch(problems: Sequence[Problem] | BatchArrays, method: str = "lp2s") -
         fallback[i] = res
         dq[i], ps[i] = res.dq, res.p
         lam[i] = np.nan if res.lam is None else res.lam
+    residual = batch_residuals(arrays.J, arrays.dw, dq, ps)
+    for i, res in fallback.items():
+        residual[i] = res.residual
     return BatchResult(
         q=arrays.q0 + dq, dq=dq, p=ps, lam=lam, codes=codes, binding_codes=bindings,
         _labels=_label_tables(arrays, problem_list), _fallback=fallback,
-        residual=batch_residuals(arrays.J, arrays.dw, dq, ps), method=method,
+        residual=residual, method=method,
     )  # fmt: skip
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 from numba import njit
 
 from lpik import command
+from lpik.bands import braking_room
 from lpik.fast import layout as L
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error
 from lpik.fast.twins import compiled_twin
@@ -24,6 +25,10 @@ command_rows = compiled_twin(
     clamp_command=njit(cache=True)(command.clamp_command),
     along_screw=njit(cache=True)(command.along_screw),
 )
+#: The least joint motion along a task motion (:func:`lpik.command.least_motion`).
+least_motion = njit(cache=True)(command.least_motion)
+#: The braking share of the command (:func:`lpik.command.braking_scale`).
+braking_scale = compiled_twin(command.braking_scale, braking_room=njit(cache=True)(braking_room))
 #: Whether a target commands every row of the task (:func:`lpik.command.target_fits`).
 target_fits = njit(cache=True)(command.target_fits)
 #: The last step's second-order term (:func:`lpik.command.second_order_rows`).
@@ -113,3 +118,22 @@ def take_off_second_order(state, q0, q_prev, rows, J6, dw):
         for i in range(n):
             jac[a, i] = J6[a, i]
     held_at(state, q0)
+
+
+@njit(cache=True)
+def braking_share(state, J, e6, rows):
+    """:func:`lpik.command.braking_scale` of the pose error ``e6``'s task rows: the command's brake.
+
+    The stop accelerations are each joint's smaller acceleration limit (the
+    ``limits`` block); the least motion along the error goes to the ``stop``
+    block, with the ``stop_scratch`` block as its work space.
+    """
+    n, m = J.shape[1], J.shape[0]
+    stop, limits = L.matrix_at(state, L.STOP, 2, n), L.matrix_at(state, L.LIMITS, 6, n)
+    error = L.vector(state, L.DW)  # the command's block holds the error until the law runs
+    for k in range(m):
+        error[k] = e6[int(rows[k])]
+    for i in range(n):
+        stop[1, i] = min(limits[5, i], -limits[4, i])
+    least_motion(J, error, stop[0], L.matrix_at(state, L.STOP_SCRATCH, m, m + 1))
+    return braking_scale(stop[0], stop[1], state[L.DT])

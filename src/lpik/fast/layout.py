@@ -41,16 +41,17 @@ N, M, R, H_DIAG, DT, V_MAX, W_MAX, SATURATE = range(8)
 # the chain and the constants of the step
 REVOLUTE, ROW_INDEX, ORIGINS, AXES, TIP = range(8, 13)
 LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H, AUTO_BOUND = range(13, 21)
-SECOND_ORDER = 21
+SECOND_ORDER, CONTINUATION = 21, 22
 # out: what a step reports
-Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, BOUND, BOUNDED, OUTSIDE = range(22, 33)
+Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, BOUND, BOUNDED, OUTSIDE = range(23, 34)
 # scratch of the step
-GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(33, 40)
-LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(40, 48)
+GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(34, 41)
+LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(41, 49)
+STOP, STOP_SCRATCH, LAST, ORIGIN, SAFE = range(49, 54)
 # the kinematics at the last step's q0, and the second-order term
-PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(48, 52)
+PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(54, 58)
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 52
+END = 58
 #: Length of the header.
 HEADER = END + 1
 
@@ -96,6 +97,12 @@ BLOCKS = (
         (2,),
         "1: the command takes off the second-order term; 1: prev_* hold prev_q's kinematics",
     ),
+    Block(
+        CONTINUATION,
+        "continuation",
+        (1,),
+        "1: under acceleration limits the step is solved around the motion, the command brakes",
+    ),
     Block(Q, "q", ("n",), "the new joint coordinates q0 + dq"),
     Block(DQ, "dq", ("n",), "the step"),
     Block(LAM, "lam", ("m",), "the multipliers"),
@@ -122,6 +129,11 @@ BLOCKS = (
     Block(G_RHS, "g", ("r",), "the rows' right-hand side in dq: h - G q0"),
     Block(LP2_WS, "lp2_ws", (workspace_size,), "the LP2 kernel's workspace"),
     Block(SATURATION, "saturation", (lambda n, m, r: n + m,), "the best pass's dq and lam"),
+    Block(STOP, "stop", (2, "n"), "the least joint motion along the error; the stop accelerations"),
+    Block(STOP_SCRATCH, "stop_scratch", (lambda n, m, r: m * (m + 1),), "its work space"),
+    Block(LAST, "last", ("n",), "the motion the step is solved around (lpik.continuation)"),
+    Block(ORIGIN, "origin", ("n",), "q0 + last, the continued step's origin"),
+    Block(SAFE, "safe", ("n",), "the safe step of a step solved around the motion"),
     Block(PREV_Q, "prev_q", ("n",), "the joint coordinates of the kinematics below"),
     Block(PREV_FRAME, "prev_frame", (4, 4), "the task frame at prev_q"),
     Block(PREV_JACOBIAN6, "prev_jacobian6", (6, "n"), "the world-aligned Jacobian at prev_q"),

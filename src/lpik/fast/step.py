@@ -27,12 +27,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from numba import njit, prange
+from numba import njit, prange, types
 
 from lpik import bands
+from lpik.continuation import motion_decay as _motion_decay
 from lpik.fast import layout as L
 from lpik.fast.autobound import bound_in_state
 from lpik.fast.command_law import (
+    braking_share,
     command_rows,
     previous_kinematics,
     take_off_second_order,
@@ -49,8 +51,13 @@ BAD_INPUT = 4
 
 _yield_to = njit(cache=True)(bands.yield_to)
 rate_band = compiled_twin(
-    bands.rate_band, yield_to=_yield_to, braking_room=njit(cache=True)(bands.braking_room)
+    bands.rate_band,
+    plausible_step=njit(cache=True)(bands.plausible_step),
+    _rate_band=compiled_twin(
+        bands._rate_band, yield_to=_yield_to, braking_room=njit(cache=True)(bands.braking_room)
+    ),
 )
+motion_decay = njit(cache=True)(_motion_decay)
 stop_band = compiled_twin(
     bands.stop_band,
     yield_to=_yield_to,
@@ -117,6 +124,77 @@ def criterion_and_rows(f_ref, Lam, G, h, q0, c, c_ref, g):
 
 
 @njit(cache=True)
+def continues(state, q0, q_prev):
+    """Whether the step is solved around the current motion (:mod:`lpik.continuation`)."""
+    if L.vector(state, L.CONTINUATION)[0] == 0.0:
+        return False
+    for i in range(q0.shape[0]):
+        if q0[i] != q_prev[i]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def continue_motion(state, q0, q_prev, J, dw, lower, upper):
+    """The step in ``u = dq - last``: :func:`lpik.continuation.continued`, in place.
+
+    ``last = q0 - q_prev`` clipped to the step's bounds goes to the ``last``
+    block; the bounds become bounds on ``u`` and ``dw`` becomes ``dw - J last``.
+
+    Returns:
+        The continued step's origin ``q0 + last`` (the ``origin`` block).
+    """
+    n, m = q0.shape[0], J.shape[0]
+    last, origin = L.vector(state, L.LAST), L.vector(state, L.ORIGIN)
+    safe = L.vector(state, L.SAFE)
+    for i in range(n):
+        last[i] = min(max(q0[i] - q_prev[i], lower[i]), upper[i])
+        origin[i] = q0[i] + last[i]
+        safe[i] = min(max(0.0, lower[i]), upper[i])  # the safe step: a controlled stop
+        lower[i] -= last[i]
+        upper[i] -= last[i]
+    for k in range(m):
+        s = 0.0
+        for i in range(n):
+            s += J[k, i] * last[i]
+        dw[k] -= s
+    return origin
+
+
+@njit(cache=True)
+def pull_back(state, c, lower, upper):
+    """``c -= decay M last``: the criterion of eq. 3 in ``u`` (:func:`motion_decay`'s share)."""
+    n = c.shape[0]
+    last = L.vector(state, L.LAST)
+    H, Lam = L.matrix_at(state, L.CRITERION, n, n), L.matrix_at(state, L.LAMBDA, n, n)
+    decay = motion_decay(lower, upper, last)
+    for i in range(n):
+        s = 0.0
+        for k in range(n):
+            s += (H[i, k] - Lam[i, k]) * last[k]
+        c[i] -= decay * s
+
+
+@njit(cache=True)
+def resume_motion(state, code, J, dw, dq):
+    """Back to a step from ``q0`` (:func:`lpik.continuation.resumed`): ``dw`` and ``dq``.
+
+    An infeasible step becomes the original step's safe step (the ``safe``
+    block), 0 clipped to its bounds. The bounds stay those of ``u`` (scratch:
+    LP2 with saturation changes them).
+    """
+    n, m = dq.shape[0], J.shape[0]
+    last, safe = L.vector(state, L.LAST), L.vector(state, L.SAFE)
+    for i in range(n):
+        dq[i] = safe[i] if code == INFEASIBLE else dq[i] + last[i]
+    for k in range(m):
+        s = 0.0
+        for i in range(n):
+            s += J[k, i] * last[i]
+        dw[k] += s
+
+
+@njit(cache=True)
 def binding_label_index(code, kinds, constraints):
     """Where the LP2 kernel's binding limit ``code`` (``2 k + side``) sits in the label table.
 
@@ -147,10 +225,14 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     kinds = L.matrix_at(state, L.KINDS, 2, n)
     dq, lam = L.vector(state, L.DQ), L.vector(state, L.LAM)
     outside = step_bounds(limits, dt, q0, q_prev, lower, upper, kinds)
+    moving = continues(state, q0, q_prev)
+    origin = continue_motion(state, q0, q_prev, J, dw, lower, upper) if moving else q0
     G = L.matrix_at(state, L.ROWS_G, r, n)
     c, c_ref, g = L.vector(state, L.C), L.vector(state, L.C_REF), L.vector(state, L.G_RHS)
     criterion_and_rows(L.matrix_at(state, L.F_REF, 2, n), L.matrix_at(state, L.LAMBDA, n, n),
-                       G, L.vector(state, L.ROWS_H), q0, c, c_ref, g)  # fmt: skip
+                       G, L.vector(state, L.ROWS_H), origin, c, c_ref, g)  # fmt: skip
+    if moving:
+        pull_back(state, c, lower, upper)
     lam_bounds = L.matrix_at(state, L.LAM_BOUNDS, 2, m)
     H, h_diag, ws = (
         L.matrix_at(state, L.CRITERION, n, n),
@@ -167,6 +249,8 @@ def limit_and_solve(state, q0, q_prev, J, dw):
             J, dw, H, h_diag, c, c_ref, lower, upper, lam_bounds[0], lam_bounds[1], G, g, dq,
             lam, ws, SINGULAR_PATH_ALWAYS, MAX_SCHUR_CONDITION,
         )  # fmt: skip
+    if moving:
+        resume_motion(state, code, J, dw, dq)
     q = L.vector(state, L.Q)
     for i in range(n):
         q[i] = q0[i] + dq[i]
@@ -286,7 +370,10 @@ def task_step(state, q0, q_prev, target):
         row = int(rows[k])
         for i in range(n):
             J[k, i] = J6[row, i]
-    command_rows(e6, rows, dw, state[L.V_MAX], state[L.W_MAX], state[L.DT])
+    brake = math.inf
+    if L.vector(state, L.CONTINUATION)[0] != 0.0:
+        brake = braking_share(state, J, e6, rows)
+    command_rows(e6, rows, dw, state[L.V_MAX], state[L.W_MAX], state[L.DT], brake)
     if L.vector(state, L.SECOND_ORDER)[0] != 0.0:
         take_off_second_order(state, q0, q_prev, rows, J6, dw)
     position = L.vector(state, L.POSITION)

@@ -7,6 +7,7 @@ import time
 import numpy as np
 
 from lpik import check
+from lpik.continuation import around_motion
 from lpik.highs import HighsSolver
 from lpik.methods.assembly import finish, lp_over, solver_for
 from lpik.methods.lp1 import lp1
@@ -15,6 +16,7 @@ from lpik.result import INFEASIBLE, OPTIMAL, SCALED, Result, safe_step
 from lpik.tolerances import FULL_P
 
 
+@around_motion
 def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
     """Minimise ``||q - q0||_1`` subject to the linearised kinematics (eq. 2) and the limits.
 

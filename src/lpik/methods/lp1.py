@@ -6,6 +6,7 @@ import time
 
 import numpy as np
 
+from lpik.continuation import around_motion
 from lpik.highs import HighsSolver
 from lpik.methods.assembly import finish, lp_over, solver_for, unsolved_step
 from lpik.methods.duals import binding_from_duals
@@ -13,6 +14,7 @@ from lpik.problem import Problem
 from lpik.result import OPTIMAL, Result
 
 
+@around_motion
 def lp1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
     """Maximise the affine dexterity p subject to the linearised kinematics (LP1).
 

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lpik.continuation import around_motion
 from lpik.highs import HighsSolver
 from lpik.labels import code_labels
 from lpik.methods.assembly import (
@@ -126,6 +127,7 @@ def ratio_test(
     return RatioTest(True, p, label(True, first_hi, first_lo) if p < FULL_P else None)
 
 
+@around_motion
 def lp2(
     problem: Problem,
     *,

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import time
 
+from lpik.continuation import around_motion
 from lpik.highs import HighsSolver
 from lpik.methods.assembly import finish
 from lpik.methods.engines import compiled_step
@@ -54,6 +55,7 @@ def saturated(problem: Problem, joint: int, side: int) -> Problem:
     return problem.replace(dq_min=dq_min, dq_max=dq_max)
 
 
+@around_motion
 def lp2s(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = None) -> Result:
     """LP2 (eqs. 15-18) with saturation in the null space; the module docstring tells how.
 

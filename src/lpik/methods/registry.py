@@ -36,6 +36,8 @@ class MethodSpec:
         takes_solver: Takes a reusable ``solver=`` (:class:`~lpik.highs.HighsSolver`).
         bounds_multipliers: Honours ``lam_min`` / ``lam_max`` (sec. 3.2).
         limit_aware: Every step it returns keeps every limit.
+        continuable: Its step is ``J dq = p dw`` (eq. 12), which under acceleration
+            limits is solved around the current motion (:mod:`lpik.continuation`).
     """
 
     name: str
@@ -46,6 +48,7 @@ class MethodSpec:
     takes_solver: bool = False
     bounds_multipliers: bool = False
     limit_aware: bool = False
+    continuable: bool = False
 
 
 #: Every method, by name, in the order the paper introduces them.
@@ -60,20 +63,21 @@ METHODS: dict[str, MethodSpec] = {
         MethodSpec("robust", robust, "Komainda's robust (damped) inverse", "eq. 19"),
         MethodSpec(
             "lp1", lp1, "Schlemmer's LP: max p, redundancy unresolved", "eqs. 11-14",
-            takes_solver=True, limit_aware=True,
+            takes_solver=True, limit_aware=True, continuable=True,
         ),
         MethodSpec(
-            "l1", l1, "Ho's LP: min ||dq||_1", "sec. 2.3", takes_solver=True, limit_aware=True
+            "l1", l1, "Ho's LP: min ||dq||_1", "sec. 2.3", takes_solver=True, limit_aware=True,
+            continuable=True,
         ),
         MethodSpec(
             "lp2", lp2, "max p with the quadratic criterion as LP rows",
             "eqs. 15-18, secs. 3.1-3.2",
-            takes_solver=True, bounds_multipliers=True, limit_aware=True,
+            takes_solver=True, bounds_multipliers=True, limit_aware=True, continuable=True,
         ),
         MethodSpec(
             "lp2s", lp2s, "LP2 with saturation in the null space: a joint at its bound is "
             "fixed and the others carry on", "eqs. 15-18 over the free joints",
-            takes_solver=True, bounds_multipliers=True, limit_aware=True,
+            takes_solver=True, bounds_multipliers=True, limit_aware=True, continuable=True,
         ),
         MethodSpec(
             "nlp", nlp, "Schlemmer's nonlinear program (needs the robot model)", "sec. 2.2",

@@ -1,0 +1,155 @@
+"""A step solved around the current motion: the continuation form of eq. 12.
+
+The paper's step keeps the commanded direction through the origin,
+``J dq = p dw`` (eqs. 12, 16): at ``p = 0`` the joints stop at once. Under
+acceleration limits they cannot: the step's band for each joint is centred on
+the last step ``last = q0 - q_prev`` (:mod:`lpik.bands`), so the line through
+``dq = 0`` may miss it, and every such step falls to the braking safe step,
+although a motion within the limits exists (a joint that is moving keeps some
+of its speed). The *continuation form* draws the line through the current
+motion instead::
+
+    J (dq - last) = p (dw - J last),    that is    J dq = (1 - p) J last + p dw.
+
+At ``p = 0`` the task keeps the last step's motion (always within the
+acceleration limits), at ``p = 1`` it moves by the command ``dw``. ``p`` is
+then the share of the commanded *change* of the task motion that the limits
+allow this step; from rest (``last = 0``) it is the paper's ``p``.
+
+With ``u = dq - last`` the step is an ordinary :class:`~lpik.problem.Problem`
+in ``u`` (:func:`continued`), which every method of the paper solves
+unchanged: its origin is the configuration the motion would reach,
+``q0 + last``; its bounds are the step's bounds (end-stops, velocity and
+acceleration limits after :mod:`lpik.bands`' precedence, taken at ``q0``)
+less ``last``; its command is ``dw - J last``; and its criterion is the same
+function of ``dq`` (eq. 3: ``1/2 dq^T M dq - f^T dq``, so ``f`` becomes
+``f - M last``; sec. 3.1's ``Lambda`` term is in ``q`` and needs no change).
+The multipliers are those of the step in ``dq``. :func:`resumed` turns the
+answer back into a step from ``q0``; :func:`around_motion` wraps LP1, LP2,
+LP2 with saturation and Ho's L1 step (which takes LP1's ``p``) so that they do
+both for a problem that carries ``last`` (:func:`lpik.limits.build_problem`
+sets it where there are acceleration limits and the arm moves).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from lpik import bands, labels
+from lpik.problem import Problem
+from lpik.result import MOVING, RECOVERING, Result, safe_step
+from lpik.types import FloatArray
+
+#: Share of the narrowest band a step spends on slowing the null-space motion
+#: (:func:`motion_decay`).
+DECAY_SHARE = 0.5
+
+
+def around_motion(method: Callable[..., Result]) -> Callable[..., Result]:
+    """``method`` (LP1, LP2, LP2 with saturation) on a problem with ``last`` in continuation form.
+
+    A problem without ``last`` goes to ``method`` as it is.
+    """
+
+    @functools.wraps(method)
+    def solve(problem: Problem, *args: Any, **options: Any) -> Result:
+        if problem.last is None:
+            return method(problem, *args, **options)
+        return resumed(problem, method(continued(problem), *args, **options))
+
+    return solve
+
+
+def continued(problem: Problem) -> Problem:
+    """``problem`` in ``u = dq - last``: the continuation form of the module docstring.
+
+    The motion continued is ``last`` as far as the step's bounds allow it
+    (clipped to them), so that ``p = 0`` is always within the joints' bounds.
+
+    Args:
+        problem: The step from ``q0`` with ``last``, ``q0 - q_prev`` (its bounds
+            hold the acceleration limits).
+
+    Returns:
+        The same step as a problem in ``u``, with origin ``q0 + last`` (and no ``last``).
+    """
+    lower, upper, lower_kinds, upper_kinds = _bounds_and_kinds(problem)
+    last = problem.motion
+    M = problem.M
+    return problem.replace(
+        q0=problem.q0 + last,
+        dw=problem.dw - problem.J @ last,
+        q_min=np.full(problem.n, -np.inf),
+        q_max=np.full(problem.n, np.inf),
+        dq_min=lower - last,
+        dq_max=upper - last,
+        dq_min_kind=lower_kinds,
+        dq_max_kind=upper_kinds,
+        f=problem.f - motion_decay(lower, upper, last) * (M @ last),
+        q_ref=problem.q_ref,
+        outside_limits=[],  # the state's own: resumed() names them
+        last=None,
+    )
+
+
+def resumed(problem: Problem, result: Result) -> Result:
+    """The answer to :func:`continued`'s problem as a step from ``problem.q0``.
+
+    A step that moves keeps its ``q`` (``dq = q - q0``) and, from a state outside
+    a limit, is ``recovering``, naming it; one that cannot move (a failure, an
+    infeasible step) is the original problem's safe step, a controlled stop,
+    with the same status and binding (``recovering`` from outside a limit).
+    """
+    if result.status not in MOVING:
+        return safe_step(problem, result.method, result.status, result.binding,
+                         solve_time=result.solve_time, path=result.path)  # fmt: skip
+    outside = problem.recovering()
+    if outside:
+        return replace(result, dq=result.q - problem.q0, status=RECOVERING, binding=outside[0])
+    return replace(result, dq=result.q - problem.q0)
+
+
+def motion_decay(lower: FloatArray, upper: FloatArray, last: FloatArray) -> float:
+    """How much of the criterion's pull back to the least motion one step may take.
+
+    The criterion (eq. 3) of the step ``dq = last + u`` pulls the joints' motion
+    towards the criterion's least motion, at ``p = 0`` by ``-N last`` (``N``:
+    the projection onto the null space): a change of the motion that the
+    acceleration limits may not allow in one step. It is taken at the rate the
+    narrowest moving band allows, :data:`DECAY_SHARE` of its half-width per step
+    against the largest joint step, so that the motion in the null space dies
+    away within the limits instead of making the step infeasible. Plain loops,
+    compiled as they are by the fused step.
+
+    Returns:
+        The share, in [0, 1], that multiplies ``M last`` in the criterion's ``f``.
+    """
+    size, width = 0.0, math.inf
+    for i in range(last.shape[0]):
+        size = max(size, abs(last[i]))
+        half = 0.5 * (upper[i] - lower[i])
+        if half > 0.0:
+            width = min(width, half)
+    if size == 0.0 or not width < math.inf:
+        return 0.0
+    return min(1.0, DECAY_SHARE * width / size)
+
+
+def _bounds_and_kinds(problem: Problem) -> tuple[FloatArray, FloatArray, list[str], list[str]]:
+    """The step's bounds on ``dq`` (:meth:`~lpik.problem.Problem.step_bounds`) and their kinds."""
+    lower, upper = problem.step_bounds()[:2]
+    lower_kinds, upper_kinds = [], []
+    for i in range(problem.n):
+        _, _, lo_stop, hi_stop, _ = bands.stop_band(
+            float(problem.q0[i]), float(problem.q_min[i]), float(problem.q_max[i]),
+            float(problem.dq_min[i]), float(problem.dq_max[i]),
+        )  # fmt: skip
+        lower_kinds.append(labels.END_STOP if lo_stop else problem.dq_min_kind[i])
+        upper_kinds.append(labels.END_STOP if hi_stop else problem.dq_max_kind[i])
+    return lower, upper, lower_kinds, upper_kinds
