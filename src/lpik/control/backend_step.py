@@ -21,7 +21,13 @@ import numpy as np
 
 from lpik.fast import layout
 from lpik.fast.command_law import held_at, needs_previous
-from lpik.fast.step import BAD_INPUT, chain_step_batch, step_kernel, task_step_kernel
+from lpik.fast.step import (
+    BAD_INPUT,
+    TARGET_AXES,
+    chain_step_batch,
+    step_kernel,
+    task_step_kernel,
+)
 from lpik.robots.base import TaskModel
 from lpik.robots.chain import SerialChain
 from lpik.types import FloatArray
@@ -55,9 +61,12 @@ class BackendKinematicsStep:
             ``fk_jacobian`` when it can give both in one pass).
         state: A state buffer of the controller (:func:`lpik.fast.layout.pack`),
             for the blocks' places.
+        target_axes: The targets' numbers of axes to compile the step for.
     """
 
-    def __init__(self, kinematics: Any, state: FloatArray) -> None:
+    def __init__(
+        self, kinematics: Any, state: FloatArray, target_axes: tuple[int, ...] = TARGET_AXES
+    ) -> None:
         self.kinematics = kinematics
         self._both = _pose_and_jacobian(kinematics)
         self._n = int(state[layout.N])
@@ -67,7 +76,7 @@ class BackendKinematicsStep:
         frame, jac = int(state[layout.PREV_FRAME]), int(state[layout.PREV_JACOBIAN6])
         self._prev_frame = slice(frame, frame + 16)
         self._prev_jacobian = slice(jac, jac + 6 * self._n)
-        self._kernel = task_step_kernel()
+        self._kernel = task_step_kernel(target_axes)
 
     def __call__(self, state: FloatArray, q0: Any, q_prev: Any, target: Any) -> int:
         """One step: the backend's kinematics at ``q0``, then the compiled rest (its code)."""
@@ -108,9 +117,15 @@ def fuses_kinematics(model: TaskModel) -> bool:
     return isinstance(getattr(model, "kinematics", None), SerialChain)
 
 
-def step_functions(model: TaskModel, state: FloatArray) -> tuple[StepKernel, BatchRunner]:
-    """The step and batch runner for ``model``: fused for a SerialChain, else the backend's."""
+def step_functions(
+    model: TaskModel, state: FloatArray, target_axes: tuple[int, ...] = TARGET_AXES
+) -> tuple[StepKernel, BatchRunner]:
+    """The step and batch runner for ``model``: fused for a SerialChain, else the backend's.
+
+    The step is compiled (or loaded from the disk cache) for targets of
+    ``target_axes`` axes (:data:`lpik.fast.step.STEP_SIGNATURES`) only.
+    """
     if fuses_kinematics(model):
-        return step_kernel(), chain_step_batch
-    runner = BackendKinematicsStep(model.kinematics, state)  # type: ignore[attr-defined]
+        return step_kernel(target_axes), chain_step_batch
+    runner = BackendKinematicsStep(model.kinematics, state, target_axes)  # type: ignore[attr-defined]
     return runner, runner.batch

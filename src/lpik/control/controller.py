@@ -248,7 +248,9 @@ class Lp2Controller:
         self._fallback_path = None if saturate else "highs"
         self._bound: FloatArray | None = None  # the automatic bound of a step under it
         self._state = self._packed(bool(saturate))
-        self._kernel, self._batch = step_functions(self.model, self._state)
+        # compiled (or loaded) for the target the task takes; another kind when first given
+        self._target_axes = (2,) if (np.asarray(s.task_rows) >= 3).any() else (1,)
+        self._kernel, self._batch = step_functions(self.model, self._state, self._target_axes)
         self._read_out_blocks()
         #: The scene's rows in the state (:class:`SceneRows`), or None without a scene.
         self.scene_rows = scene_rows
@@ -347,7 +349,7 @@ class Lp2Controller:
 
         arrays = pack_bodies(avoidance.proximities, self.dt, avoidance.approach_speed)
         self.found = arrays[6]
-        self._kernel = partial(avoiding_kernel(), *arrays)
+        self._kernel = partial(avoiding_kernel(self._target_axes), *arrays)
 
     # -- one step -------------------------------------------------------------------------
 
@@ -418,7 +420,20 @@ class Lp2Controller:
             return self._kernel(self._state, q0, prev, target)
         except TypeError:  # not C-contiguous writable float64 arrays: convert them
             q0, target, prev = self._converted(q0, target, q_prev)
+            self._ready_for(target.ndim)
             return self._kernel(self._state, q0, prev, target)
+
+    def _ready_for(self, target_axes: int) -> None:
+        """The compiled step readied for targets of ``target_axes`` axes too (compiled once)."""
+        if target_axes in self._target_axes:
+            return
+        self._target_axes = (*self._target_axes, target_axes)
+        if self.found is not None:  # the step with the scene's distances inside
+            from lpik.fast.avoiding_step import avoiding_kernel
+
+            avoiding_kernel((target_axes,))  # the same dispatcher as self._kernel's
+        else:
+            step_functions(self.model, self._state, (target_axes,))
 
     def step_into(
         self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, out: FloatArray
@@ -581,6 +596,7 @@ class Lp2Controller:
         Qp = Q0 if q_prev is None else stacked_rows("q_prev", q_prev, ((n,),), B)
         T = stacked_rows("targets", targets, TARGET_SHAPES, B)
         task_value(self.model, T[0])  # every row has the same shape: it must fit the task
+        self._ready_for(T.ndim - 1)
         outs, codes = np.empty((B, self._out.shape[0])), np.empty(B, dtype=np.int64)
         if self.scene_rows is None:
             self._batch(self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads())

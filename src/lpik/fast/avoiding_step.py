@@ -25,7 +25,7 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from lpik.collision.avoidance import INACTIVE_RHS, damper_row, damper_share
 from lpik.fast import layout as L
@@ -38,8 +38,16 @@ from lpik.fast.distances import (
     capsule_sphere,
 )
 from lpik.fast.kinematics import _axis_rotation, _mul3, _mul33, _rotation, chain_fk_jacobian
-from lpik.fast.step import BAD_INPUT, _finite_joints, task_step
-from lpik.fast.twins import compiled_twin
+from lpik.fast.signatures import loaded_kernel, typed_kernel
+from lpik.fast.step import (
+    BAD_INPUT,
+    STEP_SIGNATURES,
+    TARGET_AXES,
+    _finite_joints,
+    fused_task_step,
+    task_step,
+)
+from lpik.fast.twins import compiled_twin, rebound
 from lpik.fast.views import matrix
 
 #: Obstacle kinds, by their code in the ``obstacles`` array.
@@ -253,26 +261,31 @@ def avoiding_step(capsules, obstacles, pairs, damper, frames, ends, found, scrat
     return task_step(state, q0, q_prev, target)
 
 
-_BODIES = "float64[:, ::1], float64[:, ::1], int64[:, ::1], float64[::1], "
-_SCRATCH = "float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], "
-#: The only argument types :func:`avoiding_kernel` compiles :func:`avoiding_step` for.
-AVOIDING_SIGNATURES = tuple(
-    f"int64({_BODIES}{_SCRATCH}float64[::1], float64[::1], float64[::1], {target})"
-    for target in ("float64[::1]", "float64[:, ::1]")
-)
-_compiled: list[Any] = []
+_F1, _F2 = types.float64[::1], types.float64[:, ::1]
+_BODIES = (_F2, _F2, types.int64[:, ::1], _F1)
+_SCRATCH = (_F2, _F2, _F2, _F1)
+#: The argument types :func:`avoiding_kernel` compiles :func:`avoiding_step` for, by
+#: the number of axes of the target (as :data:`lpik.fast.step.STEP_SIGNATURES`).
+AVOIDING_SIGNATURES = {
+    axes: (*_BODIES, *_SCRATCH, *STEP_SIGNATURES[axes]) for axes in STEP_SIGNATURES
+}
+# the step's parts inlined into it (lpik.fast.step.fused_task_step)
+_avoiding_step = rebound(avoiding_step, task_step=fused_task_step)
 
 
-def avoiding_kernel() -> Any:
-    """The compiled :func:`avoiding_step`, for :data:`AVOIDING_SIGNATURES` only."""
-    if not _compiled:
-        _compiled.append(njit(list(AVOIDING_SIGNATURES), cache=True)(avoiding_step))
-    return _compiled[0]
+def avoiding_kernel(target_axes: tuple[int, ...] = TARGET_AXES) -> Any:
+    """The compiled :func:`avoiding_step`, for targets of ``target_axes`` axes only.
+
+    As :func:`lpik.fast.step.step_kernel`: each signature of
+    :data:`AVOIDING_SIGNATURES` is compiled (or loaded) when first asked for.
+    """
+    return typed_kernel("avoiding_step", _avoiding_step,
+                        (AVOIDING_SIGNATURES[a] for a in target_axes))  # fmt: skip
 
 
 def loaded_avoiding_kernel() -> Any:
     """The compiled step if :func:`avoiding_kernel` has readied it in this process, else None."""
-    return _compiled[0] if _compiled else None
+    return loaded_kernel("avoiding_step")
 
 
 def pack_bodies(proximities: Any, dt: float, approach_speed: float) -> tuple[np.ndarray, ...]:

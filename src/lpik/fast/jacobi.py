@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import float64, njit
 
 #: Rotations stop when every pair of columns is orthogonal to this (relative) cosine.
 JACOBI_TOL = 1e-15
@@ -75,7 +75,7 @@ def _column_norms(B):
     return norms
 
 
-@njit(cache=True)
+@njit((float64[:, :],), cache=True)  # one signature: views and C-ordered arrays alike
 def singular_values(A):
     """``A``'s singular values (``min(m, n)``, largest first), those of :func:`jacobi_svd`."""
     m, n = A.shape

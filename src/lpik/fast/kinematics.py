@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from numba import float64, njit
 
 from lpik.fast.views import flat, matrix
 from lpik.robots.rotations import rotation_defect as _rotation_defect
@@ -69,7 +69,13 @@ def _rotation(A):
     return (A[0, 0], A[0, 1], A[0, 2], A[1, 0], A[1, 1], A[1, 2], A[2, 0], A[2, 1], A[2, 2])
 
 
-@njit(cache=True)
+#: The one signature :func:`chain_fk_jacobian` is compiled for (when the module is
+#: imported): its callers pass views of a state buffer and C-ordered arrays alike.
+_FK_SIGNATURE = (float64[:, :, :], float64[:, :], float64[::1], float64[:, :], float64[::1],
+                 float64[:, :], float64[:, :], float64[:, :, :])  # fmt: skip
+
+
+@njit(_FK_SIGNATURE, cache=True)
 def chain_fk_jacobian(origins, axes, revolute, tip, q, T, J6, joints):
     """Task-frame pose ``T`` (4, 4) and world-aligned Jacobian ``J6`` (6, n) at ``q``.
 

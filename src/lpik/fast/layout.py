@@ -214,20 +214,25 @@ def out_fields(state: FloatArray) -> dict[str, slice]:
 
 # ------------------------------------------------------------------------ the kernels' access
 
+#: The one signature each accessor below is compiled for (see :mod:`lpik.fast.views`).
+_VECTOR_SIGNATURE = "float64[::1](float64[::1], int64)"
+_MATRIX_SIGNATURE = "float64[:, :](float64[::1], int64, int64, int64)"
+_TENSOR_SIGNATURE = "float64[:, :, :](float64[::1], int64, int64, int64, int64)"
 
-@njit(cache=True)
+
+@njit(_VECTOR_SIGNATURE, cache=True)
 def vector(state, slot):
     """The block at header ``slot`` as a 1-D view (a block ends where the next begins)."""
     return state[int(state[slot]) : int(state[slot + 1])]
 
 
-@njit(cache=True)
+@njit(_MATRIX_SIGNATURE, cache=True)
 def matrix_at(state, slot, rows, cols):
     """The block at header ``slot`` as a (rows, cols) view."""
     return matrix(state, int(state[slot]), rows, cols)
 
 
-@njit(cache=True)
+@njit(_TENSOR_SIGNATURE, cache=True)
 def tensor_at(state, slot, d0, d1, d2):
     """The block at header ``slot`` as a (d0, d1, d2) view."""
     return tensor3(state, int(state[slot]), d0, d1, d2)

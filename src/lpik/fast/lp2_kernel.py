@@ -18,13 +18,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import float64, int64, njit, prange
 
 from lpik.check import loop_check
 from lpik.fast.jacobi import jacobi_svd
 from lpik.fast.linalg import cho_solve, cho_solve2, cholesky, refine
 from lpik.fast.ratio import limit_code, slacks
-from lpik.fast.smoothing import add_smoothing
+from lpik.fast.smoothing import add_smoothing, compiled_pull_room
 from lpik.fast.twins import compiled_twin
 from lpik.fast.workspace import (
     A_L,
@@ -65,12 +65,14 @@ __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kern
 
 #: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
 _HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
-            "singularity_code", "pull_room")  # fmt: skip
+            "singularity_code")  # fmt: skip
 _loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
 condition_bound = njit(cache=True)(kkt.condition_bound)  # lp2s's later passes
-_stop = njit(cache=True)(singular._stop)  # the safe step, INFEASIBLE
+# the safe step, INFEASIBLE: one signature (the kernels pass -1 and a variable alike)
+_stop = njit((float64[:], float64[:], float64[:], int64), cache=True)(singular._stop)
 singular_core = compiled_twin(
     singular.singular_core, _svd=jacobi_svd, loop_check=_loop_check, _stop=_stop,
+    pull_room=compiled_pull_room,
     **{name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS},
 )  # fmt: skip
 
@@ -78,8 +80,10 @@ singular_core = compiled_twin(
 _workspace_size = workspace_size
 
 #: :func:`lp2_core`'s ``singular_path``: never, always (``True``), or only for a
-#: ratio-test answer that fails its check.
-SINGULAR_PATH_NEVER, SINGULAR_PATH_ALWAYS, SINGULAR_PATH_AFTER_CHECK = 0, 1, 2
+#: ratio-test answer that fails its check. numpy integers, not Python ints: numba
+#: types a Python int constant as its own literal type, and each call site with
+#: another constant would compile :func:`lp2_core` once more.
+SINGULAR_PATH_NEVER, SINGULAR_PATH_ALWAYS, SINGULAR_PATH_AFTER_CHECK = np.int64([0, 1, 2])
 
 
 @njit(cache=True)

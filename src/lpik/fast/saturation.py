@@ -25,6 +25,30 @@ from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION, SATURATION_MAX_CONDITIO
 
 
 @njit(cache=True)
+def _keep(best, dq, lam):
+    """``best = (dq, lam)``, element by element.
+
+    A loop, not ``best[:n] = dq``: numba's array assignment compiles its
+    shape-mismatch message, string formatting and all (seconds of compile time).
+    """
+    n = dq.shape[0]
+    for i in range(n):
+        best[i] = dq[i]
+    for k in range(lam.shape[0]):
+        best[n + k] = lam[k]
+
+
+@njit(cache=True)
+def _restore(dq, lam, best):
+    """``(dq, lam) = best``, element by element (see :func:`_keep`)."""
+    n = dq.shape[0]
+    for i in range(n):
+        dq[i] = best[i]
+    for k in range(lam.shape[0]):
+        lam[k] = best[n + k]
+
+
+@njit(cache=True)
 def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws, best):
     """LP2 with saturation (eqs. 15-18 over the free joints); writes ``dq`` and ``lam``.
 
@@ -53,14 +77,14 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
         return code, p, binding, residual
     first_binding = binding
     if stuck:
-        best[:n], best[n : n + m] = dq, lam
+        _keep(best, dq, lam)
     free = 0
     for i in range(n):
         if lower[i] != upper[i]:
             free += 1
     while p < FULL_P and 0 <= binding < 2 * n and free - 1 >= m:
         if code == OK:  # the best pass so far (while stuck: the first pass's safe step)
-            best[:n], best[n : n + m] = dq, lam
+            _keep(best, dq, lam)
         joint = binding // 2
         if binding % 2 == 1:
             lower[joint] = upper[joint]
@@ -77,11 +101,11 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
             binding = binding2
             continue
         if code2 != OK or (not stuck and p2 < p):  # keep the best pass (SINGULAR: no redundancy)
-            dq[:], lam[:] = best[:n], best[n : n + m]
+            _restore(dq, lam, best)
             break
         code, p, binding, residual, stuck = code2, p2, binding2, residual2, False
     if stuck:  # no pass feasible: the first pass's safe step and conflict
-        dq[:], lam[:] = best[:n], best[n : n + m]
+        _restore(dq, lam, best)
         return INFEASIBLE, 0.0, first_binding, residual
     return code, p, binding, residual
 

@@ -6,12 +6,15 @@ of :func:`lpik.methods.kkt.affine_solution`, for :func:`lpik.fast.lp2_kernel.lp2
 
 from __future__ import annotations
 
-from numba import njit
+from numba import float64, njit
 
 from lpik.fast.linalg import cho_solve, refine, solve_free
 from lpik.methods.pull import pull_room
 
-_pull_room = njit(cache=True)(pull_room)
+#: :func:`lpik.methods.pull.pull_room`, compiled for one signature (any 1-D float
+#: arrays) when the module is imported: its callers pass views and C-ordered arrays.
+_ANY = float64[:]
+compiled_pull_room = njit((_ANY, _ANY, _ANY, _ANY, float64), cache=True)(pull_room)
 
 
 @njit(cache=True)
@@ -44,7 +47,8 @@ def add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, lam_min, la
         e_q[i] = s
     refine(J, H, h_diag, c_ref, lower, upper, LH, LS, HinvJt, e_q, e_l, col, t_q, r_l, d_l)
     # the numpy path's rule (lpik.methods.kkt.smoothing_scale): joints, then multipliers
-    scale = _pull_room(a_l, e_l, lam_min, lam_max, _pull_room(a_q, e_q, lower, upper, 1.0))
+    room = compiled_pull_room(a_q, e_q, lower, upper, 1.0)
+    scale = compiled_pull_room(a_l, e_l, lam_min, lam_max, room)
     for i in range(n):
         a_q[i] += scale * e_q[i]
     for k in range(m):

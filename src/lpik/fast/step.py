@@ -43,7 +43,8 @@ from lpik.fast.command_law import (
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
 from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core
 from lpik.fast.saturation import lp2s_core
-from lpik.fast.twins import compiled_twin
+from lpik.fast.signatures import loaded_kernel, typed_kernel
+from lpik.fast.twins import compiled_twin, inlined_twin, rebound
 from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION
 
 #: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
@@ -290,7 +291,8 @@ def bounded_again(state, q0, q_prev, J, dw):
         lam_bounds[1, k] = min(saved[1, k], bound[k])
     state[bounded] = 1.0
     code = limit_and_solve(state, q0, q_prev, J, dw)
-    lam_bounds[:, :] = saved
+    for k in range(m):  # a loop: an array assignment compiles its error message, seconds
+        lam_bounds[0, k], lam_bounds[1, k] = saved[0, k], saved[1, k]
     return code
 
 
@@ -385,50 +387,58 @@ def task_step(state, q0, q_prev, target):
     return bounded_again(state, q0, q_prev, J, dw)
 
 
-#: The only argument types :func:`step_kernel` compiles :func:`chain_step` for.
-STEP_SIGNATURES = (
-    "int64(float64[::1], float64[::1], float64[::1], float64[::1])",
-    "int64(float64[::1], float64[::1], float64[::1], float64[:, ::1])",
-)
-_compiled_step: list[Any] = []
+# The compiled steps inline their parts at numba's IR level (lpik.fast.twins.inlined_twin):
+# compiled one by one, each part would be optimised again inside each part above it.
+_solve = inlined_twin(limit_and_solve, lp2s_core=inlined_twin(lp2s_core))
+#: :func:`task_step` with :func:`limit_and_solve`, :func:`bounded_again` and
+#: :func:`lpik.fast.saturation.lp2s_core` inlined, to be inlined into a compiled step.
+_parts = {"limit_and_solve": _solve,
+          "bounded_again": inlined_twin(bounded_again, limit_and_solve=_solve)}  # fmt: skip
+fused_task_step = inlined_twin(task_step, **_parts)
+_task_step = rebound(task_step, **_parts)
+_chain_step = rebound(chain_step, task_step=fused_task_step)
+
+_VECTOR = types.float64[::1]
+#: The argument types of the compiled steps, by the number of axes of the target:
+#: 1 for an xyz (3,), 2 for a rotation (3, 3) or a pose (4, 4). Argument types
+#: alone, as numba keys its disk cache when the batch kernel compiles the step.
+STEP_SIGNATURES = {
+    1: (_VECTOR, _VECTOR, _VECTOR, _VECTOR),
+    2: (_VECTOR, _VECTOR, _VECTOR, types.float64[:, ::1]),
+}
+#: Both kinds of target.
+TARGET_AXES = (1, 2)
 
 
-def step_kernel() -> Any:
-    """The compiled :func:`chain_step` (a numba dispatcher).
+def step_kernel(target_axes: tuple[int, ...] = TARGET_AXES) -> Any:
+    """The compiled :func:`chain_step` (a numba dispatcher), for targets of ``target_axes`` axes.
 
-    Compiled on first use (or loaded from numba's disk cache), for
-    :data:`STEP_SIGNATURES` only, so that a call with other types raises
+    Each of their :data:`STEP_SIGNATURES` is compiled (or loaded from numba's
+    disk cache) the first time it is asked for; a call with other types raises
     ``TypeError`` instead of compiling in the middle of a loop.
     """
-    if not _compiled_step:
-        _compiled_step.append(njit(list(STEP_SIGNATURES), cache=True)(chain_step))
-    return _compiled_step[0]
+    return typed_kernel("chain_step", _chain_step, (STEP_SIGNATURES[a] for a in target_axes))
 
 
-_compiled_task_step: list[Any] = []
-
-
-def task_step_kernel() -> Any:
-    """The compiled :func:`task_step`, for :data:`STEP_SIGNATURES` only (as :func:`step_kernel`)."""
-    if not _compiled_task_step:
-        _compiled_task_step.append(njit(list(STEP_SIGNATURES), cache=True)(task_step.py_func))
-    return _compiled_task_step[0]
+def task_step_kernel(target_axes: tuple[int, ...] = TARGET_AXES) -> Any:
+    """The compiled :func:`task_step` for targets of ``target_axes`` axes (as step_kernel)."""
+    return typed_kernel("task_step", _task_step, (STEP_SIGNATURES[a] for a in target_axes))
 
 
 def loaded_task_step_kernel() -> Any:
     """The compiled task step if :func:`task_step_kernel` has readied it, else None."""
-    return _compiled_task_step[0] if _compiled_task_step else None
+    return loaded_kernel("task_step")
 
 
 def loaded_step_kernel() -> Any:
     """The compiled step if :func:`step_kernel` has readied it in this process, else None."""
-    return _compiled_step[0] if _compiled_step else None
+    return loaded_kernel("chain_step")
 
 
 # The same step without explicit signatures, for the batch loop below. It compiles
 # for the batch's argument types, which are those of STEP_SIGNATURES, so it shares
 # their disk-cache entries with step_kernel's dispatcher.
-_chain_step_any = njit(cache=True)(chain_step)
+_chain_step_any = njit(cache=True)(_chain_step)
 
 
 @njit(cache=True, parallel=True)

@@ -6,6 +6,11 @@ same array as ``buf[offset : offset + size].reshape(shape)``, but numba's
 ``reshape`` calls a C helper on every view, which adds up over the few dozen
 views of a step, while a strided view costs nothing. The strides are computed
 from the buffer's itemsize.
+
+Each view is compiled for one signature (:data:`MATRIX_SIGNATURE`, ...) when
+the module is imported: a kernel passes block constants and literal sizes
+(``matrix(buf, 0, 4, 4)``), which numba would otherwise type as literals and
+compile the view again for each combination.
 """
 
 from __future__ import annotations
@@ -13,15 +18,20 @@ from __future__ import annotations
 from numba import njit
 from numpy.lib.stride_tricks import as_strided
 
+#: The one signature of :func:`matrix`: a (rows, cols) view of a float64 buffer.
+MATRIX_SIGNATURE = "float64[:, :](float64[::1], int64, int64, int64)"
+#: The one signature of :func:`tensor3`.
+TENSOR3_SIGNATURE = "float64[:, :, :](float64[::1], int64, int64, int64, int64)"
 
-@njit(cache=True)
+
+@njit(MATRIX_SIGNATURE, cache=True)
 def matrix(buf, offset, rows, cols):
     """The C-ordered (rows, cols) view of the contiguous 1-D ``buf`` from ``offset``."""
     size = buf.itemsize
     return as_strided(buf[offset:], shape=(rows, cols), strides=(cols * size, size))
 
 
-@njit(cache=True)
+@njit(TENSOR3_SIGNATURE, cache=True)
 def tensor3(buf, offset, d0, d1, d2):
     """The C-ordered (d0, d1, d2) view of the contiguous 1-D ``buf`` from ``offset``."""
     size = buf.itemsize

@@ -6,7 +6,10 @@ lists its blocks in order, each with its shape in ``n`` (joints), ``m`` (task
 rows) and ``t = n + m + r`` (the ratio test's entries: the joints, the
 multipliers and ``r`` extra rows); a block starts where the one before it ends.
 A kernel takes a block through :func:`vector` or :func:`matrix_at` with the
-block's constant.
+block's constant. Each is compiled for one signature when the module is
+imported, and LLVM inlines them into the kernel: inlined at numba's level
+instead, the few dozen views of :func:`~lpik.fast.lp2_kernel.lp2_core` took
+seconds of its compile time.
 """
 
 from __future__ import annotations
@@ -17,6 +20,11 @@ import numpy as np
 from numba import njit
 
 from lpik.fast.views import matrix
+
+# the signatures of the accessors below: an index; a block's view
+_INDEX = "int64(int64, int64, int64, int64)"
+_VECTOR = "float64[::1](float64[::1], int64, int64, int64, int64)"
+_MATRIX = "float64[:, :](float64[::1], int64, int64, int64, int64)"
 
 # the blocks, by their place in BLOCKS
 HINV_JT, H_FACTOR, HINV_C, COL, OUT, A_Q, B_Q = range(7)
@@ -95,7 +103,7 @@ _SHAPES = np.array(
 )
 
 
-@njit(inline="always")
+@njit(_INDEX, cache=True)
 def _extent(code, n, m, r):
     """The length of an axis of code ``code`` (see :data:`_AXES`); 1 for none."""
     if code == 0:
@@ -107,7 +115,7 @@ def _extent(code, n, m, r):
     return 1
 
 
-@njit(inline="always")
+@njit(_INDEX, cache=True)
 def start(block, n, m, r):
     """Where ``block`` starts (:data:`COUNT`: the workspace's length)."""
     t = n + m + r
@@ -116,14 +124,14 @@ def start(block, n, m, r):
             + c[6] * n * t + c[7] * m * m + c[8] * m * t + c[9] * t * t)  # fmt: skip
 
 
-@njit(inline="always")
+@njit(_VECTOR, cache=True)
 def vector(ws, block, n, m, r):
     """The 1-D ``block`` of the workspace ``ws``."""
     offset = start(block, n, m, r)
     return ws[offset : offset + _extent(_SHAPES[block, 0], n, m, r)]
 
 
-@njit(inline="always")
+@njit(_MATRIX, cache=True)
 def matrix_at(ws, block, n, m, r):
     """The 2-D ``block`` of the workspace ``ws``, C-ordered."""
     rows, cols = _extent(_SHAPES[block, 0], n, m, r), _extent(_SHAPES[block, 1], n, m, r)
