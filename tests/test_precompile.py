@@ -42,3 +42,27 @@ def test_a_second_call_finds_every_kernel_in_memory(capsys) -> None:
     assert [line.split("  ")[0] for line in lines[: len(NAMES)]] == NAMES
     assert all("in memory" in line for line in lines[: len(NAMES)])
     assert lines[-1].startswith("numba cache: ")
+
+
+def test_the_progress_line_says_what_numba_compiles_and_nothing_from_the_cache() -> None:
+    import io
+
+    from numba import njit
+
+    from lpik.fast.compiling import CompileProgress
+
+    def plus_one(x):  # type: ignore[no-untyped-def]
+        return x + 1
+
+    stream = io.StringIO()
+    kernel = njit(plus_one)
+    with CompileProgress("a test", stream, live=False) as progress:
+        assert kernel(1) == 2  # compiles
+    lines = stream.getvalue().splitlines()
+    assert progress.count == 1 and len(lines) == 2
+    assert lines[0].startswith("a test: compiling") and "lpik compile" in lines[0]
+    assert lines[1].startswith("a test: compiled 1 function in ")
+    quiet = io.StringIO()
+    with CompileProgress("a test", quiet, live=False):
+        assert kernel(2) == 3  # compiled already: nothing to say
+    assert quiet.getvalue() == ""

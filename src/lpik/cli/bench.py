@@ -49,20 +49,23 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark and print it."""
+    from lpik.cli.progress import compile_progress
     from lpik_bench.runner import run_benchmark
     from lpik_bench.table import text_report
 
     peers = None
     if args.peers is not None:
         peers = () if args.peers == "none" else tuple(p for p in args.peers.split(",") if p)
-    records = run_benchmark(
-        args.robot,
-        quick=args.quick,
-        rounds=args.rounds,
-        peers=peers,
-        cold=False if args.no_cold else None,
-        command="lpik " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else "lpik bench",
-    )
+    command = "lpik " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else "lpik bench"
+    with compile_progress("lpik bench"):  # a first run compiles the compiled path
+        records = run_benchmark(
+            args.robot,
+            quick=args.quick,
+            rounds=args.rounds,
+            peers=peers,
+            cold=False if args.no_cold else None,
+            command=command,
+        )
     dicts = [r.to_dict() for r in records]
     if args.json:
         print(json.dumps(dicts, indent=1, allow_nan=False, default=_jsonable))

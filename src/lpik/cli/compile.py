@@ -1,14 +1,16 @@
 """``lpik compile``: compile every kernel of the compiled path now (or load it from the cache).
 
-A cold compile of the compiled path is slow (see the first-call table of
-``docs/benchmarks.md``); the kernels are then cached on disk. Run
+A cold compile of the compiled path takes a while (the section "Compile time"
+of ``docs/benchmarks.md``: tens of seconds for a first controller, a few
+minutes for every kernel); the kernels are then cached on disk. Run
 ``lpik compile`` (or :func:`compile_kernels`) once where lpik is deployed, for
 example while building a container image, so that a controller's first start
 loads them from the cache instead of compiling them.
 
 Prints one line per kernel: what it does, where it came from (``compiled``,
 ``disk cache`` or ``in memory``) and the seconds it took, then numba's cache
-folder. ``lpik compile --json`` prints a JSON list of objects with the keys
+folder; while it compiles, a progress line on stderr says what it is on.
+``lpik compile --json`` prints a JSON list of objects with the keys
 ``name``, ``source``, ``seconds`` and ``cache_path``.
 """
 
@@ -133,7 +135,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 def run(args: argparse.Namespace) -> int:
     """Ready the kernels and report them; exit status 0."""
-    loads = compile_kernels()  # without numba: MissingBackendError, one line, exit 2
+    from lpik.cli.progress import compile_progress
+
+    with compile_progress("lpik compile"):  # without numba: nothing to say
+        loads = compile_kernels()  # without numba: MissingBackendError, one line, exit 2
     if args.json:
         print(json.dumps([asdict(load) for load in loads], indent=2))
         return 0

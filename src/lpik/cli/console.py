@@ -69,6 +69,7 @@ def _interrupt(signum: int, frame: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the console until interrupted; 0 after a clean stop."""
+    from lpik.cli.progress import compile_progress
     from lpik.cli.robots import check_scene_fits, robot_from_arguments
     from lpik.console.app import Console
     from lpik.console.gate import resolve_host
@@ -80,14 +81,15 @@ def run(args: argparse.Namespace) -> int:
     check_scene_fits(arm, args.scene)
     robot = console_robot(arm, args.scene)
     settings = Settings(method=args.method, v_max=robot.v_max, w_max=robot.w_max)
-    console = Console(
-        robot,
-        host=args.host,
-        port=args.port,
-        settings=settings,
-        record_dir=args.record_dir,
-        map_dir=args.map,
-    )
+    with compile_progress("lpik console"):  # a first run compiles the compiled step
+        console = Console(
+            robot,
+            host=args.host,
+            port=args.port,
+            settings=settings,
+            record_dir=args.record_dir,
+            map_dir=args.map,
+        )
     try:
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, _interrupt)

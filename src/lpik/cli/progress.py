@@ -1,9 +1,11 @@
-"""A progress bar on stderr, shown on a terminal for runs long enough to notice."""
+"""Progress on stderr: a bar for runs long enough to notice, a line while numba compiles."""
 
 from __future__ import annotations
 
 import sys
 import time
+from contextlib import AbstractContextManager, nullcontext
+from importlib.util import find_spec
 from types import TracebackType
 from typing import Any
 
@@ -67,3 +69,17 @@ class LazyProgress:
         tb: TracebackType | None,
     ) -> None:
         self.close()
+
+
+def compile_progress(label: str) -> AbstractContextManager[Any]:
+    """While entered, what numba compiles, on stderr (:class:`lpik.fast.compiling.CompileProgress`).
+
+    For a command whose first call compiles the compiled path: a first run on an
+    empty cache then says what it waits for. Nothing without numba, and nothing
+    when every kernel comes from numba's disk cache.
+    """
+    if find_spec("numba") is None:
+        return nullcontext()
+    from lpik.fast.compiling import CompileProgress
+
+    return CompileProgress(label)
