@@ -157,7 +157,7 @@ def least_motion(J: FloatArray, e: FloatArray, x: FloatArray, scratch: FloatArra
         x[i] = s
 
 
-def braking_scale(motion: FloatArray, qdd_max: FloatArray, dt: float) -> float:
+def braking_scale(motion: FloatArray, qdd_max: FloatArray, qd_max: FloatArray, dt: float) -> float:
     """The largest share of the error a step may command and still stop on the target.
 
     The command moves the task along the remaining error ``e`` toward the
@@ -168,25 +168,33 @@ def braking_scale(motion: FloatArray, qdd_max: FloatArray, dt: float) -> float:
     ``BRAKING_SHARE min_i qdd_max_i / |motion_i|``. The step's share is then the
     largest after which the motion can still stop within the rest of ``e``
     (:func:`lpik.bands.braking_room`, the same discrete rule that keeps a joint
-    clear of its end-stop, here with room 1: the whole error). A step that can
-    stop at once takes the whole error: the command ends on the target.
+    clear of its end-stop, here with room 1: the whole error), and at most what
+    the joints' velocity limits allow along ``motion`` in one step: a command
+    the joints cannot follow would only build up a motion that the
+    acceleration limits cannot turn. A step that can stop at once takes the
+    whole error: the command ends on the target.
 
     Args:
         motion: Joint motion per unit of the error, (n,).
         qdd_max: Each joint's acceleration limit (the smaller side) [rad/s^2]; inf: none.
+        qd_max: Each joint's velocity limit (the smaller side) [rad/s]; inf: none.
         dt: Control period [s].
 
     Returns:
-        The share, > 0; ``inf`` without acceleration limits (no braking needed).
+        The share, > 0; ``inf`` without acceleration or velocity limits.
     """
-    rate = math.inf
+    rate, speed = math.inf, math.inf
     for i in range(motion.shape[0]):
         need = abs(motion[i])
-        if need > 0.0 and qdd_max[i] < math.inf:
-            rate = min(rate, qdd_max[i] / need)
-    if not rate < math.inf:
-        return math.inf
-    return braking_room(1.0, BRAKING_SHARE * rate * dt * dt)
+        if need > 0.0:
+            if qdd_max[i] < math.inf:
+                rate = min(rate, qdd_max[i] / need)
+            if qd_max[i] < math.inf:
+                speed = min(speed, qd_max[i] / need)
+    share = speed * dt
+    if rate < math.inf:
+        share = min(share, braking_room(1.0, BRAKING_SHARE * rate * dt * dt))
+    return share
 
 
 def along_screw(e6: FloatArray, rows: FloatArray, scale: float) -> bool:
@@ -344,7 +352,7 @@ def commanded_displacement(
     v_max: float,
     w_max: float,
     dt: float,
-    stop: tuple[FloatArray, FloatArray] | None = None,
+    stop: tuple[FloatArray, FloatArray, FloatArray] | None = None,
 ) -> FloatArray:
     """The step's ``dw`` from the task value ``pose`` at ``q`` towards ``target`` (the law above).
 
@@ -355,9 +363,10 @@ def commanded_displacement(
         v_max: Largest linear speed [m/s].
         w_max: Largest angular speed [rad/s].
         dt: Control period [s].
-        stop: ``(J, qdd_max)``, the Jacobian at ``q`` and the joints' acceleration
-            limits (the smaller side, inf: none): the command then slows down in
-            time to stop on the target (:func:`braking_scale`); None: it does not.
+        stop: ``(J, qdd_max, qd_max)``, the Jacobian at ``q`` and the joints'
+            acceleration and velocity limits (the smaller side, inf: none): the
+            command then slows down in time to stop on the target
+            (:func:`braking_scale`); None: it does not.
     """
     if np.shape(target) != np.shape(pose):
         raise ValueError(
@@ -376,14 +385,16 @@ def commanded_displacement(
     return dw
 
 
-def _brake(stop: tuple[FloatArray, FloatArray] | None, error: FloatArray, dt: float) -> float:
-    """:func:`braking_scale` of ``error`` under ``stop = (J, qdd_max)``; inf without."""
+def _brake(
+    stop: tuple[FloatArray, FloatArray, FloatArray] | None, error: FloatArray, dt: float
+) -> float:
+    """:func:`braking_scale` of ``error`` under ``stop = (J, qdd_max, qd_max)``; inf without."""
     if stop is None:
         return math.inf
-    J, qdd = stop
+    J, qdd, qd = stop
     motion = np.empty(J.shape[1])
     least_motion(J, error, motion, np.empty((J.shape[0], J.shape[0] + 1)))
-    return braking_scale(motion, qdd, dt)
+    return braking_scale(motion, qdd, qd, dt)
 
 
 class CommandLaw(Protocol):

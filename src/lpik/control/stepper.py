@@ -48,6 +48,7 @@ from lpik.limits import (
     AutomaticMultiplierBounds,
     LambdaBound,
     Limit,
+    VelocityLimits,
     build_problem,
 )
 from lpik.methods.autobound import bound_for_step
@@ -68,18 +69,24 @@ def _under_bound(problem: Problem, bound: FloatArray) -> Problem:
                            lam_max=np.minimum(problem.lam_max, bound))  # fmt: skip
 
 
-def _stop_accelerations(limits: Sequence[Limit], n: int) -> FloatArray | None:
-    """Each joint's smaller acceleration limit over ``limits``' :class:`AccelerationLimits`."""
+def _stop_rates(limits: Sequence[Limit], n: int) -> tuple[FloatArray, FloatArray] | None:
+    """Each joint's smaller acceleration and velocity limit over ``limits``; None: no acc. limit."""
     found = [lim for lim in limits if isinstance(lim, AccelerationLimits)]
     if not found:
         return None
-    qdd = np.full(n, np.inf)
-    for lim in found:
-        hi = np.broadcast_to(np.asarray(lim.qdd_max, dtype=np.float64), (n,))
-        lo = -hi if lim.qdd_min is None else np.broadcast_to(
-            np.asarray(lim.qdd_min, dtype=np.float64), (n,))  # fmt: skip
-        qdd = np.minimum(qdd, np.minimum(hi, -lo))
-    return qdd
+    return _smaller(found, "qdd_max", "qdd_min", n), _smaller(
+        [lim for lim in limits if isinstance(lim, VelocityLimits)], "qd_max", "qd_min", n)  # fmt: skip
+
+
+def _smaller(limits: Sequence[Any], upper: str, lower: str, n: int) -> FloatArray:
+    """Per joint, the smallest of ``upper`` and ``-lower`` over ``limits`` (inf: none)."""
+    out = np.full(n, np.inf)
+    for lim in limits:
+        hi = np.broadcast_to(np.asarray(getattr(lim, upper), dtype=np.float64), (n,))
+        given = getattr(lim, lower)
+        lo = -hi if given is None else np.broadcast_to(np.asarray(given, dtype=np.float64), (n,))
+        out = np.minimum(out, np.minimum(hi, -lo))
+    return out
 
 
 def _flag(name: str, value: Any) -> bool:
@@ -162,11 +169,12 @@ class Stepper:
                                          qdd_max=qdd_max, lambda_bound=lambda_bound, rows=rows)
             if self.spec.bounds_multipliers or not isinstance(lim, AutomaticMultiplierBounds)
         )  # fmt: skip
-        #: The joints' acceleration limits the command brakes within (smaller side), or None.
-        self.stop_accelerations = _stop_accelerations(self.limits, model.n_joints) if _flag(
+        #: The joints' acceleration and velocity limits (smaller side) that the command
+        #: brakes within, or None (no acceleration limits, or ``continuation=False``).
+        self.stop_rates = _stop_rates(self.limits, model.n_joints) if _flag(
             "continuation", continuation) else None  # fmt: skip
         #: Whether the method's steps are solved around the current motion.
-        self.continues = self.stop_accelerations is not None and self.spec.continuable
+        self.continues = self.stop_rates is not None and self.spec.continuable
         #: The automatic multiplier bound in force, or None.
         self.automatic_bound = next(
             (lim for lim in self.limits if isinstance(lim, AutomaticMultiplierBounds)), None
@@ -204,8 +212,7 @@ class Stepper:
         if callable(target):
             dw = np.array(target(model, q0, self.dt), dtype=np.float64)
         else:
-            stop = None if J is None or self.stop_accelerations is None else (
-                J, self.stop_accelerations)  # fmt: skip
+            stop = None if J is None or self.stop_rates is None else (J, *self.stop_rates)
             dw = commanded_displacement(model, model.pose(q0), task_value(model, target),
                                         v_max, w_max, self.dt, stop)  # fmt: skip
         if self.second_order and q_prev is not None:

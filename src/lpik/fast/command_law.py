@@ -124,16 +124,17 @@ def take_off_second_order(state, q0, q_prev, rows, J6, dw):
 def braking_share(state, J, e6, rows):
     """:func:`lpik.command.braking_scale` of the pose error ``e6``'s task rows: the command's brake.
 
-    The stop accelerations are each joint's smaller acceleration limit (the
-    ``limits`` block); the least motion along the error goes to the ``stop``
-    block, with the ``stop_scratch`` block as its work space.
+    The stop accelerations and speeds are each joint's smaller acceleration and
+    velocity limit (the ``limits`` block); the least motion along the error goes
+    to the ``stop`` block, with the ``stop_scratch`` block as its work space.
     """
     n, m = J.shape[1], J.shape[0]
-    stop, limits = L.matrix_at(state, L.STOP, 2, n), L.matrix_at(state, L.LIMITS, 6, n)
+    stop, limits = L.matrix_at(state, L.STOP, 3, n), L.matrix_at(state, L.LIMITS, 6, n)
     error = L.vector(state, L.DW)  # the command's block holds the error until the law runs
     for k in range(m):
         error[k] = e6[int(rows[k])]
     for i in range(n):
         stop[1, i] = min(limits[5, i], -limits[4, i])
+        stop[2, i] = min(limits[3, i], -limits[2, i])
     least_motion(J, error, stop[0], L.matrix_at(state, L.STOP_SCRATCH, m, m + 1))
-    return braking_scale(stop[0], stop[1], state[L.DT])
+    return braking_scale(stop[0], stop[1], stop[2], state[L.DT])

@@ -129,7 +129,7 @@ BLOCKS = (
     Block(G_RHS, "g", ("r",), "the rows' right-hand side in dq: h - G q0"),
     Block(LP2_WS, "lp2_ws", (workspace_size,), "the LP2 kernel's workspace"),
     Block(SATURATION, "saturation", (lambda n, m, r: n + m,), "the best pass's dq and lam"),
-    Block(STOP, "stop", (2, "n"), "the least joint motion along the error; the stop accelerations"),
+    Block(STOP, "stop", (3, "n"), "the least motion along the error; the stop acc. and speeds"),
     Block(STOP_SCRATCH, "stop_scratch", (lambda n, m, r: m * (m + 1),), "its work space"),
     Block(LAST, "last", ("n",), "the motion the step is solved around (lpik.continuation)"),
     Block(ORIGIN, "origin", ("n",), "q0 + last, the continued step's origin"),
