@@ -294,6 +294,8 @@ def stacked_rows(
     """
     try:
         arr = np.ascontiguousarray(value, dtype=np.float64)
+        if not arr.flags.writeable:  # the compiled step's signatures take writable arrays
+            arr = arr.copy()
     except (TypeError, ValueError):
         raise ValueError(f"{name}: must be numbers, got {type(value).__name__}") from None
     if arr.ndim == 0 or arr.shape[1:] not in shapes or arr.shape[0] == 0:
