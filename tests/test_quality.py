@@ -178,3 +178,98 @@ def test_docs_quality_is_generated_by_the_suite() -> None:
     for builder in SCENARIOS.values():
         assert builder.__doc__
     assert text.count("\n## ") >= len(SCENARIOS) + 1  # the goal, then one section each
+
+
+# ---------------------------------------------------------------- acceleration limits
+
+
+def test_point_to_point_legs_are_held_targets_and_lpik_settles_the_5_cm_step(suite) -> None:
+    point = next(r for r in suite.scenarios if r.scenario.key == "point")
+    assert point.scenario.acceleration_checked
+    for leg in point.scenario.legs:
+        assert leg.held and np.all(leg.targets == leg.targets[0]) and leg.reachable.all()
+    assert {"lp2s +acc", "lp2 +acc"} <= point.limited
+    for name, m in point.rows.items():
+        assert [s.label for s in m.settlings] == [leg.label for leg in point.scenario.legs]
+        assert m.overshoot >= 0 and m.braking >= 0, name
+    five_cm = point.rows["lp2s +acc"].settlings[0]  # the getting-started example's goal
+    assert five_cm.settle_ms is not None and five_cm.settle_ms <= STEPS
+    assert five_cm.overshoot < 1e-3 and five_cm.braking == 0  # [mm]
+
+
+def test_settle_time_and_overshoot_of_a_known_run() -> None:
+    """Along +x: 3 mm short, 0.5 mm short, 2 mm past (an overshoot of 1.5 mm), then on it."""
+    model = load_robot("panda", task="pose")
+    q0, dt = home_configuration("panda"), 1e-3
+    target = model.pose(q0)
+    J = model.jacobian(q0)
+
+    def at(dx: float) -> np.ndarray:  # the configuration that moves the tip by dx along x
+        return q0 + np.linalg.pinv(J) @ np.array([dx, 0, 0, 0, 0, 0])
+
+    q = np.array([at(-0.01)] + [at(-0.003)] * 5 + [at(-0.0005)] * 5 + [at(0.002)] * 5 + [q0] * 10)
+    run = LegRun(q, np.ones(len(q) - 1, dtype=np.int64), failed=2)
+    leg = Leg("known", q[0], np.array([target] * (len(q) - 1)), np.ones(len(q) - 1, bool),
+              held=True)  # fmt: skip
+    m = scenario_metrics(model, (leg,), [run], dt, 10.0)
+    settled = m.settlings[0]
+    assert settled.settle_ms == pytest.approx(16.0)  # on it from q[16], after 16 steps
+    assert settled.overshoot == pytest.approx(1.5, rel=0.05)  # from 0.5 mm to 2 mm
+    assert m.braking == settled.braking == 2  # a peer's failed steps
+    never = LegRun(q[:11], np.ones(10, dtype=np.int64))  # still 0.5 mm short
+    m = scenario_metrics(model, (Leg("never", q[0], leg.targets[:10], leg.reachable[:10],
+                                     held=True),), [never], dt, None)  # fmt: skip
+    assert m.settlings[0].settle_ms is None and m.settle_ms == math.inf
+
+
+def test_a_failed_step_with_acceleration_limits_brakes() -> None:
+    from lpik_bench.quality import braking_step
+
+    last = np.array([3e-5, -5e-6, 0.0])
+    assert np.array_equal(braking_step(last, 0.0), np.zeros(3))
+    assert braking_step(last, 1e-5) == pytest.approx([2e-5, 0.0, 0.0])
+
+
+def test_jitter_ties_within_one_percent_are_met() -> None:
+    from lpik_bench.quality_report import METRICS, TIE, meets
+
+    jitter = next(m for m in METRICS if m.key == "jitter")
+    assert meets(jitter, 13.9, 13.9) and meets(jitter, 100 * (1 + TIE), 100)
+    assert not meets(jitter, 100 * (1 + 2 * TIE), 100)
+
+
+def test_drake_with_acceleration_limits_runs_against_lpik_like_for_like() -> None:
+    """drake +acc: the same limits, the joint velocities from q_prev; both judged in a table."""
+    pytest.importorskip("pydrake")
+    from lpik_bench.quality import run_suite
+    from lpik_bench.quality_report import like_table
+    from lpik_bench.workload import QDD_MAX
+
+    suite = run_suite(("point",), peers=("drake",), variants=("lp2s +acc",), max_steps=60)
+    point = suite.scenarios[0]
+    assert point.limited == {"lp2s +acc", "drake +acc"}
+    drake = point.rows["drake +acc"]
+    assert drake.acc_max <= QDD_MAX * 1.5  # OSQP's default tolerances, not unlimited steps
+    assert point.rows["drake"].acc_max > 10 * QDD_MAX  # the peer without the limits
+    text = "\n".join(like_table(point))
+    assert "| settle time to 0.01 mm [ms] | drake +acc" in text
+    circle = run_suite(("circle",), peers=("drake",), variants=("lp2s",), max_steps=5)
+    assert "drake +acc" not in circle.scenarios[0].rows  # only where the limits apply
+
+
+def test_drake_steps_from_the_joint_velocities_of_q_prev() -> None:
+    pytest.importorskip("pydrake")
+    from lpik_bench.peers import drake_peer
+    from lpik_bench.workload import QDD_MAX, make_workload
+
+    workload = make_workload("panda", trajectories=1, steps=1)
+    step = drake_peer(workload, qdd_max=QDD_MAX)[0].step
+    q0, dt = home_configuration("panda"), workload.dt
+    target = workload.model.pose(q0)
+    target[0, 3] += 0.05
+    from_rest = step(q0, target, q0)
+    assert np.abs(from_rest).max() <= QDD_MAX * dt * dt * 1.2  # one step of acceleration
+    last = np.linalg.pinv(workload.model.jacobian(q0)) @ np.array([1e-4, 0, 0, 0, 0, 0])
+    moving = step(q0, target, q0 - last)  # the tip moving at 0.1 m/s along +x
+    assert np.abs(moving - last).max() <= QDD_MAX * dt * dt * 1.2
+    assert np.abs(moving).max() > 10 * np.abs(from_rest).max()

@@ -13,9 +13,9 @@ over one period ``dq = v dt`` [rad].
 peer        step                                       limits
 ==========  =========================================  ===============================
 drake       ``DoDifferentialInverseKinematics``        position and velocity limits
-            (MultibodyPlant from the URDF): QP, max
-            ``alpha`` with ``J v = alpha V``, then
-            least-norm ``v``
+            (MultibodyPlant from the URDF): QP, max    (``qdd_max``: and acceleration
+            ``alpha`` with ``J v = alpha V``, then     limits, around the joint
+            least-norm ``v``                           velocities of the last step)
 pink        ``solve_ik`` with a ``FrameTask`` (QP:     ``ConfigurationLimit`` (gain 1),
             least squares on the SE(3) error), daqp    ``VelocityLimit``
             and quadprog
@@ -29,6 +29,11 @@ The configuration-limit gains of pink and mink are set to 1 (their defaults,
 0.5 and 0.95, would only let a joint cover part of the distance to its
 end-stop per step), so that every library bounds ``q + dq`` by the same
 end-stops.
+
+A peer with acceleration limits (:attr:`PeerStep.qdd_max`, so far Drake's)
+needs the arm's joint velocities: its step takes the joint coordinates of the
+last step too, ``step(q, target, q_prev)``, and the velocities are
+``(q - q_prev) / dt``.
 """
 
 from __future__ import annotations
@@ -44,9 +49,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lpik.types import FloatArray
-from lpik_bench.workload import Workload, arm_only_urdf
+from lpik_bench.workload import QDD_MAX, Workload, arm_only_urdf
 
-StepFn = Callable[[FloatArray, FloatArray], FloatArray]
+#: ``step(q, target) -> dq``, or ``step(q, target, q_prev)`` with acceleration limits.
+StepFn = Callable[..., FloatArray]
 
 #: Peer names in the order they are tried, with the PyPI package that provides each.
 PEER_PACKAGES: dict[str, str] = {
@@ -72,6 +78,8 @@ class PeerStep:
         fk: ``fk(q) -> (4, 4)`` pose of the task frame in the peer's model.
         version: Installed version of the peer's package.
         note: How the step is set up.
+        qdd_max: The joint acceleration limit it holds [rad/s^2] (None: none);
+            its step then needs ``q_prev``.
     """
 
     library: str
@@ -80,6 +88,7 @@ class PeerStep:
     fk: Callable[[FloatArray], FloatArray]
     version: str
     note: str = ""
+    qdd_max: float | None = None
 
 
 @dataclass(frozen=True)
@@ -128,53 +137,88 @@ def _from_peer(v: FloatArray, order: NDArray[np.int64] | None) -> FloatArray:
 DRAKE_TIGHT_OSQP = {"eps_abs": 1e-8, "eps_rel": 1e-8, "max_iter": 100_000}
 
 
-def drake_peer(workload: Workload, *, tight: bool = False) -> list[PeerStep]:
-    """Drake's ``DoDifferentialInverseKinematics`` on a MultibodyPlant of the URDF.
-
-    Args:
-        workload: The benchmark's workload.
-        tight: Solve Drake's QP (OSQP) to :data:`DRAKE_TIGHT_OSQP` instead of
-            Drake's default tolerances (for the agreement check, not for timing).
-    """
-    from pydrake.math import RigidTransform
-    from pydrake.multibody.inverse_kinematics import (
-        DifferentialInverseKinematicsParameters,
-        DifferentialInverseKinematicsStatus,
-        DoDifferentialInverseKinematics,
-    )
+def _drake_plant(workload: Workload) -> tuple[Any, Any, NDArray[np.int64] | None]:
+    """A MultibodyPlant of the arm-only URDF welded at its base, its context and joint order."""
     from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import MultibodyPlant
 
-    model, dt = workload.model, workload.dt
     plant = MultibodyPlant(0.0)
     Parser(plant).AddModelsFromString(arm_only_urdf(workload.robot), "urdf")
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(workload.base_link))
     plant.Finalize()
-    context = plant.CreateDefaultContext()
-    frame = plant.GetFrameByName(workload.tip_link)
-    world = plant.world_frame()
-    nq = plant.num_positions()
     order = _order([plant.GetJointByName(j).position_start() for j in workload.joint_names])
+    return plant, plant.CreateDefaultContext(), order
+
+
+def _drake_parameters(
+    workload: Workload, order: NDArray[np.int64] | None, nq: int, tight: bool, qdd_max: float | None
+) -> Any:  # DifferentialInverseKinematicsParameters
+    """Drake's parameters: time step, end-stops, velocity and (``qdd_max``) acceleration limits."""
+    from pydrake.multibody.inverse_kinematics import DifferentialInverseKinematicsParameters
+
+    model = workload.model
     params = DifferentialInverseKinematicsParameters(nq, nq)
-    params.set_time_step(dt)
+    params.set_time_step(workload.dt)
     params.set_joint_position_limits(
         (_to_peer(model.q_min, order, nq), _to_peer(model.q_max, order, nq))
     )
     params.set_joint_velocity_limits(
         (_to_peer(-model.qd_max, order, nq), _to_peer(model.qd_max, order, nq))
     )
+    if qdd_max is not None:
+        accel = np.full(model.q_min.size, float(qdd_max))
+        params.set_joint_acceleration_limits(
+            (_to_peer(-accel, order, nq), _to_peer(accel, order, nq))
+        )
     if tight:
         from pydrake.solvers import OsqpSolver
 
         options = params.get_mutable_solver_options()
         for key, value in DRAKE_TIGHT_OSQP.items():
             options.SetOption(OsqpSolver().solver_id(), key, value)
-    found = DifferentialInverseKinematicsStatus.kSolutionFound
+    return params
 
-    def step(q: FloatArray, target: FloatArray) -> FloatArray:
+
+def drake_peer(
+    workload: Workload, *, tight: bool = False, qdd_max: float | None = None
+) -> list[PeerStep]:
+    """Drake's ``DoDifferentialInverseKinematics`` on a MultibodyPlant of the URDF.
+
+    Args:
+        workload: The benchmark's workload.
+        tight: Solve Drake's QP (OSQP) to :data:`DRAKE_TIGHT_OSQP` instead of
+            Drake's default tolerances (for the agreement check, not for timing).
+        qdd_max: Joint acceleration limit [rad/s^2] (None: none). With it the
+            step is ``step(q, target, q_prev)``: the context's joint velocities
+            are ``(q - q_prev) / dt``, and Drake's answer is taken whenever it
+            returns joint velocities (kSolutionFound, and kStuck: a small
+            ``alpha``, which under acceleration limits is every step of a
+            far target), not only at kSolutionFound.
+    """
+    from pydrake.math import RigidTransform
+    from pydrake.multibody.inverse_kinematics import (
+        DifferentialInverseKinematicsStatus,
+        DoDifferentialInverseKinematics,
+    )
+
+    dt = workload.dt
+    plant, context, order = _drake_plant(workload)
+    frame, world, nq = (
+        plant.GetFrameByName(workload.tip_link),
+        plant.world_frame(),
+        plant.num_positions(),
+    )
+    params = _drake_parameters(workload, order, nq, tight, qdd_max)
+    taken = {DifferentialInverseKinematicsStatus.kSolutionFound}
+    if qdd_max is not None:
+        taken.add(DifferentialInverseKinematicsStatus.kStuck)
+
+    def step(q: FloatArray, target: FloatArray, q_prev: FloatArray | None = None) -> FloatArray:
         plant.SetPositions(context, _to_peer(q, order, nq))
+        if qdd_max is not None:
+            plant.SetVelocities(context, _to_peer((q - q_prev) / dt, order, nq))
         res = DoDifferentialInverseKinematics(plant, context, RigidTransform(target), frame, params)
-        if res.status != found or res.joint_velocities is None:
+        if res.status not in taken or res.joint_velocities is None:
             return np.full(q.size, np.nan)
         return _from_peer(res.joint_velocities, order) * dt
 
@@ -190,7 +234,12 @@ def drake_peer(workload: Workload, *, tight: bool = False) -> list[PeerStep]:
     if tight:
         method += " (OSQP eps 1e-8)"
         note += "; OSQP eps_abs = eps_rel = 1e-8"
-    return [PeerStep("drake", method, step, fk, _version("drake"), note)]
+    if qdd_max is not None:
+        note += (
+            f"; joint acceleration limits {qdd_max:g} rad/s^2 (set_joint_acceleration_limits), "
+            "joint velocities (q - q_prev) / dt in the context; kStuck's velocities taken too"
+        )
+    return [PeerStep("drake", method, step, fk, _version("drake"), note, qdd_max)]
 
 
 def pink_peer(workload: Workload) -> list[PeerStep]:
@@ -337,18 +386,33 @@ ADAPTERS: dict[str, Callable[[Workload], list[PeerStep]]] = {
 }
 
 
-def load_peers(workload: Workload, names: tuple[str, ...] = tuple(ADAPTERS)) -> PeerSet:
+#: The peers that take joint acceleration limits, set up with the benchmark's
+#: :data:`~lpik_bench.workload.QDD_MAX` (the motion-quality suite's "+acc" peers).
+ACCELERATION_ADAPTERS: dict[str, Callable[[Workload], list[PeerStep]]] = {
+    "drake": lambda workload: drake_peer(workload, qdd_max=QDD_MAX),
+}
+
+
+def load_peers(
+    workload: Workload,
+    names: tuple[str, ...] = tuple(ADAPTERS),
+    adapters: dict[str, Callable[[Workload], list[PeerStep]]] = ADAPTERS,
+) -> PeerSet:
     """Every peer in ``names`` that imports and loads the robot; the others skipped with a note.
 
     A peer whose forward kinematics disagrees with lpik's at the workload's
     first configuration (by more than 1e-9) is skipped too: it would not be
-    solving the same problem.
+    solving the same problem. ``adapters``: where the names are looked up
+    (:data:`ADAPTERS`; :data:`ACCELERATION_ADAPTERS` for the peers with
+    acceleration limits, where a name without an entry is passed over).
     """
     peers = PeerSet()
     q, pose = workload.q[0], workload.model.pose(workload.q[0])
     for name in names:
+        if name not in adapters:
+            continue
         try:
-            loaded = ADAPTERS[name](workload)
+            loaded = adapters[name](workload)
         except ImportError as exc:
             reason = f"not installed ({exc}); pip install {PEER_PACKAGES[name]}"
             peers.skipped.append(Skipped(name, reason))

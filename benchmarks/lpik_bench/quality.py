@@ -47,12 +47,15 @@ from lpik_bench.quality_metrics import (
 from lpik_bench.quality_scenarios import SCENARIOS, Leg
 from lpik_bench.workload import DT, QDD_MAX
 
+#: ``v_max`` [m/s] and ``w_max`` [rad/s] of the +acc variants: lpik's clamp off, so that
+#: they are given the command the peers are given (V = error / dt; like against like).
+UNCLAMPED = 1e6
 #: lpik's variants: name -> keyword arguments of Lp2Controller (besides ``model`` and ``dt``).
 VARIANTS: dict[str, dict[str, Any]] = {
     "lp2s": {},
-    "lp2s +acc": {"qdd_max": QDD_MAX},
+    "lp2s +acc": {"qdd_max": QDD_MAX, "v_max": UNCLAMPED, "w_max": UNCLAMPED},
     "lp2": {"saturate": False},
-    "lp2 +acc": {"saturate": False, "qdd_max": QDD_MAX},
+    "lp2 +acc": {"saturate": False, "qdd_max": QDD_MAX, "v_max": UNCLAMPED, "w_max": UNCLAMPED},
     "lp2s unbounded": {"lambda_bound": None},
     "lp2 unbounded": {"saturate": False, "lambda_bound": None},
 }
@@ -75,6 +78,8 @@ class Contender:
         note: How it is set up.
         direction: lpik's: the largest ``p`` of any step within the limits (LP1), for
             the frozen steps (see :data:`DirectionCall`).
+        limited_scenarios_only: Runs only in the acceleration-limited scenarios
+            (a peer's step with acceleration limits, "+acc").
     """
 
     name: str
@@ -83,6 +88,7 @@ class Contender:
     acceleration_limited: bool = False
     note: str = ""
     direction: DirectionCall | None = None
+    limited_scenarios_only: bool = False
 
     @property
     def is_lpik(self) -> bool:
@@ -123,36 +129,64 @@ def lpik_contenders(
 
 
 def peer_contenders(names: tuple[str, ...]) -> tuple[list[Contender], list[str]]:
-    """The peers' steps (:func:`lpik_bench.peers.load_peers`) and a note for each skipped one."""
-    from lpik_bench.peers import load_peers
+    """The peers' steps (:func:`lpik_bench.peers.load_peers`) and a note for each skipped one.
+
+    A peer that takes acceleration limits (:data:`lpik_bench.peers.ACCELERATION_ADAPTERS`)
+    is run a second time with them, as "<name> +acc", in the acceleration-limited
+    scenarios only.
+    """
+    from lpik_bench.peers import ACCELERATION_ADAPTERS, load_peers
     from lpik_bench.workload import make_workload
 
-    peers = load_peers(make_workload("panda", trajectories=1, steps=1), names)
+    workload = make_workload("panda", trajectories=1, steps=1)
+    peers = load_peers(workload, names)
     per_library: dict[str, int] = {}
     for peer in peers.steps:
         per_library[peer.library] = per_library.get(peer.library, 0) + 1
+    with_limits = load_peers(workload, names, ACCELERATION_ADAPTERS)
     out = []
-    for peer in peers.steps:
+    for peer in peers.steps + with_limits.steps:
         name = peer.library
-        if per_library[name] > 1:
+        if per_library.get(name, 0) > 1 and peer.qdd_max is None:
             name += " " + peer.method.split()[-1]
-
-        def step(q: FloatArray, prev: FloatArray, target: FloatArray, fn: Any = peer.step) -> tuple:
-            t0 = time.perf_counter_ns()
-            try:
-                dq = fn(q, target)
-            except Exception as exc:  # a peer that raises on a step: counted as a failed step
-                ns = time.perf_counter_ns() - t0
-                message = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
-                return None, None, message[:160], None, ns
-            return dq, None, None, None, time.perf_counter_ns() - t0
-
+        name += "" if peer.qdd_max is None else " +acc"
         note = f"{peer.method} ({peer.library} {peer.version}): {peer.note}"
-        out.append(Contender(name, peer.library, step, False, note))
-    return out, [f"{s.library}: {s.reason}" for s in peers.skipped]
+        limited = peer.qdd_max is not None
+        out.append(Contender(name, peer.library, _peer_call(peer.step, limited), limited, note,
+                             limited_scenarios_only=limited))  # fmt: skip
+    skipped = dict.fromkeys(f"{s.library}: {s.reason}" for s in peers.skipped + with_limits.skipped)
+    return out, list(skipped)
 
 
-def run_leg(contender: Contender, leg: Leg) -> LegRun:
+def _peer_call(fn: Any, needs_prev: bool) -> StepCall:
+    """A peer's ``step(q, target[, q_prev])`` as a timed :data:`StepCall`."""
+
+    def step(q: FloatArray, prev: FloatArray, target: FloatArray) -> tuple:
+        t0 = time.perf_counter_ns()
+        try:
+            dq = fn(q, target, prev) if needs_prev else fn(q, target)
+        except Exception as exc:  # a peer that raises on a step: counted as a failed step
+            ns = time.perf_counter_ns() - t0
+            message = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+            return None, None, message[:160], None, ns
+        return dq, None, None, None, time.perf_counter_ns() - t0
+
+    return step
+
+
+def braking_step(last: FloatArray, reduction: float) -> FloatArray:
+    """The step of a failed step: no motion, or, with acceleration limits, the braking step.
+
+    Each joint's step is ``last`` reduced towards 0 by at most ``reduction``
+    (``qdd_max dt^2``, the acceleration limit; 0 for a library without one:
+    ``dq = 0``), as lpik's safe step (:func:`lpik.result.safe_step`) brakes.
+    """
+    if reduction <= 0:
+        return np.zeros_like(last)
+    return last - np.clip(last, -reduction, reduction)
+
+
+def run_leg(contender: Contender, leg: Leg, dt: float = DT) -> LegRun:
     """``contender`` in closed loop over ``leg`` from its start at rest."""
     n_steps, n = len(leg.targets), leg.q0.size
     q, prev = leg.q0.copy(), leg.q0.copy()
@@ -168,7 +202,7 @@ def run_leg(contender: Contender, leg: Leg) -> LegRun:
         if dq is None or not np.all(np.isfinite(dq)):
             failed += 1
             first_failure = first_failure or (sk if dq is None else "no finite step returned")
-            dq = np.zeros(n)
+            dq = braking_step(q - prev, QDD_MAX * dt * dt if contender.acceleration_limited else 0)
         prev, q = q, q + np.asarray(dq, dtype=float)
         qs[k + 1] = q
         if p is not None:
@@ -217,14 +251,18 @@ def run_suite(
         say(f"{scenario.title}: {scenario.steps} steps, built in {time.perf_counter() - t0:.1f} s")
         result = ScenarioResult(scenario)
         for c in contenders:
+            if c.limited_scenarios_only and not scenario.acceleration_checked:
+                continue
             t1 = time.perf_counter()
-            runs = [run_leg(c, leg) for leg in scenario.legs]
+            runs = [run_leg(c, leg, dt) for leg in scenario.legs]
             check = c.acceleration_limited or scenario.acceleration_checked
             result.rows[c.name] = scenario_metrics(
                 model, scenario.legs, runs, dt, QDD_MAX if check else None, c.direction
             )
             if c.is_lpik:
                 result.lpik.add(c.name)
+            if c.acceleration_limited:
+                result.limited.add(c.name)
             say(f"  {c.name}: {time.perf_counter() - t1:.1f} s")
         result.wall_s = time.perf_counter() - t0
         results.append(result)

@@ -18,6 +18,13 @@ every library is measured by the same code:
   ``STEP_TOL`` per step), with the worst excess;
 - frozen steps: the target reachable, the error before the step above
   :data:`TRACK_TOL` and no joint moving more than :data:`FROZEN_DQ`;
+- settling (point-to-point legs, the target one pose held from the first
+  step): the settle time, after which the error stays within
+  :data:`SETTLE_TOL` (the longest over the legs; infinite where a leg never
+  settles), and the overshoot, the largest growth of the position error
+  after its running minimum [mm];
+- braking steps: the steps a library did not answer (lpik: the safe step, a
+  status outside :data:`lpik.result.MOVING`; a peer: a failed step);
 - recovery (runs with a final hold): whether the error stays within
   :data:`TRACK_TOL` over the last :data:`RECOVERY_WINDOW` steps, how long after
   the target's return it got there, and the jitter while the target was out of reach;
@@ -33,6 +40,7 @@ A whole run of the suite is a :class:`SuiteResult`: one :class:`ScenarioResult`
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -41,6 +49,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from lpik.result import MOVING
 from lpik.robots.tasks import PoseTask
 from lpik.types import FloatArray
 from lpik_bench.quality_scenarios import Leg, Scenario
@@ -54,6 +63,9 @@ TRACK_TOL = (1e-3, 5e-3)
 FROZEN_DQ = 1e-7
 #: Steps at the end of a final hold over which a recovered run must stay within TRACK_TOL.
 RECOVERY_WINDOW = 100
+#: A point-to-point move has settled when the error stays within this: position [m],
+#: orientation [rad].
+SETTLE_TOL = (1e-5, 1e-5)
 #: Kinds of limit violation, in the order of the report.
 KINDS = ("end-stop", "velocity", "acceleration")
 
@@ -90,6 +102,16 @@ class Recovery:
     final_mm: float
 
 
+@dataclass(frozen=True)
+class Settling:
+    """One point-to-point leg: settle time [ms] (None: never settled), overshoot [mm]."""
+
+    label: str
+    settle_ms: float | None
+    overshoot: float
+    braking: int
+
+
 @dataclass(eq=False)
 class Metrics:
     """One library's metrics on one scenario (see the module docstring)."""
@@ -107,6 +129,8 @@ class Metrics:
     failed: int = 0
     first_failure: str | None = None
     recoveries: list[Recovery] = field(default_factory=list)
+    settlings: list[Settling] = field(default_factory=list)
+    braking: int = 0
     p_mean: float | None = None
     p_zero: float | None = None
     statuses: dict[str, int] = field(default_factory=dict)
@@ -122,6 +146,17 @@ class Metrics:
     def recovered(self) -> int:
         """Legs recovered."""
         return sum(r.recovered for r in self.recoveries)
+
+    @property
+    def settle_ms(self) -> float:
+        """The longest settle time of the point-to-point legs [ms] (inf: a leg never settled)."""
+        times = [math.inf if s.settle_ms is None else s.settle_ms for s in self.settlings]
+        return max(times, default=0.0)
+
+    @property
+    def overshoot(self) -> float:
+        """The largest overshoot of the point-to-point legs [mm]."""
+        return max((s.overshoot for s in self.settlings), default=0.0)
 
     @property
     def step_median(self) -> float:
@@ -235,6 +270,9 @@ def scenario_metrics(
         m.first_failure = m.first_failure or run.first_failure
         if leg.settle_from is not None:
             m.recoveries.append(_recovery(leg, after, change, dt))
+        if leg.held:
+            m.settlings.append(_settling(leg, after, _braking(run), dt))
+        m.braking += _braking(run)
         times.append(run.step_ns)
         if run.p is not None:
             ps.append(run.p)
@@ -270,14 +308,37 @@ def _recovery(
     return Recovery(leg.label, recovered, after_ms, chatter, 1e3 * float(after[0][-1]))
 
 
+def _braking(run: LegRun) -> int:
+    """Steps the library did not answer: lpik's safe steps, a peer's failed steps."""
+    if run.status is None:
+        return run.failed
+    return sum(status not in MOVING for status in run.status)
+
+
+def _settling(leg: Leg, after: tuple[FloatArray, FloatArray], braking: int, dt: float) -> Settling:
+    """Settle time and overshoot of a point-to-point leg (see the module docstring)."""
+    position, orientation = after
+    good = (position <= SETTLE_TOL[0]) & (orientation <= SETTLE_TOL[1])
+    bad = np.flatnonzero(~good)
+    first = int(bad[-1]) + 1 if bad.size else 0  # the step from which it stays settled
+    settle_ms = 1e3 * (first + 1) * dt if first < good.size else None
+    overshoot = float(np.max(position - np.minimum.accumulate(position)))
+    return Settling(leg.label, settle_ms, 1e3 * overshoot, braking)
+
+
 @dataclass(eq=False)
 class ScenarioResult:
-    """One scenario's rows: contender name -> metrics, in the order run."""
+    """One scenario's rows: contender name -> metrics, in the order run.
+
+    ``lpik``: the rows of lpik's variants; ``limited``: the rows of the libraries
+    that hold the acceleration limit (lpik's +acc variants, Drake's +acc step).
+    """
 
     scenario: Scenario
     rows: dict[str, Metrics] = field(default_factory=dict)
     lpik: set[str] = field(default_factory=set)
     wall_s: float = 0.0
+    limited: set[str] = field(default_factory=set)
 
 
 @dataclass(eq=False)

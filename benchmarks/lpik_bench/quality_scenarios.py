@@ -28,6 +28,7 @@ from lpik_bench.quality_reach import (
     smoothstep,
     unlimited_path,
 )
+from lpik_bench.workload import QDD_MAX
 
 #: Circle: diameter [m], period [s], speed ramp [s], duration [s].
 CIRCLE = {"diameter": 0.10, "period": 2.0, "ramp": 0.5, "duration": 4.0}
@@ -41,6 +42,11 @@ STEPS = {"jump": 0.05, "every": 0.05, "duration": 2.1}
 SINGULAR = {"below": 0.8, "above": 0.3, "period": 5.0}
 #: Acceleration: reversal jump [m] and period [s], circle at full speed from rest, duration [s].
 ACCEL = {"jump": 0.10, "every": 0.2, "duration": 2.0}
+#: Point to point: the step along +x [m] and its leg [s]; moves to the poses of random
+#: configurations (how many, spread about home [rad], least distance [m] and turn [rad]
+#: of the pose, leg [s], seed of the draw).
+POINT = {"step": 0.05, "step_duration": 1.0, "moves": 3, "spread": 0.6, "distance": 0.15,
+         "turn": 0.3, "duration": 2.0, "seed": 7}  # fmt: skip
 
 AXES = {
     "+x": (1, 0, 0),
@@ -63,6 +69,8 @@ class Leg:
         reachable: Per step, whether the target is reachable within the end-stops, (N,).
         settle_from: First step of the final hold the library must recover on (None: none).
         note: How the leg was built (found values).
+        held: The target is one pose from the first step on (a point-to-point move):
+            its settle time and overshoot are measured.
     """
 
     label: str
@@ -71,6 +79,7 @@ class Leg:
     reachable: FloatArray
     settle_from: int | None = None
     note: str = ""
+    held: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,8 +89,10 @@ class Scenario:
     Attributes:
         key: Short name. title: Heading. what: One paragraph for the report.
         legs: The legs.
-        acceleration_checked: Every library's accelerations are checked against
-            ``qdd_max`` (otherwise only the variants that claim acceleration limits).
+        acceleration_checked: An acceleration-limited scenario: every library's
+            accelerations are checked against ``qdd_max`` (otherwise only the
+            variants that claim acceleration limits), and the peers that take
+            acceleration limits run with them.
     """
 
     key: str
@@ -108,6 +119,7 @@ def make_leg(
     note: str = "",
     hints: tuple[FloatArray, ...] = (),
     witness: Callable[[float], FloatArray] | None = None,
+    held: bool = False,
 ) -> Leg:
     """Sample ``target(t)`` every ``dt`` for ``duration`` (at most ``max_steps``) and check it.
 
@@ -133,6 +145,7 @@ def make_leg(
         reachable,
         settle if settle is not None and settle < n else None,
         note,
+        held,
     )
 
 
@@ -379,6 +392,62 @@ def acceleration(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     return Scenario("acceleration", "6. Acceleration limits", what, legs, acceleration_checked=True)
 
 
+def rest_to_rest_time(distance: FloatArray, qd_max: FloatArray, qdd_max: float) -> float:
+    """The least time [s] in which every joint covers ``distance`` from rest to rest.
+
+    Each joint alone, at its velocity limit and ``qdd_max`` (bang-bang, or
+    trapezoidal where it reaches its velocity limit); the slowest joint's time.
+    """
+    d = np.abs(np.asarray(distance, dtype=float))
+    bang = 2.0 * np.sqrt(d / qdd_max)
+    cruise = d / qd_max + qd_max / qdd_max
+    return float(np.max(np.where(d <= qd_max**2 / qdd_max, bang, cruise)))
+
+
+def _random_moves(model: PoseTask, q0: FloatArray) -> list[tuple[FloatArray, str]]:
+    """Goal configurations about ``q0`` within the end-stops whose poses are far enough."""
+    rng = np.random.default_rng(POINT["seed"])
+    start = model.pose(q0)
+    out: list[tuple[FloatArray, str]] = []
+    while len(out) < POINT["moves"]:
+        spread = rng.uniform(-1, 1, q0.size) * POINT["spread"]
+        goal_q = np.clip(q0 + spread, model.q_min + 0.05, model.q_max - 0.05)
+        d = model.difference(start, model.pose(goal_q))
+        distance, turn = float(np.linalg.norm(d[:3])), float(np.linalg.norm(d[3:]))
+        if distance >= POINT["distance"] and turn >= POINT["turn"]:
+            out.append((goal_q, f"{distance * 100:.0f} cm, {turn:.2f} rad"))
+    return out
+
+
+def point_to_point(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
+    """A step target held from rest: 5 cm along +x, then the poses of random configurations."""
+    q0 = home_configuration("panda")
+    goal = moved(model.pose(q0), np.array([POINT["step"], 0.0, 0.0]))
+    legs = [make_leg(model, f"{POINT['step'] * 100:g} cm +x", q0, lambda t: goal,
+                     POINT["step_duration"], dt, max_steps, held=True)]  # fmt: skip
+    for k, (goal_q, size) in enumerate(_random_moves(model, q0)):
+        least = rest_to_rest_time(goal_q - q0, model.qd_max, QDD_MAX)
+        pose = model.pose(goal_q)
+        legs.append(make_leg(model, f"move {k + 1}", q0, lambda t, pose=pose: pose,
+                             POINT["duration"], dt, max_steps, held=True,
+                             note=f"{size}; joint move at the limits {least * 1e3:.0f} ms",
+                             witness=lambda t, goal_q=goal_q: goal_q))  # fmt: skip
+    what = (
+        f"The target is one pose from the first step on, held, from rest at the home "
+        f"configuration: {POINT['step'] * 100:g} cm along +x ({POINT['step_duration']:g} s), "
+        f"and the poses of {POINT['moves']} configurations drawn within "
+        f"{POINT['spread']:g} rad of home and the end-stops, at least "
+        f"{POINT['distance'] * 100:g} cm and {POINT['turn']:g} rad away "
+        f"({POINT['duration']:g} s each; distance, turn, and the least time in which the "
+        f"joints reach that configuration at their velocity limits and {QDD_MAX:g} rad/s^2: "
+        + "; ".join(f"{leg.label}: {leg.note}" for leg in legs[1:])
+        + "). Every library's accelerations are checked, and those that take acceleration "
+        "limits run with them."
+    )
+    return Scenario("point", "7. Point to point under acceleration limits", what, tuple(legs),
+                    acceleration_checked=True)  # fmt: skip
+
+
 #: Scenario builders, in the order of the report: ``builder(model, dt, max_steps) -> Scenario``.
 SCENARIOS: dict[str, Callable[[PoseTask, float, int | None], Scenario]] = {
     "circle": circle,
@@ -387,4 +456,5 @@ SCENARIOS: dict[str, Callable[[PoseTask, float, int | None], Scenario]] = {
     "steps": step_inputs,
     "singular": singular,
     "acceleration": acceleration,
+    "point": point_to_point,
 }
