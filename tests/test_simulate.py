@@ -366,6 +366,7 @@ def test_simulate_and_reproduce_need_no_numba() -> None:
     code = (
         "import sys; sys.modules['numba'] = None\n"
         "import lpik, lpik.paper.reproduce, lpik.cli.main\n"
+        "lpik.cli.main.build_parser()  # every command's options, lpik map's too\n"
         "from lpik.paper.scenarios import get_scenario\n"
         "assert get_scenario('pull-in').run('lp2', steps=3).steps == 3\n"
     )

@@ -24,8 +24,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     """Register ``lpik map`` (light: Dask, Zarr and xarray are imported only when it runs)."""
     from lpik.cli.robots import add_robot_arguments
     from lpik.command import DEFAULT_V_MAX
-    from lpik.maps.spec import MAP_DT, MAP_SEEDS
-    from lpik.maps.steps import MAP_METHODS
+    from lpik.maps.spec import MAP_DT, MAP_METHODS, MAP_SEEDS
 
     parser = sub.add_parser(
         "map",

@@ -8,10 +8,28 @@ positions for a task (the inverse map). ``pip install "lpik[maps]"``;
 ``docs/maps.md`` explains the choices and the measured scaling.
 """
 
-from lpik.maps.api import build_map, run_map
-from lpik.maps.robot import MapRobot, map_robot
-from lpik.maps.run import MapRun
-from lpik.maps.spec import MapSpec
-from lpik.maps.store import open_map
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
+#: Where each public name lives: imported on first use, so that the command line
+#: (``lpik map``'s options read :mod:`lpik.maps.spec`) needs neither numba nor Dask.
+_HOMES = {
+    "build_map": "lpik.maps.api",
+    "run_map": "lpik.maps.api",
+    "MapRobot": "lpik.maps.robot",
+    "map_robot": "lpik.maps.robot",
+    "MapRun": "lpik.maps.run",
+    "MapSpec": "lpik.maps.spec",
+    "open_map": "lpik.maps.store",
+}
 
 __all__ = ["MapRobot", "MapRun", "MapSpec", "build_map", "map_robot", "open_map", "run_map"]
+
+
+def __getattr__(name: str) -> Any:
+    """The public name ``name``, from its module (PEP 562)."""
+    if name not in _HOMES:
+        raise AttributeError(f"module 'lpik.maps' has no attribute {name!r}")
+    return getattr(import_module(_HOMES[name]), name)

@@ -15,9 +15,11 @@ import numpy as np
 
 from lpik.command import DEFAULT_V_MAX
 from lpik.defaults import DEFAULT_METHOD
-from lpik.maps.steps import MAP_METHODS
 from lpik.types import FloatArray
 from lpik.version import __version__
+
+#: The methods a map takes: LP1 (what the arm can do at all) and LP2 with or without saturation.
+MAP_METHODS = ("lp1", "lp2", "lp2s")
 
 #: The control period of a map's step [s]: the 10 ms of the paper's runs.
 MAP_DT = 0.01

@@ -27,8 +27,6 @@ from lpik.types import FloatArray
 NOT_REACHED, NO_BINDING = -1, 0
 #: The words of the binding codes from 0 on.
 BINDING_WORDS = ("none", *labels.KINDS)
-#: The methods a map takes: LP1 (what the arm can do at all) and LP2 with or without saturation.
-MAP_METHODS = ("lp1", "lp2", "lp2s")
 
 
 def binding_code(kind: str | None) -> int:
