@@ -74,8 +74,8 @@ def _stop_rates(limits: Sequence[Limit], n: int) -> tuple[FloatArray, FloatArray
     found = [lim for lim in limits if isinstance(lim, AccelerationLimits)]
     if not found:
         return None
-    return _smaller(found, "qdd_max", "qdd_min", n), _smaller(
-        [lim for lim in limits if isinstance(lim, VelocityLimits)], "qd_max", "qd_min", n)  # fmt: skip
+    speeds = [lim for lim in limits if isinstance(lim, VelocityLimits)]
+    return _smaller(found, "qdd_max", "qdd_min", n), _smaller(speeds, "qd_max", "qd_min", n)
 
 
 def _smaller(limits: Sequence[Any], upper: str, lower: str, n: int) -> FloatArray:
