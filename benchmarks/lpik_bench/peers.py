@@ -396,16 +396,17 @@ ACCELERATION_ADAPTERS: dict[str, Callable[[Workload], list[PeerStep]]] = {
 def load_peers(
     workload: Workload,
     names: tuple[str, ...] = tuple(ADAPTERS),
-    adapters: dict[str, Callable[[Workload], list[PeerStep]]] = ADAPTERS,
+    adapters: dict[str, Callable[[Workload], list[PeerStep]]] | None = None,
 ) -> PeerSet:
     """Every peer in ``names`` that imports and loads the robot; the others skipped with a note.
 
     A peer whose forward kinematics disagrees with lpik's at the workload's
     first configuration (by more than 1e-9) is skipped too: it would not be
     solving the same problem. ``adapters``: where the names are looked up
-    (:data:`ADAPTERS`; :data:`ACCELERATION_ADAPTERS` for the peers with
+    (None: :data:`ADAPTERS`; :data:`ACCELERATION_ADAPTERS` for the peers with
     acceleration limits, where a name without an entry is passed over).
     """
+    adapters = ADAPTERS if adapters is None else adapters  # read now: tests replace ADAPTERS
     peers = PeerSet()
     q, pose = workload.q[0], workload.model.pose(workload.q[0])
     for name in names:
