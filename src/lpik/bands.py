@@ -120,12 +120,24 @@ def rate_band(
     fault = MET
     if qdd_min > -math.inf or qdd_max < math.inf:  # else the last step binds nothing
         last, fault = plausible_step(last, vel_lo, vel_hi)
-    lo, hi, lo_kind, hi_kind, verdict = _rate_band(
-        last, room_lo, room_hi, vel_lo, vel_hi, qdd_min, qdd_max, dt
-    )
-    if verdict == MET and fault != MET:
+    dt2 = dt * dt
+    acc_lo, acc_hi = last + qdd_min * dt2, last + qdd_max * dt2
+    brake_hi = braking_room(room_hi, -qdd_min * dt2)
+    brake_lo = -braking_room(-room_lo, qdd_max * dt2)
+    soft_lo, lo_kind = (brake_lo, 0) if brake_lo > vel_lo else (vel_lo, 1)
+    soft_hi, hi_kind = (brake_hi, 0) if brake_hi < vel_hi else (vel_hi, 1)
+    lo, hi, verdict = yield_to(acc_lo, acc_hi, soft_lo, soft_hi)
+    if verdict == UPPER_YIELDED:
+        return lo, hi, hi_kind, hi_kind, verdict
+    if verdict == LOWER_YIELDED:
+        return lo, hi, lo_kind, lo_kind, verdict
+    if acc_lo > soft_lo:
+        lo_kind = 2
+    if acc_hi < soft_hi:
+        hi_kind = 2
+    if fault != MET:  # the bands meet, around a faulty last step taken at the limit
         return lo, hi, 1, 1, fault
-    return lo, hi, lo_kind, hi_kind, verdict
+    return lo, hi, lo_kind, hi_kind, MET
 
 
 def plausible_step(last: float, vel_lo: float, vel_hi: float) -> tuple:
@@ -143,35 +155,6 @@ def plausible_step(last: float, vel_lo: float, vel_hi: float) -> tuple:
         fault = LOWER_YIELDED if vel_lo - last > SLACK_TOL * max(1.0, abs(vel_lo)) else MET
         return vel_lo, fault
     return last, MET
-
-
-def _rate_band(
-    last: float,
-    room_lo: float,
-    room_hi: float,
-    vel_lo: float,
-    vel_hi: float,
-    qdd_min: float,
-    qdd_max: float,
-    dt: float,
-) -> tuple:
-    """:func:`rate_band` for a ``last`` within the velocity limits."""
-    dt2 = dt * dt
-    acc_lo, acc_hi = last + qdd_min * dt2, last + qdd_max * dt2
-    brake_hi = braking_room(room_hi, -qdd_min * dt2)
-    brake_lo = -braking_room(-room_lo, qdd_max * dt2)
-    soft_lo, lo_kind = (brake_lo, 0) if brake_lo > vel_lo else (vel_lo, 1)
-    soft_hi, hi_kind = (brake_hi, 0) if brake_hi < vel_hi else (vel_hi, 1)
-    lo, hi, verdict = yield_to(acc_lo, acc_hi, soft_lo, soft_hi)
-    if verdict == UPPER_YIELDED:
-        return lo, hi, hi_kind, hi_kind, verdict
-    if verdict == LOWER_YIELDED:
-        return lo, hi, lo_kind, lo_kind, verdict
-    if acc_lo > soft_lo:
-        lo_kind = 2
-    if acc_hi < soft_hi:
-        hi_kind = 2
-    return lo, hi, lo_kind, hi_kind, MET
 
 
 def outside_tolerance(bound: float) -> float:

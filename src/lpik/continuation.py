@@ -41,7 +41,6 @@ from typing import Any
 
 import numpy as np
 
-from lpik import bands, labels
 from lpik.problem import Problem
 from lpik.result import MOVING, RECOVERING, Result, safe_step
 from lpik.types import FloatArray
@@ -79,7 +78,8 @@ def continued(problem: Problem) -> Problem:
     Returns:
         The same step as a problem in ``u``, with origin ``q0 + last`` (and no ``last``).
     """
-    lower, upper, lower_kinds, upper_kinds = _bounds_and_kinds(problem)
+    lower, upper = problem.step_bounds()[:2]
+    lower_kinds, upper_kinds = problem.step_bound_kinds()
     last = problem.motion
     M = problem.M
     return problem.replace(
@@ -89,8 +89,8 @@ def continued(problem: Problem) -> Problem:
         q_max=np.full(problem.n, np.inf),
         dq_min=lower - last,
         dq_max=upper - last,
-        dq_min_kind=lower_kinds,
-        dq_max_kind=upper_kinds,
+        dq_min_kind=list(lower_kinds),
+        dq_max_kind=list(upper_kinds),
         f=problem.f - motion_decay(lower, upper, last) * (M @ last),
         q_ref=problem.q_ref,
         outside_limits=[],  # the state's own: resumed() names them
@@ -139,17 +139,3 @@ def motion_decay(lower: FloatArray, upper: FloatArray, last: FloatArray) -> floa
     if size == 0.0 or not width < math.inf:
         return 0.0
     return min(1.0, DECAY_SHARE * width / size)
-
-
-def _bounds_and_kinds(problem: Problem) -> tuple[FloatArray, FloatArray, list[str], list[str]]:
-    """The step's bounds on ``dq`` (:meth:`~lpik.problem.Problem.step_bounds`) and their kinds."""
-    lower, upper = problem.step_bounds()[:2]
-    lower_kinds, upper_kinds = [], []
-    for i in range(problem.n):
-        _, _, lo_stop, hi_stop, _ = bands.stop_band(
-            float(problem.q0[i]), float(problem.q_min[i]), float(problem.q_max[i]),
-            float(problem.dq_min[i]), float(problem.dq_max[i]),
-        )  # fmt: skip
-        lower_kinds.append(labels.END_STOP if lo_stop else problem.dq_min_kind[i])
-        upper_kinds.append(labels.END_STOP if hi_stop else problem.dq_max_kind[i])
-    return lower, upper, lower_kinds, upper_kinds

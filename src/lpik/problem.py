@@ -327,7 +327,7 @@ class Problem:
         if "bounds" not in self._cache:
             n = self.n
             lower, upper = np.empty(n), np.empty(n)
-            lower_labels, upper_labels, outside = [], [], []
+            lower_labels, upper_labels, outside, kinds = [], [], [], []
             for i, name in enumerate(self.joint_names):
                 lo, hi, lo_stop, hi_stop, out = bands.stop_band(
                     float(self.q0[i]),
@@ -339,6 +339,7 @@ class Problem:
                 lower[i], upper[i] = lo, hi
                 lo_kind = labels.END_STOP if lo_stop else self.dq_min_kind[i]
                 hi_kind = labels.END_STOP if hi_stop else self.dq_max_kind[i]
+                kinds.append((lo_kind, hi_kind))
                 lower_labels.append(labels.bound_label(name, "lower", lo_kind, i))
                 upper_labels.append(labels.bound_label(name, "upper", hi_kind, i))
                 if out:
@@ -346,7 +347,17 @@ class Problem:
                     outside.append(labels.bound_label(name, side, labels.END_STOP, i).outside())
             self._cache["bounds"] = (lower, upper, tuple(lower_labels), tuple(upper_labels))
             self._cache["outside"] = tuple(outside)
+            self._cache["kinds"] = tuple(zip(*kinds)) if kinds else ((), ())
         return self._cache["bounds"]  # type: ignore[no-any-return]
+
+    def step_bound_kinds(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """Which limit sets each of :meth:`step_bounds`' bounds: ``(lower, upper)`` kinds.
+
+        A kind as ``dq_min_kind`` takes it: ``"end-stop"`` where the end-stop sets
+        the bound, else the step bound's own kind (e.g. ``"velocity limit"``).
+        """
+        self.step_bounds()
+        return self._cache["kinds"]  # type: ignore[no-any-return]
 
     @property
     def motion(self) -> FloatArray | None:

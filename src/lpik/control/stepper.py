@@ -41,14 +41,18 @@ from lpik.command import (
     second_order_term,
     task_rows,
 )
-from lpik.control.inputs import positive_number, step_limits, task_value
+from lpik.control.inputs import (
+    STATE_FREE_LIMITS,
+    positive_number,
+    rate_limits,
+    step_limits,
+    task_value,
+)
 from lpik.highs import HighsSolver
 from lpik.limits import (
-    AccelerationLimits,
     AutomaticMultiplierBounds,
     LambdaBound,
     Limit,
-    VelocityLimits,
     build_problem,
 )
 from lpik.methods.autobound import bound_for_step
@@ -70,23 +74,16 @@ def _under_bound(problem: Problem, bound: FloatArray) -> Problem:
 
 
 def _stop_rates(limits: Sequence[Limit], n: int) -> tuple[FloatArray, FloatArray] | None:
-    """Each joint's smaller acceleration and velocity limit over ``limits``; None: no acc. limit."""
-    found = [lim for lim in limits if isinstance(lim, AccelerationLimits)]
-    if not found:
+    """Each joint's smaller acceleration and velocity limit (``rate_limits``); None: no acc. limit.
+
+    Read by :func:`lpik.control.inputs.rate_limits`, as the compiled step reads
+    them, from the limits whose bounds do not depend on the state.
+    """
+    rates = rate_limits([lim for lim in limits if isinstance(lim, STATE_FREE_LIMITS)], n)
+    qdd = np.minimum(rates[3], -rates[2])
+    if not np.isfinite(qdd).any():
         return None
-    speeds = [lim for lim in limits if isinstance(lim, VelocityLimits)]
-    return _smaller(found, "qdd_max", "qdd_min", n), _smaller(speeds, "qd_max", "qd_min", n)
-
-
-def _smaller(limits: Sequence[Any], upper: str, lower: str, n: int) -> FloatArray:
-    """Per joint, the smallest of ``upper`` and ``-lower`` over ``limits`` (inf: none)."""
-    out = np.full(n, np.inf)
-    for lim in limits:
-        hi = np.broadcast_to(np.asarray(getattr(lim, upper), dtype=np.float64), (n,))
-        given = getattr(lim, lower)
-        lo = -hi if given is None else np.broadcast_to(np.asarray(given, dtype=np.float64), (n,))
-        out = np.minimum(out, np.minimum(hi, -lo))
-    return out
+    return qdd, np.minimum(rates[1], -rates[0])
 
 
 def _flag(name: str, value: Any) -> bool:

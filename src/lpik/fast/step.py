@@ -54,9 +54,8 @@ _yield_to = njit(cache=True)(bands.yield_to)
 rate_band = compiled_twin(
     bands.rate_band,
     plausible_step=njit(cache=True)(bands.plausible_step),
-    _rate_band=compiled_twin(
-        bands._rate_band, yield_to=_yield_to, braking_room=njit(cache=True)(bands.braking_room)
-    ),
+    yield_to=_yield_to,
+    braking_room=njit(cache=True)(bands.braking_room),
 )
 motion_decay = njit(cache=True)(_motion_decay)
 stop_band = compiled_twin(
