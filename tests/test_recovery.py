@@ -224,9 +224,11 @@ def test_every_step_from_any_state_keeps_the_contract(state) -> None:
     problem = controller.problem(q0, goal, q_prev)
     fast = controller.step(q0, goal, q_prev)
     regular = np.linalg.svd(problem.J, compute_uv=False)[-1] > 1e-6  # far from a singularity
-    # the controller's method (lp2s) and plain LP2, each compiled against numpy
+    # the controller's method (lp2s) and plain LP2, each compiled against numpy; a step
+    # around the motion (lpik.continuation) scales the change dw - J last, whose terms
+    # nearly cancel while the arm moves: the two ratio tests' rounding (1.2e-12 seen)
     pairs = [(fast, solve(problem, controller.method), SATURATION_ROUNDING),
-             (lp2(problem, path="compiled"), lp2(problem), 1e-12)]  # fmt: skip
+             (lp2(problem, path="compiled"), lp2(problem), 1e-11)]  # fmt: skip
     for compiled, reference, atol in pairs:
         if compiled.path == "compiled" and reference.path == "ratio-test" and regular:
             assert compiled.status == reference.status
