@@ -8,3 +8,14 @@ read them from here.
 #: The method every way of taking a step uses unless told otherwise: LP2 with
 #: saturation in the null space (``lp2s``). The paper's runs name ``lp2`` explicitly.
 DEFAULT_METHOD = "lp2s"
+
+#: Steps that stall (``p`` near 0 and no motion along the command,
+#: :data:`lpik.tolerances.STALL_P`) in a row before the progress step
+#: (:mod:`lpik.methods.progress`) is taken; ``None``: never (the paper's contract).
+DEFAULT_ON_STALL = 1
+
+#: The ways a controller spends the limits: ``"exact"`` keeps the commanded direction
+#: (the paper's steps, the default); ``"progress"`` adds, after the exact step, the step
+#: that most reduces the task error left (:func:`lpik.methods.progress.further_step`).
+MODES = ("exact", "progress")
+DEFAULT_MODE = "exact"

@@ -68,6 +68,22 @@ SMOOTHING_SHARE = 0.5
 #: it does not carry the joint past a bound it sits at (beyond :data:`SLACK_TOL`).
 PULL_TOL = 1e-10
 
+# ---------------------------------------------------- stalls and the progress step
+#: A step is a stall when it follows at most this share of its command: ``p`` at or
+#: below it and the task's motion along the command, ``dw . J dq / |dw|^2``, at or
+#: below it too. The second condition keeps a step that moves the arm along the
+#: command at small ``p`` from counting (solved around the motion under acceleration
+#: limits, ``p`` is the share of the commanded *change* of the motion, which can be
+#: small while the arm moves fine). At 1e-2 a stalled arm closes less than 1 % of the
+#: command per period, where the progress step, which is never worse in L1 error
+#: than the exact step (the exact step is one of its candidates), does better.
+STALL_P = 1e-2
+#: The compiled progress LP's simplex: a pivot entry of at most this size is not taken.
+SIMPLEX_PIVOT_TOL = 1e-11
+#: The compiled progress LP's simplex: a reduced cost beyond minus this improves the step
+#: (the costs are 1 per task row and ``MOTION_WEIGHT`` = 1e-6 per joint).
+SIMPLEX_COST_TOL = 1e-13
+
 # ----------------------------------------------------- binding from the duals
 #: A limit within this (relative to its size) of its bound is active.
 ACTIVE_RTOL = 1e-9

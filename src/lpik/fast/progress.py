@@ -1,0 +1,428 @@
+"""The progress step's LP, compiled: least L1 task error within bounds and rows (no HiGHS).
+
+The LP of :mod:`lpik.methods.progress` (the least-L1 task error, as Ho's LP
+minimises an L1 norm, paper sec. 2.3), solved exactly by a small dense
+bounded-variable primal simplex, so that a control loop takes it inside its
+period. The interface, for every caller (the stall stage, ``mode="progress"``,
+collision recovery with its distance rows)::
+
+    code = least_error_step(J, target, lower, upper, G, g, dq)
+
+    minimise  sum_k |J dq - target|_k + MOTION_WEIGHT sum_i |dq_i|
+    subject to lower <= dq <= upper,  G dq <= g
+
+- ``J`` (m, n), ``target`` (m,): the task rows and the displacement to come
+  near (the command ``dw``);
+- ``lower``, ``upper`` (n,): bounds on ``dq``, ``lower <= upper``; either may
+  be infinite;
+- ``G`` (r, n), ``g`` (r,): general extra rows (``r`` may be 0: a (0, n)
+  array), e.g. the problem's rows ``G dq <= h - G q0`` or distance rows;
+- ``dq`` (n,): receives the optimal step.
+
+It returns :data:`SOLVED`, :data:`INFEASIBLE` (no ``dq`` within the bounds
+holds the rows; ``dq`` is then ``0`` clipped to the bounds) or
+:data:`ITERATION_LIMIT`. The objective of a step is :func:`least_error_value`.
+``MOTION_WEIGHT`` (:mod:`lpik.methods.progress`) picks, among the steps of
+least error, one of least motion, so that the joints do not jitter between
+vertices; the simplex's tolerances are :data:`lpik.tolerances.SIMPLEX_PIVOT_TOL`
+and :data:`~lpik.tolerances.SIMPLEX_COST_TOL`.
+
+The method: ``dq = a - b`` with ``a, b >= 0`` (bounds split by sign, so that
+``|dq_i| = a_i + b_i`` at the optimum), ``J dq - target = e+ - e-`` with
+``e+-, >= 0``, a slack per row, and an artificial variable per row that the
+start (``dq = 0`` clipped to its bounds) breaks (phase 1 drives them to 0).
+Dantzig pricing, Bland's rule after a run of degenerate pivots (no cycling),
+and at the optimum the basis is factorised afresh and the optimality checked
+again on the fresh tableau, so that the answer is the vertex's exact value,
+not the pivots' rounding. Sizes: ``m + r`` rows (a handful), ``2 n + 2 m +
+2 r`` columns.
+
+:func:`further_progress` is ``mode="progress"``'s second stage on the same
+LP; :func:`progress_in_state` and :func:`further_in_state` read a fused step's
+state buffer (:mod:`lpik.fast.layout`) after the step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from lpik.fast import layout as L
+from lpik.fast.step import step_bounds
+from lpik.methods.progress import MOTION_WEIGHT
+from lpik.tolerances import FEASIBILITY_TOL, SIMPLEX_COST_TOL, SIMPLEX_PIVOT_TOL
+
+#: :func:`least_error_step`'s outcomes.
+SOLVED, INFEASIBLE, ITERATION_LIMIT = 0, 1, 2
+#: Degenerate pivots in a row after which the simplex prices by Bland's rule.
+_BLAND_AFTER = 30
+#: Fresh factorisations of the optimal basis before the answer stands.
+_REFRESHES = 3
+
+
+@njit(cache=True)
+def least_error_value(J, target, dq):
+    """``sum_k |J dq - target|_k + MOTION_WEIGHT sum_i |dq_i|``: the progress LP's objective."""
+    m, n = J.shape
+    total = 0.0
+    for k in range(m):
+        s = -target[k]
+        for i in range(n):
+            s += J[k, i] * dq[i]
+        total += abs(s)
+    for i in range(n):
+        total += MOTION_WEIGHT * abs(dq[i])
+    return total
+
+
+@njit(cache=True)
+def _columns(J, target, lower, upper, G, g):
+    """The standard form ``A x = b``, ``lo <= x <= up`` and the costs (see the module)."""
+    m, n = J.shape
+    r = G.shape[0]
+    rows, cols = m + r, 2 * n + 2 * m + 2 * r
+    A, b = np.zeros((rows, cols)), np.empty(rows)
+    lo, up, cost = np.zeros(cols), np.full(cols, np.inf), np.zeros(cols)
+    for i in range(n):
+        lo[i], up[i] = max(lower[i], 0.0), max(upper[i], 0.0)
+        lo[n + i], up[n + i] = max(-upper[i], 0.0), max(-lower[i], 0.0)
+        cost[i] = cost[n + i] = MOTION_WEIGHT
+    for k in range(m):
+        for i in range(n):
+            A[k, i], A[k, n + i] = J[k, i], -J[k, i]
+        A[k, 2 * n + k], A[k, 2 * n + m + k] = -1.0, 1.0
+        cost[2 * n + k] = cost[2 * n + m + k] = 1.0
+        b[k] = target[k]
+    for j in range(r):
+        for i in range(n):
+            A[m + j, i], A[m + j, n + i] = G[j, i], -G[j, i]
+        A[m + j, 2 * n + 2 * m + j], A[m + j, 2 * n + 2 * m + r + j] = 1.0, -1.0
+        b[m + j] = g[j]
+    return A, b, lo, up, cost
+
+
+@njit(cache=True)
+def _start(A, b, lo, x, basis, row_of, m, r):
+    """The start: every column at its lower bound, one basic column per row that fits it.
+
+    Task row ``k``: ``e-`` or ``e+``; extra row ``j``: its slack, or where the
+    start breaks the row its artificial variable. Returns whether any artificial is basic.
+    """
+    rows, cols = A.shape
+    x[:] = lo
+    row_of[:] = -1
+    need = False
+    for i in range(rows):
+        res = b[i]
+        for j in range(cols):
+            res -= A[i, j] * x[j]
+        if i < m:
+            j = cols - 2 * r - m + i if res >= 0.0 else cols - 2 * r - 2 * m + i
+        else:
+            j = cols - 2 * r + (i - m) if res >= 0.0 else cols - r + (i - m)
+            need = need or res < 0.0
+        basis[i], row_of[j] = j, i
+        x[j] = abs(res)
+    return need
+
+
+@njit(cache=True)
+def _entering(T, cost, x, lo, up, basis, row_of, bland):
+    """The entering column and its direction (+1 up, -1 down), or (-1, 0) at the optimum."""
+    rows, cols = T.shape
+    best, best_j, best_dir = 0.0, -1, 0
+    for j in range(cols):
+        if row_of[j] >= 0 or up[j] <= lo[j]:
+            continue
+        d = cost[j]
+        for i in range(rows):
+            d -= cost[basis[i]] * T[i, j]
+        if x[j] <= lo[j] and d < -SIMPLEX_COST_TOL:
+            gain, direction = -d, 1
+        elif x[j] >= up[j] and d > SIMPLEX_COST_TOL:
+            gain, direction = d, -1
+        else:
+            continue
+        if gain > best:
+            best, best_j, best_dir = gain, j, direction
+            if bland:
+                break
+    return best_j, best_dir
+
+
+@njit(cache=True)
+def _leaving(T, x, lo, up, basis, j, direction, bland):
+    """The ratio test: ``(row, step)``, row -1 for a bound flip of ``j`` (step inf: unbounded)."""
+    rows = T.shape[0]
+    t_min = up[j] - lo[j]
+    for i in range(rows):
+        alpha, k = direction * T[i, j], basis[i]
+        if alpha > SIMPLEX_PIVOT_TOL:
+            t_min = min(t_min, max(x[k] - lo[k], 0.0) / alpha)
+        elif alpha < -SIMPLEX_PIVOT_TOL and up[k] < np.inf:
+            t_min = min(t_min, max(up[k] - x[k], 0.0) / -alpha)
+    if t_min >= up[j] - lo[j]:
+        return -1, t_min
+    best, row = -1.0, -1  # among the rows that tie at t_min: the largest pivot (Bland: first)
+    for i in range(rows):
+        alpha, k = direction * T[i, j], basis[i]
+        if alpha > SIMPLEX_PIVOT_TOL:
+            t = max(x[k] - lo[k], 0.0) / alpha
+        elif alpha < -SIMPLEX_PIVOT_TOL and up[k] < np.inf:
+            t = max(up[k] - x[k], 0.0) / -alpha
+        else:
+            continue
+        if t <= t_min * (1.0 + 1e-12) + 1e-300 and abs(alpha) > best:
+            best, row = abs(alpha), i
+            if bland:
+                break
+    return row, t_min
+
+
+@njit(cache=True)
+def _move(T, x, lo, up, basis, row_of, j, direction, row, t):
+    """Move ``j`` by ``t`` and the basic columns with it; pivot on ``(row, j)`` unless a flip."""
+    rows, cols = T.shape
+    for i in range(rows):
+        x[basis[i]] -= direction * t * T[i, j]
+    if row < 0:
+        x[j] = up[j] if direction > 0 else lo[j]
+        return
+    x[j] = (lo[j] if direction > 0 else up[j]) + direction * t
+    k = basis[row]
+    x[k] = lo[k] if direction * T[row, j] > 0 else up[k]
+    row_of[k], row_of[j], basis[row] = -1, row, j
+    pivot = T[row, j]
+    for c in range(cols):
+        T[row, c] /= pivot
+    for i in range(rows):
+        if i != row and T[i, j] != 0.0:
+            f = T[i, j]
+            for c in range(cols):
+                T[i, c] -= f * T[row, c]
+
+
+@njit(cache=True)
+def _pivots(T, cost, x, lo, up, basis, row_of, limit):
+    """Simplex iterations until no column improves.
+
+    Returns the iterations left, or -1 when ``limit`` ran out or the LP is unbounded
+    (not an LP of this module: every cost is >= 0).
+    """
+    degenerate = 0
+    while True:
+        bland = degenerate > _BLAND_AFTER
+        j, direction = _entering(T, cost, x, lo, up, basis, row_of, bland)
+        if j < 0:
+            return limit
+        if limit == 0:
+            return -1
+        limit -= 1
+        row, t = _leaving(T, x, lo, up, basis, j, direction, bland)
+        if t == np.inf:
+            return -1
+        degenerate = degenerate + 1 if t == 0.0 else 0
+        _move(T, x, lo, up, basis, row_of, j, direction, row, t)
+
+
+@njit(cache=True)
+def _refresh(A, b, x, lo, up, basis, row_of, T):
+    """``T = B^-1 A`` and the basic values afresh from the basis (Gauss-Jordan, partial pivots)."""
+    rows, cols = A.shape
+    W = np.empty((rows, cols + 1))
+    for i in range(rows):
+        s = b[i]
+        for j in range(cols):
+            W[i, j] = A[i, j]
+            if row_of[j] < 0:
+                s -= A[i, j] * x[j]
+        W[i, cols] = s
+    order = basis.copy()
+    for p in range(rows):
+        j = order[p]
+        piv = p
+        for i in range(p + 1, rows):
+            if abs(W[i, j]) > abs(W[piv, j]):
+                piv = i
+        if piv != p:
+            for c in range(cols + 1):
+                W[p, c], W[piv, c] = W[piv, c], W[p, c]
+        pivot = W[p, j]
+        for c in range(cols + 1):
+            W[p, c] /= pivot
+        for i in range(rows):
+            if i != p and W[i, j] != 0.0:
+                f = W[i, j]
+                for c in range(cols + 1):
+                    W[i, c] -= f * W[p, c]
+    for p in range(rows):  # row p of W now holds basic column order[p]
+        j = order[p]
+        basis[p], row_of[j] = j, p
+        x[j] = min(max(W[p, cols], lo[j]), up[j])
+        for c in range(cols):
+            T[p, c] = W[p, c]
+
+
+@njit(cache=True)
+def _solve(A, b, lo, up, cost, x, basis, row_of, T):
+    """Pivot, factorise the basis afresh, and again until the fresh tableau is optimal."""
+    limit = 50 * (A.shape[0] + A.shape[1])
+    for _ in range(_REFRESHES):
+        limit = _pivots(T, cost, x, lo, up, basis, row_of, limit)
+        if limit < 0:
+            return ITERATION_LIMIT
+        _refresh(A, b, x, lo, up, basis, row_of, T)
+        if _entering(T, cost, x, lo, up, basis, row_of, False)[0] < 0:
+            return SOLVED
+    return ITERATION_LIMIT
+
+
+@njit(cache=True)
+def least_error_step(J, target, lower, upper, G, g, dq):
+    """The progress LP of the module docstring: writes ``dq``, returns the outcome."""
+    m, n = J.shape
+    r = G.shape[0]
+    A, b, lo, up, cost = _columns(J, target, lower, upper, G, g)
+    rows, cols = A.shape
+    x, basis, row_of = np.empty(cols), np.empty(rows, np.int64), np.empty(cols, np.int64)
+    T = np.empty((rows, cols))
+    for i in range(n):
+        dq[i] = min(max(0.0, lower[i]), upper[i])
+    need = _start(A, b, lo, x, basis, row_of, m, r)
+    _refresh(A, b, x, lo, up, basis, row_of, T)
+    if need:  # phase 1: the artificial variables down to 0
+        phase1 = np.zeros(cols)
+        phase1[cols - r :] = 1.0
+        code = _solve(A, b, lo, up, phase1, x, basis, row_of, T)
+        scale = 1.0
+        for j in range(r):
+            scale = max(scale, abs(g[j]))
+        if code != SOLVED or x[cols - r :].sum() > FEASIBILITY_TOL * scale:
+            return INFEASIBLE if code == SOLVED else code
+    up[cols - r :] = 0.0  # phase 2: the artificial variables stay at 0
+    for j in range(cols - r, cols):
+        x[j] = 0.0
+    code = _solve(A, b, lo, up, cost, x, basis, row_of, T)
+    if code == SOLVED:
+        for i in range(n):
+            dq[i] = min(max(x[i] - x[n + i], lower[i]), upper[i])
+    return code
+
+
+@njit(cache=True)
+def further_progress(J, dw, lower, upper, G, g, dq1, dq):
+    """``mode="progress"``'s second stage: ``dq = dq1 + delta``, delta of least error left.
+
+    ``delta`` minimises ``|J delta - (dw - J dq1)|_1 + MOTION_WEIGHT |delta|_1``
+    within ``lower - dq1 <= delta <= upper - dq1`` and ``G delta <= g - G dq1``,
+    and keeps each task row's error within the exact step's:
+    ``|J_k (dq1 + delta) - dw_k| <= |J_k dq1 - dw_k|`` (``delta = 0`` is a
+    candidate, so the step is never worse than ``dq1`` on any row).
+    """
+    m, n = J.shape
+    r = G.shape[0]
+    rows = np.empty((r + 2 * m, n))
+    rhs, left = np.empty(r + 2 * m), np.empty(m)
+    lo, hi, delta = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        lo[i], hi[i] = min(lower[i] - dq1[i], 0.0), max(upper[i] - dq1[i], 0.0)
+    for j in range(r):
+        s = g[j]
+        for i in range(n):
+            rows[j, i] = G[j, i]
+            s -= G[j, i] * dq1[i]
+        rhs[j] = max(s, 0.0)
+    for k in range(m):
+        e = -dw[k]
+        for i in range(n):
+            e += J[k, i] * dq1[i]
+            rows[r + k, i], rows[r + m + k, i] = J[k, i], -J[k, i]
+        left[k] = -e
+        rhs[r + k], rhs[r + m + k] = abs(e) - e, abs(e) + e
+    code = least_error_step(J, left, lo, hi, rows, rhs, delta)
+    for i in range(n):
+        dq[i] = min(max(dq1[i] + (delta[i] if code == SOLVED else 0.0), lower[i]), upper[i])
+    return code
+
+
+@njit(cache=True)
+def _state_rows(state, q0, q_prev):
+    """The step's ``J``, ``dw``, bounds on ``dq`` and rows ``G dq <= h - G q0`` from ``state``."""
+    n, m, r = q0.shape[0], int(state[L.M]), int(state[L.R])
+    lower, upper, kinds = np.empty(n), np.empty(n), np.empty((2, n))
+    step_bounds(L.matrix_at(state, L.LIMITS, 6, n), state[L.DT], q0, q_prev, lower, upper, kinds)
+    G, h = L.matrix_at(state, L.ROWS_G, r, n), L.vector(state, L.ROWS_H)
+    g = np.empty(r)
+    for j in range(r):
+        s = h[j]
+        for i in range(n):
+            s -= G[j, i] * q0[i]
+        g[j] = s
+    return L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW), lower, upper, G, g
+
+
+@njit(cache=True)
+def progress_in_state(state, q0, q_prev, dq):
+    """The stall stage's progress step on the step a fused step left in ``state``.
+
+    ``J`` and ``dw`` are the step's (its Jacobian and command blocks), the
+    bounds are recomputed from ``q0`` and ``q_prev`` (eqs. 13-14) and the rows
+    are the state's. Returns ``(outcome, error before, error after)``: the L1
+    task errors ``sum |dw|`` and ``sum |J dq - dw|``.
+    """
+    J, dw, lower, upper, G, g = _state_rows(state, q0, q_prev)
+    code = least_error_step(J, dw, lower, upper, G, g, dq)
+    zero = np.zeros(q0.shape[0])
+    return code, least_error_value(J, dw, zero), least_error_value(J, dw, dq) - _motion(dq)
+
+
+@njit(cache=True)
+def further_in_state(state, q0, q_prev, dq):
+    """``mode="progress"``'s second stage on the exact step a fused step left in ``state``.
+
+    ``dq`` receives the step; returns ``(outcome, error before, error after)``, the
+    L1 task errors of the exact step and of ``dq``.
+    """
+    J, dw, lower, upper, G, g = _state_rows(state, q0, q_prev)
+    dq1 = L.vector(state, L.DQ).copy()
+    code = further_progress(J, dw, lower, upper, G, g, dq1, dq)
+    before = least_error_value(J, dw, dq1) - _motion(dq1)
+    return code, before, least_error_value(J, dw, dq) - _motion(dq)
+
+
+@njit(cache=True)
+def _motion(dq):
+    """``MOTION_WEIGHT sum |dq_i|``."""
+    s = 0.0
+    for i in range(dq.shape[0]):
+        s += MOTION_WEIGHT * abs(dq[i])
+    return s
+
+
+def least_error(
+    J: np.ndarray, target: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+    G: np.ndarray, g: np.ndarray,
+) -> tuple[int, np.ndarray]:  # fmt: skip
+    """:func:`least_error_step` on any arrays (as C-contiguous float64): ``(code, dq)``."""
+
+    def arr(a: np.ndarray, ndim: int) -> np.ndarray:
+        out = np.ascontiguousarray(a, dtype=np.float64)
+        return out.reshape(0, J.shape[1]) if ndim == 2 and out.size == 0 else out
+
+    dq = np.empty(np.shape(J)[1])
+    code = least_error_step(arr(J, 2), arr(target, 1), arr(lower, 1), arr(upper, 1), arr(G, 2),
+                            arr(g, 1), dq)  # fmt: skip
+    return int(code), dq
+
+
+__all__ = [
+    "INFEASIBLE",
+    "ITERATION_LIMIT",
+    "SOLVED",
+    "further_in_state",
+    "further_progress",
+    "least_error",
+    "least_error_step",
+    "least_error_value",
+    "progress_in_state",
+]
