@@ -1,4 +1,4 @@
-"""The opt-in progress step (``on_stall``): least task error within every limit, off the line."""
+"""The progress step (``on_stall``): least task error within every limit, off the line."""
 
 from __future__ import annotations
 
@@ -75,7 +75,7 @@ def test_on_stall_gets_the_arm_unstuck_alike_on_both_paths(robot: str) -> None:
     setup = get_scenario("pull-in").setup(robot)
     target = setup.target[:3, 3] if setup.target.ndim == 2 else setup.target
     stuck = setup.run("lp2", **PAPER_COMMAND)
-    log = setup.run("lp2", on_stall=20, **PAPER_COMMAND)
+    log = setup.run("lp2", **{**PAPER_COMMAND, "on_stall": 20})
     assert (log.status == OFF_DIRECTION).any()
     gap = np.linalg.norm(log.position_end[:2] - target[:2])
     assert gap < np.linalg.norm(stuck.position_end[:2] - target[:2])

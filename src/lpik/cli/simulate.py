@@ -29,7 +29,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-from lpik.defaults import DEFAULT_METHOD
+from lpik.defaults import DEFAULT_METHOD, DEFAULT_MODE, DEFAULT_ON_STALL, MODES
 from lpik.tolerances import MAX_MAGNITUDE
 
 if TYPE_CHECKING:
@@ -62,6 +62,18 @@ def _bound_value(text: str) -> float | str:
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected a number, 'auto' or 'none', got {text!r}"
+        ) from None
+
+
+def _stall_value(text: str) -> int | str:
+    """``--on-stall``'s value: a whole number of steps or ``none``."""
+    if text == "none":
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number or 'none', got {text!r}"
         ) from None
 
 
@@ -225,10 +237,19 @@ def _add_loop_arguments(parser: argparse.ArgumentParser) -> None:
     """How the loop steps: stall handling, obstacles and how to avoid them, HiGHS's start."""
     parser.add_argument(
         "--on-stall",
-        type=int,
+        type=_stall_value,
         metavar="N",
-        help="after N steps with p = 0 in a row, take the step of least task error within "
-        "every limit (status off_direction) while p stays 0; default: never",
+        help="after N stalled steps in a row (p near 0, no motion along the command), take the "
+        "step of least task error within every limit (status off_direction, p = 0) while the "
+        f"arm stays stalled (default {DEFAULT_ON_STALL}); none: never, the paper's strict steps",
+    )
+    parser.add_argument(
+        "--mode",
+        choices=MODES,
+        default=DEFAULT_MODE,
+        help=f"exact: every step keeps the commanded direction (default {DEFAULT_MODE}); "
+        "progress: after each exact step with p < 1, also spend what the limits leave on the "
+        "task error that remains (status off_direction)",
     )
     parser.add_argument(
         "--scene",
@@ -427,7 +448,7 @@ def _check_options(args: argparse.Namespace) -> None:
         raise ValueError(
             f"--qdd-max: must be a number in (0, {MAX_MAGNITUDE:g}] [rad/s^2], got {args.qdd_max}"
         )
-    if args.on_stall is not None and not 0 < args.on_stall <= MAX_STEPS:
+    if args.on_stall not in (None, "none") and not 0 < args.on_stall <= MAX_STEPS:
         raise ValueError(f"--on-stall: must be in 1..{MAX_STEPS:,} steps, got {args.on_stall:,}")
     if not 2 <= args.frames <= MAX_FRAMES:
         raise ValueError(f"--frames: must be in 2..{MAX_FRAMES}, got {args.frames}")
@@ -440,7 +461,8 @@ def run_options(args: argparse.Namespace) -> dict[str, object]:
         "steps": args.steps,
         "dt": args.dt,
         "warm_start": not args.cold_start,
-        "on_stall": args.on_stall,
+        "on_stall": {None: DEFAULT_ON_STALL, "none": None}.get(args.on_stall, args.on_stall),
+        "mode": args.mode,
         "qdd_max": args.qdd_max,
         "second_order": not args.no_second_order,
     }

@@ -46,20 +46,23 @@ from lpik.control.inputs import (
     task_value,
 )
 from lpik.control.stepper import Stepper
+from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL
 from lpik.fast import layout
 from lpik.fast.autobound import bound_in_state, settings
 from lpik.fast.batch import BatchResult
 from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.outcome import compiled_result
+from lpik.fast.progress import SOLVED, further_in_state, progress_in_state
 from lpik.fast.step import BAD_INPUT
 from lpik.labels import step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
+from lpik.methods.progress import is_stall, progress_result, share_along
 from lpik.problem import Problem, reference_configuration
-from lpik.result import OPTIMAL, Result
+from lpik.result import OFF_DIRECTION, OPTIMAL, Result
 from lpik.robots.base import TaskModel
-from lpik.tolerances import FULL_P
+from lpik.tolerances import FULL_P, STALL_P
 from lpik.types import FloatArray
 
 __all__ = ["Lp2Controller", "SceneRows", "StateRows"]
@@ -174,8 +177,16 @@ class Lp2Controller:
             stops the step is fixed there and the others carry the command on.
             ``False``: the paper's LP2 as stated (method ``lp2``), which stops
             at the first bound it meets.
-        on_stall: Opt-in progress step (:mod:`lpik.methods.progress`, status
-            ``off_direction``) after this many steps with ``p = 0``; ``None``: never.
+        on_stall: The progress step (:mod:`lpik.methods.progress`, compiled in
+            :mod:`lpik.fast.progress`; status ``off_direction``, ``p = 0``) after this
+            many stalled steps in a row (``p`` near 0 and no motion along the command,
+            :data:`lpik.tolerances.STALL_P`); default
+            :data:`lpik.defaults.DEFAULT_ON_STALL`; ``None``: never (the paper's steps).
+        mode: ``"exact"`` (default): keep the commanded direction (the paper's
+            contract); ``"progress"``: after every exact step with ``p < 1``, spend
+            what the limits leave on the task error that remains (compiled,
+            :func:`lpik.fast.progress.further_progress`; status ``off_direction``,
+            ``p`` the exact step's).
         second_order: Take off each step's command the second-order term of the
             last step's task motion (:func:`lpik.command.second_order_term`,
             from ``q_prev`` to ``q0``; the default): the error each step leaves on a
@@ -220,7 +231,8 @@ class Lp2Controller:
         h: Any = None,
         row_labels: Any = None,
         saturate: bool = True,
-        on_stall: int | None = None,
+        on_stall: int | None = DEFAULT_ON_STALL,
+        mode: str = DEFAULT_MODE,
         second_order: bool = True,
         continuation: bool = True,
         scene: Any = None,
@@ -238,7 +250,7 @@ class Lp2Controller:
             velocity_limits=velocity_limits,
             rows=(G, h, row_labels) if scene_rows is None else scene_rows.reserved(),
             second_order=second_order, on_stall=on_stall, warm_start=False,
-            continuation=continuation,
+            continuation=continuation, mode=mode,
         )  # fmt: skip
         s = self.stepper
         self.model, self.dt, self.method = s.model, s.dt, s.method
@@ -262,6 +274,7 @@ class Lp2Controller:
                 self._compile_distances(scene_rows.avoidance)
         self._coal_rows = scene_rows is not None and self.found is None  # rows written first
         self._watch_stall = s.stall_watch.after is not None
+        self._further = s.mode == "progress"  # mode="progress"'s second stage after each step
         self._last: Result | None = None  # step_into's last outcome when not optimal
         self._last_code: int | None = None  # step_into's last kernel outcome (-1: see _last)
         # a Result for step_into: the automatic bound over a backend's kinematics (its probe)
@@ -340,6 +353,7 @@ class Lp2Controller:
         self._p, self._label_at = fields["p"].start, fields["label"].start
         self._residual, self._outside = fields["residual"].start, fields["outside"].start
         self._bounded_at, self._bound_at = fields["bounded"].start, fields["bound"]
+        self._dw = fields["dw"]
         self._q_view = self._out[self._q]  # the kernel's q, for step_into
         self._vector_shape = (self._n,)
 
@@ -404,9 +418,9 @@ class Lp2Controller:
             result = self._not_optimal(code, q0, target, q_prev, start)
         if self.automatic_bound is not None and result.p < FULL_P:
             result = self._bounded(q0, target, q_prev, result)
-        if not (self._watch_stall and watch):
+        if not watch or not (self._watch_stall or self._further):
             return result
-        return self.stepper.stalled(result, lambda: self.problem(q0, target, q_prev))
+        return self._stalled(result, q0, q_prev, count=True)
 
     def _run(self, q0: Any, target: Any, q_prev: Any) -> int:
         """The kernel on the step's inputs (converted where they are not its arrays)."""
@@ -463,7 +477,7 @@ class Lp2Controller:
                 f"out: must be a float64 array of shape ({self._n},), got "
                 f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
             )
-        if self._watch_stall or self._python_bound:  # a Result
+        if self._further or self._python_bound:  # a Result
             self._last, self._last_code = self.step(q0, target, q_prev), -1
             out[...] = self._last.q
             return self._last.p
@@ -475,11 +489,16 @@ class Lp2Controller:
             except TypeError:  # not C-contiguous writable float64 arrays: convert them
                 code = self._run(q0, target, q_prev)
         if code == OK and self._out.item(self._outside) < 0:
-            self._last_code = code
-            out[...] = self._q_view
-            return self._out.item(self._p)
+            p = self._out.item(self._p)
+            if p > STALL_P or not self._watch_stall:  # no stall: the kernel's step stands
+                self.stepper.stall_watch.clear()
+                self._last_code = code
+                out[...] = self._q_view
+                return p
         result = self._not_optimal(code, q0, target, q_prev, perf_counter())
         self._last, self._last_code = self._bounded(q0, target, q_prev, result), -1
+        if self._watch_stall:
+            self._last = self._stalled(self._last, q0, q_prev, count=True)
         out[...] = self._last.q
         return self._last.p
 
@@ -525,6 +544,41 @@ class Lp2Controller:
             bound = self._out[self._bound_at].copy()
         problem = self.stepper.problem(*self._checked(q0, target, q_prev), bound=bound)
         return self.stepper.solve(problem, path=self._fallback_path)
+
+    def _stalled(self, result: Result, q0: Any, q_prev: Any, *, count: bool) -> Result:
+        """The stall stage, compiled (:mod:`lpik.fast.progress`), on the step in the state.
+
+        The rule is the stepper's (:class:`~lpik.methods.progress.StallWatch`,
+        :func:`~lpik.methods.progress.is_stall`); ``count=False`` (a batch row, an
+        independent state without history) takes the progress step only where one
+        stalled step is enough (``on_stall=1``). In ``mode="progress"`` a step that did
+        not stall gets the second stage. ``J`` and ``dw`` are the step's, as the kernel
+        left them in the state; the bounds are recomputed from ``q0`` and ``q_prev``.
+        """
+        watch, n, m = self.stepper.stall_watch, self._n, self._m
+        J = layout.matrix_at(self._state, layout.JACOBIAN, m, n)
+        dw = self._out[self._dw]
+        along = partial(share_along, J, dw, result.dq)
+        stalled = (watch.stalls(result, along) if count
+                   else watch.after == 1 and is_stall(result.p, along))  # fmt: skip
+        further = self._further and result.status == OPTIMAL and result.p < 1.0
+        if not (stalled or further):
+            return result
+        start, dq = perf_counter(), np.empty(n)
+        q = np.ascontiguousarray(q0, dtype=np.float64)
+        prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
+        if stalled:
+            code, before, _ = progress_in_state(self._state, q, prev, dq)
+            p, binding = 0.0, None
+        else:
+            dq1 = np.ascontiguousarray(result.dq, dtype=np.float64)
+            code, before, _ = further_in_state(self._state, q, prev, dq1, dq)
+            p, binding = result.p, result.binding
+        if code != SOLVED:
+            return result
+        progress = progress_result(q, dq, J.copy(), dw.copy(), before, p, binding,
+                                   perf_counter() - start, "compiled")  # fmt: skip
+        return progress if progress.status == OFF_DIRECTION else result
 
     def _bounded(self, q0: Any, target: Any, q_prev: Any, unbounded: Result) -> Result:
         """The bound policy where the kernel did not apply it (a backend's kinematics, HiGHS).
@@ -614,6 +668,10 @@ class Lp2Controller:
         if self.automatic_bound is not None:
             p = outs[:, self._p]
             again |= ~infeasible & (p < FULL_P) & (outs[:, self._bounded_at] < 0)
+        if self._further:  # mode="progress": every row with p < 1 gets the second stage
+            again |= outs[:, self._p] < 1.0
+        elif self.stepper.stall_watch.after == 1:  # a row that may stall: the stall stage
+            again |= outs[:, self._p] <= STALL_P
         return again
 
     def _batch_result(
@@ -626,7 +684,10 @@ class Lp2Controller:
         p[infeasible], lam[infeasible] = 0, np.nan  # q, dq: the kernel's safe step
         fallback: dict[int, Result] = {}
         for b in np.nonzero(again)[0].tolist():
-            res = self.step(Q0[b], T[b], None if Qp is None else Qp[b], watch=False)
+            prev = None if Qp is None else Qp[b]
+            res = self.step(Q0[b], T[b], prev, watch=False)
+            if self._watch_stall or self._further:  # the stall stage, row by row
+                res = self._stalled(res, Q0[b], prev, count=False)
             fallback[b] = res
             q[b], dq[b], p[b], residual[b] = res.q, res.dq, res.p, res.residual
             lam[b] = np.nan if res.lam is None else res.lam

@@ -4,7 +4,7 @@ One control step is one :meth:`lpik.control.stepper.Stepper.step`::
 
     dw = command(model, q, dt) - rho(q_prev, q)     # lpik.command
     problem = build_problem(J(q), dw, q, limits, dt=dt, q_prev=q_prev, **weights)
-    result = method(problem)                        # lpik.methods (+ the bound policy, on_stall)
+    result = method(problem)                        # lpik.methods (+ bound policy, stall stage)
     q_prev, q = q, applied(result)
 
 ``rho`` is the last step's second-order term
@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from lpik.command import CommandLaw
 from lpik.control.log import SimulationLog
 from lpik.control.stepper import DEFAULT_METHOD, Stepper
+from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL
 from lpik.limits import LambdaBound, Limit
 from lpik.result import Result
 from lpik.robots.base import TaskModel
@@ -68,10 +69,11 @@ def simulate(
     name: str = "",
     warm_start: bool = True,
     progress: Progress | None = None,
-    on_stall: int | None = None,
+    on_stall: int | None = DEFAULT_ON_STALL,
     scene: Any = None,
     second_order: bool = True,
     continuation: bool = True,
+    mode: str = DEFAULT_MODE,
 ) -> SimulationLog:
     """Run the closed loop for ``steps`` control steps and return the log.
 
@@ -101,10 +103,12 @@ def simulate(
             not unique (LP1: any vertex with the largest p), the two may pick different
             optimal vertices.
         progress: Called after every step with ``(done, steps)``.
-        on_stall: Opt-in: after this many steps with ``p = 0`` in a row, take the
-            progress step (:func:`lpik.methods.progress.progress_step`: least task
-            error within every limit, status ``off_direction``) while ``p`` stays 0.
-            ``None`` (default): the method's steps only.
+        on_stall: After this many stalled steps in a row (``p`` near 0 and no motion
+            along the command, :data:`lpik.tolerances.STALL_P`), take the progress step
+            (:func:`lpik.methods.progress.progress_step`: least task error within every
+            limit, status ``off_direction``, ``p = 0``) while the arm stays stalled.
+            Default :data:`lpik.defaults.DEFAULT_ON_STALL`; ``None``: the method's
+            steps only (the paper's runs).
         scene: Obstacles to avoid: a :class:`~lpik.collision.Scene` (the velocity
             damper's rows, self-collision included) or a
             :class:`~lpik.collision.CollisionAvoidance` (rows, field or both). The log
@@ -116,6 +120,9 @@ def simulate(
         continuation: Under acceleration limits, solve each step around the current
             motion and brake the command in time (:mod:`lpik.continuation`; the
             default of every way to take a step). ``False``: the paper's step.
+        mode: ``"exact"`` (default): the method's steps keep the commanded direction;
+            ``"progress"``: after every exact step with ``p < 1``, the least task error
+            the limits leave (:func:`lpik.methods.progress.further_step`).
 
     Returns:
         The :class:`SimulationLog` of the run.
@@ -146,6 +153,7 @@ def simulate(
         on_stall=on_stall,
         warm_start=warm_start,
         continuation=continuation,
+        mode=mode,
     )
     log = _LogRows(model, stepper)
     q_prev: FloatArray | None = None
@@ -164,7 +172,7 @@ class _LogRows:
     def __init__(self, model: TaskModel, stepper: Stepper) -> None:
         self.model, self.stepper = model, stepper
         self.rows: dict[str, list[Any]] = {
-            k: [] for k in ("q", "pos", "p", "lam", "st", "bd", "pa", "cl", "t", "near")
+            k: [] for k in ("q", "pos", "p", "lam", "st", "bd", "pa", "cl", "t", "near", "pull")
         }
 
     def add(self, q: FloatArray, result: Result, clamped: bool, seconds: float) -> None:
@@ -181,6 +189,7 @@ class _LogRows:
         rows["pa"].append(result.path)
         rows["cl"].append(clamped)
         rows["t"].append(seconds)
+        rows["pull"].append(result.pull_scale if result.moved else 1.0)
 
     def finished(self, q: FloatArray, *, name: str, dt: float, warm_start: bool) -> SimulationLog:
         rows, model, steps = self.rows, self.model, len(self.rows["q"])
@@ -198,6 +207,7 @@ class _LogRows:
             path=np.array(rows["pa"], dtype=str),
             clamped=np.array(rows["cl"], dtype=bool),
             solve_time=np.array(rows["t"]),
+            pull_scale=np.array(rows["pull"], dtype=np.float64),
             q_end=q,
             position_end=np.asarray(model.position(q), dtype=np.float64),
             joint_names=tuple(model.joint_names),

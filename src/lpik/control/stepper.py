@@ -7,7 +7,8 @@ A step goes through named stages, each written once::
     limits       problem = build_problem(J, dw, q0, ...)   (eqs. 13-14, sec. 3.2; scene rows too)
     method       result = method(problem)                  (lpik.methods, eqs. 7-19)
     bound policy result under the automatic multiplier bound where it applies (sec. 3.2)
-    stall        the progress step once p = 0 has lasted (on_stall)
+    stall        the progress step once the step has stalled (on_stall; mode="progress": after
+                 every exact step with p < 1, the least error the limits leave)
     applied      a classical step clamped to the end-stops the machine cannot pass
 
 :class:`Stepper` runs them with the numpy layers (the *numpy engine*).
@@ -48,6 +49,7 @@ from lpik.control.inputs import (
     step_limits,
     task_value,
 )
+from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL, MODES
 from lpik.highs import HighsSolver
 from lpik.limits import (
     AutomaticMultiplierBounds,
@@ -56,7 +58,7 @@ from lpik.limits import (
     build_problem,
 )
 from lpik.methods.autobound import bound_for_step
-from lpik.methods.progress import StallWatch
+from lpik.methods.progress import StallWatch, further_step
 from lpik.methods.registry import DEFAULT_METHOD, MethodSpec, get_method
 from lpik.problem import Problem
 from lpik.result import VIOLATES_LIMITS, Result
@@ -118,7 +120,12 @@ class Stepper:
         home: Configuration at which touching self-collision pairs are dropped.
         second_order: Take off each command the last step's second-order term
             (:func:`lpik.command.second_order_term`); ``False``: the law alone.
-        on_stall: The progress step after this many steps with ``p = 0``; None: never.
+        on_stall: The progress step (:mod:`lpik.methods.progress`) after this many
+            stalled steps in a row (``p`` near 0, :data:`lpik.tolerances.STALL_P`); None:
+            never (the paper's strict steps). Default :data:`lpik.defaults.DEFAULT_ON_STALL`.
+        mode: ``"exact"`` (default): the method's step; ``"progress"``: after every
+            exact step with ``p < 1``, the least task error the limits leave
+            (:func:`lpik.methods.progress.further_step`).
         warm_start: Reuse one HiGHS instance across the steps of the LP methods.
         continuation: Under acceleration limits, solve LP1 and LP2's steps around the
             current motion (:mod:`lpik.continuation`) and slow the command down in
@@ -146,9 +153,10 @@ class Stepper:
         scene: Any = None,
         home: ArrayLike | None = None,
         second_order: bool = True,
-        on_stall: int | None = None,
+        on_stall: int | None = DEFAULT_ON_STALL,
         warm_start: bool = True,
         continuation: bool = True,
+        mode: str = DEFAULT_MODE,
     ) -> None:
         self.model = model = as_task_model(model)
         self.dt = positive_number("dt", dt)
@@ -182,6 +190,10 @@ class Stepper:
         #: The scene's collision avoidance, or None.
         self.avoidance = as_avoidance(model, scene, home_q)
         self.stall_watch = StallWatch(on_stall)
+        if mode not in MODES:
+            raise ValueError(f"mode: must be one of {', '.join(MODES)}, got {mode!r}")
+        #: ``"exact"`` or ``"progress"`` (:data:`lpik.defaults.MODES`).
+        self.mode = mode
         self._solver = HighsSolver() if _flag("warm_start", warm_start) else None
         #: Each task row's index in x, y, z, rx, ry, rz.
         self.task_rows = task_rows(model)
@@ -275,8 +287,15 @@ class Stepper:
                               self.dt, result)  # fmt: skip
 
     def stalled(self, result: Result, problem_of: Callable[[], Problem]) -> Result:
-        """The stall stage: the progress step once ``p = 0`` has lasted ``on_stall`` steps."""
-        return self.stall_watch.check(result, problem_of)
+        """The stall stage: the progress step once the step has stalled ``on_stall`` times.
+
+        In ``mode="progress"`` a step that did not stall gets the second stage,
+        :func:`lpik.methods.progress.further_step`, where ``p < 1``.
+        """
+        checked = self.stall_watch.check(result, problem_of)
+        if self.mode != "progress" or checked is not result or result.p >= 1.0:
+            return checked
+        return further_step(problem_of(), result, solver=self._solver)
 
     def applied(self, problem: Problem, result: Result) -> Result:
         """The applied stage: a classical step that breaks an end-stop, clamped to it.

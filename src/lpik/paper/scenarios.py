@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from lpik.command import DEFAULT_W_MAX
+from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL
 from lpik.methods.registry import DEFAULT_METHOD
 from lpik.naming import lookup
 from lpik.paper.setup import Setup
@@ -233,14 +234,16 @@ class Scenario:
         dt: float | None = None,
         warm_start: bool = True,
         progress: Progress | None = None,
-        on_stall: int | None = None,
+        on_stall: int | None = DEFAULT_ON_STALL,
         qdd_max: float | None = None,
         second_order: bool = True,
+        mode: str = DEFAULT_MODE,
     ) -> SimulationLog:
         """Simulate this scenario on ``robot`` with one method (see :meth:`Setup.run`)."""
         return self.setup(robot).run(
             method, lambda_bound=lambda_bound, steps=steps, dt=dt, warm_start=warm_start,
             progress=progress, on_stall=on_stall, qdd_max=qdd_max, second_order=second_order,
+            mode=mode,
         )  # fmt: skip
 
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from lpik.command import ClampedTarget
+from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL
 from lpik.limits import AccelerationLimits, Limit, standard_limits
 from lpik.methods.registry import DEFAULT_METHOD
 from lpik.robots.base import TaskModel
@@ -22,9 +23,12 @@ if TYPE_CHECKING:
     from lpik.control.simulate import Progress
 
 
-#: The paper's runs' command: the law of sec. 4 alone, without lpik's second-order term
-#: (:func:`lpik.command.second_order_term`). Every run of the paper names it.
-PAPER_COMMAND: dict[str, Any] = {"second_order": False}
+#: The paper's runs' settings: the command law of sec. 4 alone, without lpik's
+#: second-order term (:func:`lpik.command.second_order_term`), and the paper's strict
+#: steps, which keep the commanded direction or stand still (``on_stall=None``: no
+#: progress step, :mod:`lpik.methods.progress`). Every run of the paper names it, so
+#: that ``lpik reproduce`` gives the paper's numbers whatever lpik's defaults are.
+PAPER_COMMAND: dict[str, Any] = {"second_order": False, "on_stall": None}
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,10 +84,11 @@ class Setup:
         dt: float | None = None,
         warm_start: bool = True,
         progress: Progress | None = None,
-        on_stall: int | None = None,
+        on_stall: int | None = DEFAULT_ON_STALL,
         qdd_max: float | None = None,
         scene: Any = None,
         second_order: bool = True,
+        mode: str = DEFAULT_MODE,
     ) -> SimulationLog:
         """Simulate this setup with one method (:func:`lpik.control.simulate.simulate`).
 
@@ -100,7 +105,10 @@ class Setup:
             dt: Control period [s]; default the scenario's.
             warm_start: Reuse one HiGHS instance across steps.
             progress: Called after every step with ``(done, steps)``.
-            on_stall: Opt-in progress step after this many steps with ``p = 0``.
+            on_stall: The progress step after this many stalled steps in a row
+                (default :data:`lpik.defaults.DEFAULT_ON_STALL`); ``None``: never
+                (the paper's runs, :data:`PAPER_COMMAND`).
+            mode: ``"exact"`` (default) or ``"progress"`` (:data:`lpik.defaults.MODES`).
             scene: Obstacles to avoid (a :class:`~lpik.collision.Scene` or
                 :class:`~lpik.collision.CollisionAvoidance`); default the setup's.
 
@@ -127,6 +135,7 @@ class Setup:
             on_stall=on_stall,
             scene=self.scene if scene is None else scene,
             second_order=second_order,
+            mode=mode,
         )
 
     def controller(
@@ -135,16 +144,19 @@ class Setup:
         *,
         saturate: bool = True,
         second_order: bool = True,
+        on_stall: int | None = DEFAULT_ON_STALL,
+        mode: str = DEFAULT_MODE,
     ) -> Lp2Controller:
         """The compiled LP2 controller with this setup's limits, command law and weights.
 
         ``saturate``: LP2 with saturation in the null space (``lp2s``, the default);
-        ``second_order``: as for :meth:`run` (``False``: :data:`PAPER_COMMAND`).
+        ``second_order``, ``on_stall``, ``mode``: as for :meth:`run`
+        (:data:`PAPER_COMMAND`: the paper's).
         """
         from lpik.control.controller import Lp2Controller
 
         return Lp2Controller(
             self.model, dt=self.dt, v_max=self.v_max, w_max=self.w_max,
             lambda_bound=lambda_bound, saturate=saturate, second_order=second_order,
-            **dict(self.weights),
+            on_stall=on_stall, mode=mode, **dict(self.weights),
         )  # fmt: skip
