@@ -6,14 +6,19 @@ import subprocess
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numba import njit
 
 from cli_documents import LPIK
 from lpik.command import ClampedTarget, task_rows
 from lpik.control.simulate import simulate
 from lpik.limits import AutomaticMultiplierBounds, standard_limits
-from lpik.methods.autobound import automatic_bound, bound_for_step, parameters
+from lpik.methods.autobound import automatic_bound, bound_for_step, clearly_regular, parameters
 from lpik.paper.scenarios import get_scenario
 from lpik.result import Result
+
+compiled_clearly_regular = njit(cache=False)(clearly_regular)
 
 
 def jitter(log) -> float:  # type: ignore[no-untyped-def]
@@ -153,3 +158,22 @@ def test_the_command_line_takes_auto_and_refuses_other_words(tmp_path) -> None: 
                          capture_output=True, text=True)  # fmt: skip
     assert bad.returncode == 2 and bad.stdout == ""
     assert bad.stderr.count("\n") == 1 and "--lambda-bound" in bad.stderr
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.integers(1, 6), st.integers(1, 8), st.integers(0, 2**32 - 1),
+    st.floats(1e-3, 0.9), st.floats(-6, 1),
+)  # fmt: skip
+def test_the_cheap_regularity_test_never_says_regular_wrongly(m, n, seed, activation, scale):  # type: ignore[no-untyped-def]
+    """clearly_regular (no SVD) implies step 1's sigma_min > activation sigma_max, compiled too."""
+    rng = np.random.default_rng(seed)
+    J = rng.normal(size=(m, n)) * 10.0 ** rng.uniform(scale, 1, size=(m, 1))  # rows of mixed scale
+    if rng.random() < 0.3 and m > 1:
+        J[-1] = J[0] * (1 + 10.0 ** rng.uniform(-9, -1))  # nearly singular
+    s = np.linalg.svd(J, compute_uv=False)
+    regular = s[min(m, n) - 1] > activation * s[0] if m <= n else False
+    says = clearly_regular(J, activation)
+    assert says == compiled_clearly_regular(J, activation)
+    if says:
+        assert regular

@@ -17,7 +17,7 @@ from numba import njit
 from lpik.fast import layout as L
 from lpik.fast.jacobi import singular_values
 from lpik.fast.kinematics import chain_fk_jacobian
-from lpik.fast.twins import compiled_twin
+from lpik.fast.twins import compiled_twin, inlined_twin
 from lpik.limits import AutomaticMultiplierBounds
 from lpik.methods import autobound
 
@@ -42,7 +42,10 @@ def state_jacobian(state, q):
 
 #: :func:`lpik.methods.autobound.automatic_bound`, compiled as it is.
 automatic_bound = compiled_twin(
-    autobound.automatic_bound, _singular_values=singular_values, _task_jacobian=state_jacobian
+    autobound.automatic_bound,
+    _singular_values=singular_values,
+    _task_jacobian=state_jacobian,
+    clearly_regular=inlined_twin(autobound.clearly_regular),
 )
 
 

@@ -67,6 +67,47 @@ def _task_jacobian(jacobian, q):  # the compiled twin: the chain in the state bu
     return np.asarray(jacobian(q), dtype=np.float64)
 
 
+def clearly_regular(J, activation):  # type: ignore[no-untyped-def]
+    """True when ``sigma_min > activation sigma_max`` follows without a singular value.
+
+    ``sigma_max^2`` is at most ``t``, the smaller of ``trace(J J^T)`` and its
+    largest Gershgorin row sum, so ``J J^T - activation^2 t I`` positive
+    definite (its Cholesky factorisation goes through) implies
+    ``sigma_min^2 > activation^2 sigma_max^2``: step 1's test, for a tenth of an
+    SVD's cost. False says nothing; the SVD decides then. Plain loops.
+    """
+    m, n = J.shape
+    G = np.empty((m, m))
+    for a in range(m):
+        for b in range(a + 1):
+            s = 0.0
+            for i in range(n):
+                s += J[a, i] * J[b, i]
+            G[a, b] = s
+            G[b, a] = s
+    top = 0.0  # sigma_max^2 <= the largest Gershgorin row sum of J J^T (and <= its trace)
+    trace = 0.0
+    for a in range(m):
+        row = 0.0
+        for b in range(m):
+            row += abs(G[a, b])
+        top = max(top, row)
+        trace += G[a, a]
+    shift = activation * activation * min(top, trace)
+    for a in range(m):  # Cholesky of G - shift I, in place (lower triangle)
+        for b in range(a + 1):
+            s = G[a, b] - (shift if a == b else 0.0)
+            for k in range(b):
+                s -= G[a, k] * G[b, k]
+            if a == b:
+                if s <= 0.0:
+                    return False
+                G[a, a] = math.sqrt(s)
+            else:
+                G[a, b] = s / G[b, b]
+    return True
+
+
 def automatic_bound(
     settings: FloatArray, J: FloatArray, rows: FloatArray, dt: float, q0: FloatArray,
     dq: FloatArray, jacobian: Any, bound: FloatArray,
@@ -95,8 +136,8 @@ def automatic_bound(
     """
     approach_time, activation, floor, probe = settings[0], settings[1], settings[2], settings[3]
     m, n = J.shape
-    if m == 0:
-        return False
+    if m == 0 or clearly_regular(J, activation):
+        return False  # (and far from a singularity: exact tracking)
     s = _singular_values(J)
     s_max, s_min = s[0], s[s.size - 1]
     if s_min > activation * s_max:
