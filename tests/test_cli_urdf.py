@@ -7,6 +7,7 @@ branch off the chain), or a bundled arm's URDF file read as any other URDF.
 from __future__ import annotations
 
 import csv
+import json
 
 import numpy as np
 import pytest
@@ -115,28 +116,56 @@ ERRORS = (
     (["--urdf", "{urdf}"], "--tip: --urdf needs", "--tip LINK"),
     (["--tip", "tool"], "--tip: only with --urdf", ""),
     (["--base", "world"], "--base: only with --urdf", ""),
-    (["--robot", "panda", "--urdf", "{urdf}"], "--urdf: not allowed with argument --robot", ""),
+    # not panda: argparse takes bench's default object given again for no choice at all
+    (["--robot", "ur5e", "--urdf", "{urdf}"], "--urdf: not allowed with argument --robot", ""),
     (["--urdf", "{urdf}", "--tip", "tool", "--scene", "panda-shelf"], "--scene: ", "'tiny'"),
 )
 
 
-@pytest.mark.parametrize("command", ["simulate", "console"])
+#: The start of every command that takes ``--urdf`` (the errors come before any run).
+HEADS = {
+    "simulate": ["simulate", "pull-in"],
+    "console": ["console", "--port", "0"],
+    "map": ["map", "--region=0,1,0,1,0,1", "--resolution", "0.5", "--out", "{dir}/map"],
+    "bench": ["bench", "--quick", "--peers", "none", "--no-cold"],
+}
+
+
+@pytest.mark.parametrize("command", list(HEADS))
 @pytest.mark.parametrize(("args", "start", "detail"), ERRORS)
 def test_bad_urdf_options_are_one_line_and_exit_2(
     command, args, start, detail, urdf, tmp_path, capsys
 ) -> None:
-    if command == "console":
-        pytest.importorskip("viser")
+    for module in {"console": ["viser"], "map": ["distributed", "zarr", "xarray"]}.get(command, []):
+        pytest.importorskip(module)
+    if "--scene" in args and command in ("map", "bench"):
+        pytest.skip(f"lpik {command} takes no --scene")
     (tmp_path / "bad.urdf").write_text("<robot", encoding="utf-8")
     (tmp_path / "other.urdf").write_text("<sdf/>", encoding="utf-8")
     filled = [a.format(dir=tmp_path, urdf=urdf) for a in args]
-    head = ["simulate", "pull-in"] if command == "simulate" else ["console", "--port", "0"]
-    if command == "console" and not any(a in ("--urdf", "--robot") for a in args):
-        head.append("--planar")
+    head = [a.format(dir=tmp_path) for a in HEADS[command]]
+    if not any(a in ("--urdf", "--robot") for a in args):  # one of them is required
+        head += {"console": ["--planar"], "map": ["--robot", "planar"]}.get(command, [])
     assert main([*head, *filled]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err.count("\n") == 1, captured.err
     assert start in captured.err and detail in captured.err, captured.err
+
+
+def test_bench_times_a_urdf_arm(urdf, capsys) -> None:
+    pytest.importorskip("numba")
+    args = ["bench", "--urdf", str(urdf), "--tip", "tool", "--quick", "--rounds", "1"]
+    assert main([*args, "--peers", "none", "--no-cold", "--json"]) == 0
+    records = json.loads(capsys.readouterr().out)
+    environment = next(r for r in records if r["kind"] == "environment")
+    assert environment["workload"].startswith("tiny, 6-D pose task")
+    assert {r["robot"] for r in records if r["kind"] == "timing"} == {"tiny", "planar-4"}
+    assert not any("singular configurations" in r["what"] for r in records), "the Panda's only"
+    first = [r for r in records if r["kind"] in ("first call", "skipped")]
+    assert first and all(r["kind"] == "first call" for r in first), first
+    checks = [r for r in records if r["kind"] == "agreement"]
+    fused = [r["passed"] for r in checks if r["method"] == "lp2 fused (compiled)"]
+    assert fused and all(fused), "the URDF arm's fused step is not numpy's lp2"
 
 
 def test_the_console_drives_a_urdf_arm(urdf) -> None:

@@ -39,10 +39,11 @@ from numpy.typing import ArrayLike
 
 from lpik_bench import cases as C
 from lpik_bench.agreement import agreement_checks
+from lpik_bench.firstcall import robot_argv
 from lpik_bench.peers import ADAPTERS, PEER_PACKAGES, PeerSet, load_peers
 from lpik_bench.records import Record
 from lpik_bench.singular import singular_cases, singular_workload
-from lpik_bench.workload import Workload, make_workload
+from lpik_bench.workload import ArmFile, Workload, make_workload
 
 #: Packages whose versions the environment record lists (PyPI names).
 VERSIONED = (
@@ -177,12 +178,12 @@ def time_cases(
 # ---------------------------------------------------------------- first calls
 
 
-def first_call(what: str, robot: str, cold: bool = False, timeout: float = 600.0) -> dict:
+def first_call(what: str, robot: str | ArmFile, cold: bool = False, timeout: float = 600.0) -> dict:
     """Phases of :mod:`lpik_bench.firstcall` in a fresh process [s]; ``{"error": ...}`` on failure.
 
     Args:
         what: ``"lpik"`` or a peer's name.
-        robot: Bundled robot name.
+        robot: A bundled arm's name, or an :class:`~lpik_bench.workload.ArmFile`.
         cold: For lpik: compile every kernel (an empty ``NUMBA_CACHE_DIR``).
         timeout: Limit of the child process [s].
     """
@@ -192,7 +193,7 @@ def first_call(what: str, robot: str, cold: bool = False, timeout: float = 600.0
             env["NUMBA_CACHE_DIR"] = cache
         try:
             done = subprocess.run(
-                [sys.executable, "-m", "lpik_bench.firstcall", what, robot],
+                [sys.executable, "-m", "lpik_bench.firstcall", what, *robot_argv(robot)],
                 capture_output=True,
                 text=True,
                 env=env,
@@ -210,7 +211,7 @@ def first_call(what: str, robot: str, cold: bool = False, timeout: float = 600.0
         return {"error": "unreadable output"}
 
 
-def first_call_records(robot: str, peers: Sequence[str], cold: bool) -> list[Record]:
+def first_call_records(robot: str | ArmFile, peers: Sequence[str], cold: bool) -> list[Record]:
     """First-call records: lpik from the disk cache (and cold, when asked), and every peer."""
     runs = [("lpik", "disk cache", False)]
     if cold:
@@ -312,7 +313,7 @@ def _say(message: str, quiet: bool) -> None:
 
 
 def run_benchmark(
-    robot: str = "panda",
+    robot: str | ArmFile = "panda",
     *,
     quick: bool = False,
     rounds: int | None = None,
@@ -324,7 +325,7 @@ def run_benchmark(
     """Run the whole benchmark and return its records (see :mod:`lpik_bench`).
 
     Args:
-        robot: Bundled robot name.
+        robot: A bundled arm's name, or an :class:`~lpik_bench.workload.ArmFile`.
         quick: A smoke test: a small workload, 3 rounds, small batch, no cold compile.
         rounds: Timing rounds (default 200, or 3 when quick).
         peers: Peer names to try (default: all of :data:`lpik_bench.peers.ADAPTERS`).
@@ -334,13 +335,13 @@ def run_benchmark(
         quiet: No progress on stderr.
 
     Raises:
-        ValueError: Unknown robot or peer, or rounds < 1.
+        ValueError: Unknown robot or peer, a bad URDF, or rounds < 1.
     """
     settings = _settings(quick, rounds)
     names = _peer_names(peers)
     cold = (not quick) if cold is None else cold
     load_before = os.getloadavg()
-    _say(f"lpik bench: workload ({robot}) ...", quiet)
+    _say(f"lpik bench: workload ({' '.join(robot_argv(robot))}) ...", quiet)
     workload = make_workload(robot, trajectories=settings["trajectories"], steps=settings["steps"])
     planar = C.planar_workload(settings["planar_steps"])
     problems = C.workload_problems(workload)
@@ -355,7 +356,7 @@ def run_benchmark(
     firsts = first_call_records(robot, loaded, cold)
     load_after = os.getloadavg()
     records = [environment(command, workload, settings, (load_before, load_after))]
-    records += _timing_records(cases, samples, robot)
+    records += _timing_records(cases, samples, workload.name)
     records += firsts
     records += [a.record() for a in checks]
     records += [
@@ -385,7 +386,7 @@ def _peer_names(peers: Sequence[str] | None) -> tuple[str, ...]:
 
 
 def _cases(
-    robot: str,
+    robot: str | ArmFile,
     workload: Workload,
     planar: C.PlanarWorkload,
     problems: list[Any],
@@ -406,7 +407,10 @@ def _cases(
 
 
 def _timing_records(cases: Sequence[C.Case], samples: dict, robot: str) -> list[Record]:
-    """One timing record per case, with its ratio to the fastest peer's median full step."""
+    """One timing record per case, with its ratio to the fastest peer's median full step.
+
+    ``robot`` is the arm's name, for the records' ``robot`` key.
+    """
     medians = {}
     timing = []
     for case in cases:

@@ -1,18 +1,19 @@
 """The benchmark's workload: the same robot, configurations and targets for every library.
 
-A workload is a set of short closed-loop trajectories of one bundled arm with
-a 6-D pose task. Each trajectory starts at a seeded configuration drawn
-uniformly from the middle of every joint's range and heads for the pose of
-another seeded configuration. Every step's target is the current pose moved
-towards that goal by at most ``TARGET_FRACTION`` of the command clamp
-(``v_max dt`` linear, ``w_max dt`` angular), so no library clamps or rescales
-it and every library is asked for the same displacement ``dw``. The next
-configuration is the current one plus LP2's step (``M = I``, end-stops and
-velocity limits), so consecutive steps are related as in a control loop:
-HiGHS can warm-start, acceleration limits see a real previous step, and
-limits bind where the motion takes the arm to them.
+A workload is a set of short closed-loop trajectories of one arm (a bundled
+one by name, or any URDF's chain: :class:`ArmFile`) with a 6-D pose task. Each
+trajectory starts at a seeded configuration drawn uniformly from the middle of
+every joint's range and heads for the pose of another seeded configuration.
+Every step's target is the current pose moved towards that goal by at most
+``TARGET_FRACTION`` of the command clamp (``v_max dt`` linear, ``w_max dt``
+angular), so no library clamps or rescales it and every library is asked for
+the same displacement ``dw``. The next configuration is the current one plus
+LP2's step (``M = I``, end-stops and velocity limits), so consecutive steps
+are related as in a control loop: HiGHS can warm-start, acceleration limits
+see a real previous step, and limits bind where the motion takes the arm to
+them.
 
-:func:`arm_only_urdf` gives the peers the bundled URDF with every joint off
+:func:`arm_only_urdf` gives the peers the arm's URDF with every joint off
 the base-to-tip chain fixed (the Panda's fingers), so that every library
 solves for the same n joints.
 """
@@ -21,11 +22,13 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from lpik.robots.registry import get_spec, load_robot, urdf_path
+from lpik.robots.arm import Arm, bundled_arm, urdf_arm
+from lpik.robots.registry import urdf_path
 from lpik.robots.rotations import exp_so3, log_so3
 from lpik.robots.tasks import PoseTask
 
@@ -44,12 +47,43 @@ TARGET_FRACTION = 0.5
 RANGE_FRACTION = 0.8
 
 
+@dataclass(frozen=True)
+class ArmFile:
+    """An arm read from any URDF file (``lpik bench --urdf FILE --tip LINK [--base LINK]``).
+
+    Attributes:
+        urdf: Path of the URDF file.
+        tip_link: The link of the task point.
+        base_link: The link whose frame is the world frame; the URDF's root link when None.
+    """
+
+    urdf: str
+    tip_link: str
+    base_link: str | None = None
+
+
+def bench_arm(robot: str | ArmFile) -> tuple[Arm, Path]:
+    """The arm ``robot`` names and its URDF file.
+
+    A bundled arm's name gives that arm (:func:`lpik.robots.arm.bundled_arm`);
+    an :class:`ArmFile` the file's chain (:func:`lpik.robots.arm.urdf_arm`).
+
+    Raises:
+        ValueError: Unknown robot; an unreadable URDF, unknown link or no chain.
+    """
+    if isinstance(robot, ArmFile):
+        return urdf_arm(robot.urdf, robot.tip_link, robot.base_link), Path(robot.urdf)
+    return bundled_arm(robot), urdf_path(robot)
+
+
 @dataclass(frozen=True, eq=False)
 class Workload:
     """Steps of one arm that every library solves.
 
     Attributes:
-        robot: Bundled robot name.
+        robot: The arm as :func:`make_workload` was given it: a bundled arm's
+            name or an :class:`ArmFile`.
+        name: The arm's name (the bundled name, or the URDF's robot name).
         model: lpik's 6-D pose task of the robot.
         q: Configurations, shape (N, n) [rad].
         q_prev: Configuration one period before each, shape (N, n) [rad]
@@ -62,7 +96,8 @@ class Workload:
         seed: Seed of the configurations.
     """
 
-    robot: str
+    robot: str | ArmFile
+    name: str
     model: PoseTask
     q: FloatArray
     q_prev: FloatArray
@@ -84,12 +119,12 @@ class Workload:
     @property
     def tip_link(self) -> str:
         """URDF link of the task point."""
-        return get_spec(self.robot).tip_link
+        return self.model.kinematics.tip_link
 
     @property
     def base_link(self) -> str:
         """URDF link whose frame is the world frame."""
-        return get_spec(self.robot).base_link
+        return self.model.kinematics.base_link
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -99,7 +134,7 @@ class Workload:
     def describe(self) -> str:
         """One line: robot, steps, period, limits."""
         return (
-            f"{self.robot}, 6-D pose task, {len(self)} steps of {self.dt * 1e3:g} ms "
+            f"{self.name}, 6-D pose task, {len(self)} steps of {self.dt * 1e3:g} ms "
             f"(seed {self.seed}); targets within {TARGET_FRACTION:g} x (v_max dt, w_max dt) "
             f"= ({TARGET_FRACTION * self.v_max * self.dt * 1e3:g} mm, "
             f"{TARGET_FRACTION * self.w_max * self.dt * 1e3:g} mrad)"
@@ -127,7 +162,7 @@ def step_target(pose: FloatArray, goal: FloatArray, linear: float, angular: floa
 
 
 def make_workload(
-    robot: str = "panda",
+    robot: str | ArmFile = "panda",
     *,
     trajectories: int = 8,
     steps: int = 500,
@@ -137,20 +172,22 @@ def make_workload(
     """Seeded trajectories of ``robot`` (see the module docstring).
 
     Args:
-        robot: Bundled robot name.
+        robot: A bundled arm's name, or an :class:`ArmFile`.
         trajectories: Number of trajectories.
         steps: Steps per trajectory.
         seed: Seed of the start and goal configurations.
         dt: Control period [s].
 
     Raises:
-        ValueError: Unknown robot, or fewer than one trajectory or step.
+        ValueError: Unknown robot or bad URDF (:func:`bench_arm`), or fewer than one
+            trajectory or step.
     """
     if trajectories < 1 or steps < 1:
         raise ValueError("trajectories, steps: must be >= 1")
     from lpik.control.controller import Lp2Controller
 
-    model = load_robot(robot, task="pose")
+    arm, _ = bench_arm(robot)
+    model = arm.task("pose")
     controller = Lp2Controller(model, dt=dt, v_max=V_MAX, w_max=W_MAX, saturate=False)
     rng = np.random.default_rng(seed)
     lo, hi = model.q_min, model.q_max
@@ -171,6 +208,7 @@ def make_workload(
             prev, q = q, result.q
     return Workload(
         robot=robot,
+        name=arm.name,
         model=model,
         q=np.array(qs),
         q_prev=np.array(prevs),
@@ -183,15 +221,15 @@ def make_workload(
     )
 
 
-def arm_only_urdf(robot: str) -> str:
-    """The bundled URDF's text with every moving joint off the base-to-tip chain made fixed.
+def arm_only_urdf(robot: str | ArmFile) -> str:
+    """The arm's URDF text (:func:`bench_arm`) with every joint off its chain made fixed.
 
     Limits, mimic tags and axes of those joints are dropped; the chain's joints
     are unchanged, so every library sees the same n joints with the same limits.
     """
-    chain = load_robot(robot, task="pose").kinematics
-    keep = set(chain.joint_names)
-    root = ET.parse(urdf_path(robot)).getroot()
+    arm, urdf = bench_arm(robot)
+    keep = set(arm.chain.joint_names)
+    root = ET.parse(urdf).getroot()
     for joint in root.iter("joint"):
         if joint.get("name") in keep or joint.get("type") == "fixed":
             continue

@@ -7,7 +7,9 @@ keys ``library``, ``method``, ``what``, ``median_us`` and ``p99_us`` (``null``
 for records that are not timings) and ``kind`` (``timing``, ``first call``,
 ``agreement``, ``skipped`` or ``environment``), plus kind-specific keys.
 Peers (Drake, pink, mink, the Robotics Toolbox) run when installed:
-``pip install "lpik[bench]"``.
+``pip install "lpik[bench]"``. The arm is a bundled one (``--robot NAME``,
+default ``panda``) or any URDF's chain (``--urdf FILE --tip LINK [--base LINK]``,
+read as every command reads it: :func:`lpik.cli.robots.add_robot_arguments`).
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ import sys
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Register ``lpik bench``."""
+    from lpik.cli.robots import add_robot_arguments
+
     parser = sub.add_parser(
         "bench",
         help="time lpik's methods and other IK libraries on the same steps",
@@ -32,7 +36,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "--quick", action="store_true", help="a smoke test: small workload, 3 rounds"
     )
     parser.add_argument("--rounds", type=int, default=None, metavar="N", help="timing rounds")
-    parser.add_argument("--robot", default="panda", metavar="NAME", help="bundled robot")
+    add_robot_arguments(
+        parser,
+        default="panda",
+        urdf_help="any arm from a URDF file (with --tip): its chain from --base to --tip",
+    )
     parser.add_argument(
         "--peers",
         default=None,
@@ -48,10 +56,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the benchmark and print it."""
+    """Run the benchmark and print it; a bad ``--urdf``, ``--tip`` or ``--base`` raises first."""
     from lpik.cli.progress import compile_progress
+    from lpik.cli.robots import robot_from_arguments
     from lpik_bench.runner import run_benchmark
     from lpik_bench.table import text_report
+    from lpik_bench.workload import ArmFile
+
+    robot = robot_from_arguments(args)  # the file and its links checked before the run
+    if not isinstance(robot, str):
+        robot = ArmFile(args.urdf, args.tip, args.base)
 
     peers = None
     if args.peers is not None:
@@ -59,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     command = "lpik " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else "lpik bench"
     with compile_progress("lpik bench"):  # a first run compiles the compiled path
         records = run_benchmark(
-            args.robot,
+            robot,
             quick=args.quick,
             rounds=args.rounds,
             peers=peers,

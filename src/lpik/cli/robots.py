@@ -29,6 +29,7 @@ def add_robot_arguments(
     *,
     default: str | None = None,
     robot_help: str = "a bundled 3-D arm (lpik robots)",
+    urdf_help: str = "any arm from a URDF file (with --tip), started mid-way between its end-stops",
 ) -> argparse._MutuallyExclusiveGroup:
     """Add ``--robot NAME`` or ``--urdf FILE``, with ``--tip LINK`` and ``--base LINK``.
 
@@ -39,6 +40,7 @@ def add_robot_arguments(
         parser: The command's parser.
         default: ``--robot``'s default; None makes one of the group required.
         robot_help: ``--robot``'s help.
+        urdf_help: ``--urdf``'s help.
 
     Returns:
         The group of ``--robot`` and ``--urdf``, for a command to add another
@@ -46,11 +48,7 @@ def add_robot_arguments(
     """
     which = parser.add_mutually_exclusive_group(required=default is None)
     which.add_argument("--robot", metavar="NAME", default=default, help=robot_help)
-    which.add_argument(
-        "--urdf",
-        metavar="FILE.urdf",
-        help="any arm from a URDF file (with --tip), started in the middle of its end-stops",
-    )
+    which.add_argument("--urdf", metavar="FILE.urdf", help=urdf_help)
     parser.add_argument(
         "--tip", metavar="LINK", help="with --urdf: the link that carries the task point"
     )
