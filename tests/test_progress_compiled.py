@@ -1,0 +1,166 @@
+"""The progress step compiled (lpik.fast.progress) against HiGHS; the stall stage on every path."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.optimize import linprog
+
+from core_strategies import examples
+from lpik.methods.progress import (
+    MOTION_WEIGHT,
+    StallWatch,
+    is_stall,
+    least_error_lp,
+    share_along,
+)
+from lpik.paper.scenarios import PLANAR, get_scenario
+from lpik.paper.setup import PAPER_COMMAND
+from lpik.result import OFF_DIRECTION, OPTIMAL, Result
+from lpik.robots.planar import planar_arm
+from lpik.robots.registry import load_robot
+from lpik.tolerances import STALL_P
+
+fast = pytest.importorskip("lpik.fast.progress")
+
+ROBOTS = {"planar": planar_arm([1.0, 0.8, 0.6, 0.4]), "panda": load_robot("panda")}
+
+
+def objective(J, dw, dq) -> float:
+    return float(np.abs(J @ dq - dw).sum() + MOTION_WEIGHT * np.abs(dq).sum())
+
+
+def unique_optimum(J, dw, lower, upper, G, g, best, direction) -> bool:
+    """Whether ``direction . dq`` is constant (within 1e-10) over the LP's optimal face."""
+    m, n = J.shape
+    r = G.shape[0]
+    c = np.concatenate([np.zeros(n), np.ones(m), np.full(n, MOTION_WEIGHT)])
+    eye, z = np.eye(n), np.zeros
+    A = np.block([[J, -np.eye(m), z((m, n))], [-J, -np.eye(m), z((m, n))],
+                  [eye, z((n, m)), -eye], [-eye, z((n, m)), -eye], [G, z((r, m + n))],
+                  [c[None, :]]])  # fmt: skip
+    b = np.concatenate([dw, -dw, z(2 * n), g, [best * (1 + 1e-11) + 1e-15]])
+    bounds = [*zip(lower, upper), *[(0, None)] * (m + n)]
+    span = []
+    for sign in (1.0, -1.0):
+        d = np.concatenate([sign * direction, z(m + n)])
+        sol = linprog(d, A_ub=A, b_ub=b, bounds=bounds, method="highs")
+        if sol.status != 0:
+            return False
+        span.append(sign * sol.fun)
+    return abs(span[0] + span[1]) < 1e-10  # min d.x = -(min -d.x): the face is flat along d
+
+
+@st.composite
+def least_error_cases(draw):
+    robot = draw(st.sampled_from(sorted(ROBOTS)))
+    model = ROBOTS[robot]
+    n, seed = model.n_joints, draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(np.maximum(model.q_min, -3), np.minimum(model.q_max, 3))
+    J = model.jacobian(q)
+    dw = rng.normal(size=J.shape[0]) * 10 ** rng.uniform(-4, -1)
+    lower, upper = -rng.uniform(0, 0.02, n), rng.uniform(0, 0.02, n)
+    pinned = rng.random(n) < 0.3  # joints on an end-stop: one side of the bound is 0
+    upper[pinned & (rng.random(n) < 0.5)] = 0.0
+    lower[pinned] = np.minimum(lower[pinned], 0.0)
+    r = draw(st.integers(0, 3))
+    G, g = rng.normal(size=(r, n)), rng.uniform(-0.005, 0.01, r)
+    return J, dw, lower, upper, G, g
+
+
+@settings(max_examples=examples(150), deadline=None)
+@given(least_error_cases())
+def test_the_compiled_progress_lp_meets_highs_optimum(case) -> None:
+    J, dw, lower, upper, G, g = case
+    status, dq_highs = least_error_lp(J, dw, lower, upper, G, g)
+    code, dq = fast.least_error(J, dw, lower, upper, G, g)
+    if status != OPTIMAL:  # rows no step within the bounds can hold
+        assert code == fast.INFEASIBLE
+        return
+    assert code == fast.SOLVED
+    assert np.all(dq >= lower) and np.all(dq <= upper)
+    assert np.all(G @ dq <= g + 1e-12)
+    best = objective(J, dw, dq_highs)
+    scale = max(float(np.abs(dw).sum()), 1e-12)
+    assert abs(objective(J, dw, dq) - best) <= 1e-9 * scale
+    if np.abs(dq - dq_highs).max() > 1e-9:  # two optimal vertices: the optimum is not unique
+        assert not unique_optimum(J, dw, lower, upper, G, g, best, dq - dq_highs)
+
+
+def test_no_step_holds_infeasible_rows() -> None:
+    J, dw = np.eye(2), np.array([0.01, 0.0])
+    G, g = np.array([[1.0, 0.0], [-1.0, 0.0]]), np.array([-0.5, -0.5])  # x <= -0.5, x >= 0.5
+    code, dq = fast.least_error(J, dw, -np.ones(2), np.ones(2), G, g)
+    assert code == fast.INFEASIBLE
+    np.testing.assert_array_equal(dq, 0.0)
+
+
+def test_further_progress_never_worsens_a_task_row() -> None:
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n, m = 5, 3
+        J, dw = rng.normal(size=(m, n)), rng.normal(size=m) * 0.01
+        lower, upper = -rng.uniform(0, 0.01, n), rng.uniform(0, 0.01, n)
+        dq1 = rng.uniform(lower, upper)
+        dq = np.empty(n)
+        code = fast.further_progress(J, dw, lower, upper, np.zeros((0, n)), np.zeros(0), dq1, dq)
+        assert code == fast.SOLVED
+        assert np.all(np.abs(J @ dq - dw) <= np.abs(J @ dq1 - dw) + 1e-12)
+        assert np.all(dq >= lower) and np.all(dq <= upper)
+
+
+def test_a_stall_is_small_p_and_no_motion_along_the_command() -> None:
+    J, dw = np.eye(2), np.array([0.01, 0.0])
+    assert share_along(J, dw, np.array([0.01, 0.0])) == pytest.approx(1.0)
+    assert is_stall(0.0, lambda: share_along(J, dw, np.zeros(2)))
+    assert is_stall(STALL_P, lambda: 0.0)
+    # small p while the arm moves along the command (a step solved around its motion)
+    assert not is_stall(0.001, lambda: share_along(J, dw, np.array([0.0099, 0.0])))
+    assert not is_stall(0.5, lambda: 0.0)
+    assert share_along(J, np.zeros(2), np.zeros(2)) == 1.0  # no command: nothing to stall on
+    step = Result(q=np.zeros(2), dq=np.zeros(2), p=0.005, lam=None, status=OPTIMAL,
+                  binding=None, method="lp2")  # fmt: skip
+    watch = StallWatch(2)
+    assert [watch.stalls(step, lambda: 0.0) for _ in range(3)] == [False, True, True]
+    watch.clear()
+    assert watch.stalls(step, lambda: 0.0) is False
+    with pytest.raises(ValueError, match="on_stall"):
+        StallWatch(0)
+
+
+def test_the_paper_runs_name_the_strict_steps() -> None:
+    assert PAPER_COMMAND["on_stall"] is None
+
+
+@pytest.mark.parametrize(("robot", "mode"), [(PLANAR, "exact"), ("panda", "progress")])
+def test_the_stall_stage_is_alike_on_every_path(robot: str, mode: str) -> None:
+    """pull-in stalls (an arm at its end-stops near a singularity): by default the progress
+    step takes over; numpy (HiGHS), the compiled step, step_into and batch rows agree."""
+    setup = get_scenario("pull-in").setup(robot)
+    log = setup.run("lp2", mode=mode)
+    strict = setup.run("lp2", on_stall=None)
+    target = setup.target[:3, 3] if setup.target.ndim == 2 else setup.target
+    k = len(log.position_end)
+    assert (log.status == OFF_DIRECTION).any()
+    assert (np.linalg.norm(log.position_end - target[:k])
+            < np.linalg.norm(strict.position_end - target[:k]))  # fmt: skip
+    controller = setup.controller(saturate=False, mode=mode)
+    into = setup.controller(saturate=False, mode=mode)
+    batch = setup.controller(saturate=False, mode=mode)
+    q, prev, out = setup.q0.copy(), None, np.empty(setup.model.n_joints)
+    for step in range(setup.steps):
+        res = controller.step(q, setup.target, prev)
+        assert res.status == log.status[step], step
+        following = log.q[step + 1] if step + 1 < setup.steps else log.q_end
+        np.testing.assert_allclose(res.q, following, rtol=0, atol=1e-9)
+        into.step_into(q, setup.target, prev, out=out)
+        np.testing.assert_allclose(out, res.q, rtol=0, atol=1e-12)
+        if step % 50 == 0:  # a batch row is the step (on_stall=1 needs no history)
+            rows = batch.step_batch(q[None], setup.target[None],
+                                    None if prev is None else prev[None])  # fmt: skip
+            np.testing.assert_allclose(rows.q[0], res.q, rtol=0, atol=1e-12)
+            assert rows.status_of(0) == res.status
+        prev, q = q, res.q
