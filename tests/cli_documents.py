@@ -21,4 +21,4 @@ GOOD = {
 }
 
 #: The keys of ``lpik solve``'s JSON answer.
-OUTPUT_KEYS = {"q", "dq", "p", "lam", "status", "binding"}
+OUTPUT_KEYS = {"q", "dq", "p", "lam", "status", "binding", "pull_scale"}

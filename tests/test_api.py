@@ -131,6 +131,7 @@ def test_safe_step_and_result_json() -> None:
         "lam": None,
         "status": "solver_error",
         "binding": "because",
+        "pull_scale": 1.0,
     }
     res.q[0] = 9.0  # a copy: the problem is untouched
     assert P.q0[0] == 0.5

@@ -60,7 +60,7 @@ def test_the_layout_describes_the_buffer_once() -> None:
     assert layout.HEADER == layout.END + 1
     names = [b.name for b in layout.BLOCKS]
     assert len(set(names)) == len(names)
-    out = [b.name for b in layout.BLOCKS if layout.Q <= b.slot <= layout.OUTSIDE]
+    out = [b.name for b in layout.BLOCKS if layout.Q <= b.slot <= layout.PULL_SCALE]
     assert tuple(out) == layout.OUT_BLOCKS
     n, m, r = 7, 6, 2
     arrays = {
@@ -80,7 +80,7 @@ def test_the_layout_describes_the_buffer_once() -> None:
     fields = layout.out_fields(state)
     assert list(fields) == list(layout.OUT_BLOCKS)
     out_size = layout.out_range(state).stop - layout.out_range(state).start
-    assert fields["q"] == slice(0, n) and fields["outside"] == slice(out_size - 1, out_size)
+    assert fields["q"] == slice(0, n) and fields["pull_scale"] == slice(out_size - 1, out_size)
     with pytest.raises(ValueError, match="block tip must be"):
         layout.pack(n, m, r, h_diag=True, dt=1e-3, v_max=0.5, w_max=1.0,
                     **{**arrays, "tip": np.eye(3)})  # fmt: skip

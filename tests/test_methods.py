@@ -90,7 +90,7 @@ def test_every_method_keeps_the_result_contract(
     if res.p < 1.0 - 1e-9 and method != "robust":
         assert res.binding is not None
     d = res.to_dict()
-    assert set(d) == {"q", "dq", "p", "lam", "status", "binding"}
+    assert set(d) == {"q", "dq", "p", "lam", "status", "binding", "pull_scale"}
 
 
 @pytest.mark.parametrize("name", SCENARIOS)

@@ -7,7 +7,8 @@ configurations, on and past end-stops, beside obstacles) x the methods
 ``lp2`` and ``lp2s``, each with the default options (the automatic multiplier
 bound, the second-order command) and with ``lambda_bound=None`` x every
 entry point of :data:`ENTRY_POINTS`. Each entry point's ``q``, ``p``,
-``status``, ``binding`` (as a string), ``method`` and ``residual`` must equal
+``status``, ``binding`` (as a string), ``method``, ``residual`` and (where both
+report it) ``pull_scale`` must equal
 those of the reference, :meth:`Lp2Controller.step <lpik.control.controller.Lp2Controller.step>`
 (the compiled engine), within :data:`Q_TOL`, :data:`P_TOL` and
 :data:`RESIDUAL_ATOL` + :data:`RESIDUAL_RTOL`; ``solve_time`` and ``path`` are
@@ -119,6 +120,7 @@ class Outcome:
     residual: float | None
     path: str | None = None
     problem: Problem | None = None
+    pull_scale: float | None = None
 
 
 def text(binding: Any) -> str | None:
@@ -130,8 +132,15 @@ def outcome(result: Any, problem: Problem | None = None) -> Outcome:
     return Outcome(
         q=np.asarray(result.q, dtype=np.float64), p=float(result.p), status=result.status,
         binding=text(result.binding), method=result.method, residual=float(result.residual),
-        path=result.path, problem=problem,
+        path=result.path, problem=problem, pull_scale=reported_pull_scale(result),
     )  # fmt: skip
+
+
+def reported_pull_scale(result: Any) -> float | None:
+    """The result's ``pull_scale`` where its producer filled it in (a compiled result built
+    from a field dict without it reads the class default, which reports nothing)."""
+    value = vars(result).get("pull_scale")
+    return None if value is None else float(value)
 
 
 # ------------------------------------------------------------------------ the controllers
@@ -469,6 +478,9 @@ def differences(got: Outcome, ref: Outcome, method: str) -> list[str]:
         out.append(f"method {got.method!r} != {ref.method!r}")
     if not abs(got.p - ref.p) <= P_TOL:
         out.append(f"p {got.p!r} != {ref.p!r}")
+    if got.pull_scale is not None and ref.pull_scale is not None:
+        if not abs(got.pull_scale - ref.pull_scale) <= P_TOL:
+            out.append(f"pull_scale {got.pull_scale!r} != {ref.pull_scale!r}")
     dq = np.abs(np.asarray(got.q) - ref.q)
     if got.q.shape != ref.q.shape or not (dq <= Q_TOL).all():
         out.append(f"q differs by {dq.max():.3g}: {got.q!r} != {ref.q!r}")

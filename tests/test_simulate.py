@@ -332,7 +332,7 @@ def test_csv_contract(tmp_path) -> None:
     with path.open() as handle:
         rows = list(csv.reader(handle))
     assert rows[0][:10] == "t,q1,q2,q3,q4,x,y,p,lam1,lam2".split(",")
-    assert rows[0][10:] == ["status", "binding", "path", "clamped", "solve_time_us"]
+    assert rows[0][10:] == ["status", "binding", "path", "clamped", "solve_time_us", "pull_scale"]
     assert len(rows) == 13
     numbers = np.array([[float(v) for v in row[:10]] for row in rows[1:]])
     expected = np.column_stack([log.t, log.q, log.position, log.p, log.lam])

@@ -79,6 +79,10 @@ class Result:
         solve_time: Wall time of the method [s].
         residual: ``max |J dq - p dw|`` [m or rad].
         path: How the answer was computed (e.g. ``"ratio-test"``, ``"highs"``, ``"closed-form"``).
+        pull_scale: The share ``s`` of sec. 3.1's pull ``Lambda (q_ref - q0)`` that LP2's step
+            took (:func:`lpik.methods.pull.pull_scale`): 1 where the whole pull fits the step
+            at ``p = 0`` (the paper's LP2), less where it was scaled to leave the command
+            room. 1 without ``Lambda``, for methods without the pull and for safe steps.
     """
 
     q: FloatArray
@@ -91,6 +95,7 @@ class Result:
     solve_time: float = 0.0
     residual: float = 0.0
     path: str = ""
+    pull_scale: float = 1.0
 
     @classmethod
     def trusted(cls, fields: dict[str, Any]) -> Result:
@@ -111,7 +116,7 @@ class Result:
         return self.status in MOVING
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``lpik solve`` JSON contract: ``q, dq, p, lam, status, binding``."""
+        """The ``lpik solve`` JSON contract: ``q, dq, p, lam, status, binding, pull_scale``."""
         return {
             "q": [float(v) for v in self.q],
             "dq": [float(v) for v in self.dq],
@@ -119,6 +124,7 @@ class Result:
             "lam": None if self.lam is None else [float(v) for v in self.lam],
             "status": self.status,
             "binding": self.binding,
+            "pull_scale": float(self.pull_scale),
         }
 
 

@@ -33,7 +33,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         help="solve one step given as JSON and print the result as JSON",
         description="Solve one IK step. Input keys: method, J, dw, q0 and optional q_min, q_max, "
         "dq_min, dq_max, M, f, Lambda, q_ref, lam_min, lam_max, k, G, h, row_labels. "
-        "Output keys: q, dq, p, lam, status, binding.",
+        "Output keys: q, dq, p, lam, status, binding, pull_scale.",
     )
     parser.add_argument("problem", nargs="?", help="problem file (JSON); '-' reads stdin")
     parser.add_argument(

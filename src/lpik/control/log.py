@@ -4,7 +4,9 @@ Row ``k`` of a :class:`SimulationLog` holds the state *before* step ``k`` and
 that step's outcome. The CSV columns are ``t, q1..qn, x, y[, z], p,
 lam1..lamm`` (positions in the task's plane or space), then ``status,
 binding, path, clamped, solve_time_us``, and for a run with a scene
-``min_distance, closest`` (the smallest signed distance before the step [m] and its pair).
+``min_distance, closest`` (the smallest signed distance before the step [m] and its pair),
+and last, where the run recorded it, ``pull_scale`` (the share of sec. 3.1's pull
+each step took: :attr:`lpik.result.Result.pull_scale`).
 """
 
 from __future__ import annotations
@@ -85,6 +87,9 @@ class SimulationLog:
         min_distance: Smallest signed distance between the robot and the obstacles (and
             between its links) before each step, shape (N,) [m]; None without a scene.
         closest: The pair at that distance, shape (N,); None without a scene.
+        pull_scale: The share of sec. 3.1's pull each step took
+            (:attr:`lpik.result.Result.pull_scale`: 1 where the whole pull fits, and for
+            safe steps), shape (N,); None where the run did not record it.
     """
 
     method: str
@@ -106,6 +111,7 @@ class SimulationLog:
     warm_start: bool = True
     min_distance: FloatArray | None = None
     closest: NDArray[np.str_] | None = None
+    pull_scale: FloatArray | None = None
 
     def __post_init__(self) -> None:
         for value in vars(self).values():
@@ -165,12 +171,16 @@ class SimulationLog:
             "clamped",
             "solve_time_us",
             *(("min_distance", "closest") if self.min_distance is not None else ()),
+            *(("pull_scale",) if self.pull_scale is not None else ()),
         ]
 
     def _distance_cells(self, k: int) -> list[str]:
         if self.min_distance is None or self.closest is None:
             return []
         return [f"{self.min_distance[k]:.12g}", str(self.closest[k])]
+
+    def _pull_cells(self, k: int) -> list[str]:
+        return [] if self.pull_scale is None else [f"{self.pull_scale[k]:.12g}"]
 
     def to_csv(self, path: str | Path) -> Path:
         """Write the log as CSV, one row per step (the ``lpik simulate`` contract).
@@ -199,6 +209,7 @@ class SimulationLog:
                         int(self.clamped[k]),
                         f"{self.solve_time[k] * 1e6:.1f}",
                         *self._distance_cells(k),
+                        *self._pull_cells(k),
                     ]
                 )
         return out

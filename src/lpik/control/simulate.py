@@ -172,7 +172,7 @@ class _LogRows:
     def __init__(self, model: TaskModel, stepper: Stepper) -> None:
         self.model, self.stepper = model, stepper
         self.rows: dict[str, list[Any]] = {
-            k: [] for k in ("q", "pos", "p", "lam", "st", "bd", "pa", "cl", "t", "near")
+            k: [] for k in ("q", "pos", "p", "lam", "st", "bd", "pa", "cl", "t", "near", "pull")
         }
 
     def add(self, q: FloatArray, result: Result, clamped: bool, seconds: float) -> None:
@@ -189,6 +189,7 @@ class _LogRows:
         rows["pa"].append(result.path)
         rows["cl"].append(clamped)
         rows["t"].append(seconds)
+        rows["pull"].append(result.pull_scale if result.moved else 1.0)
 
     def finished(self, q: FloatArray, *, name: str, dt: float, warm_start: bool) -> SimulationLog:
         rows, model, steps = self.rows, self.model, len(self.rows["q"])
@@ -206,6 +207,7 @@ class _LogRows:
             path=np.array(rows["pa"], dtype=str),
             clamped=np.array(rows["cl"], dtype=bool),
             solve_time=np.array(rows["t"]),
+            pull_scale=np.array(rows["pull"], dtype=np.float64),
             q_end=q,
             position_end=np.asarray(model.position(q), dtype=np.float64),
             joint_names=tuple(model.joint_names),

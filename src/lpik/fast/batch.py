@@ -58,7 +58,7 @@ def solve_compiled(
     start = time.perf_counter()
     dq, lam = np.empty(problem.n), np.empty(problem.m)
     kernel = lp2s_kernel if saturate else K.lp2_kernel
-    code, p, binding, _ = kernel(*kernel_args(problem), dq, lam)
+    code, p, binding, _, pull_scale = kernel(*kernel_args(problem), dq, lam)
     method = "lp2s" if saturate else "lp2"
     if code not in (K.OK, K.INFEASIBLE):
         if saturate:
@@ -70,7 +70,7 @@ def solve_compiled(
     return compiled_result(
         code, problem.q0 + dq, dq, p, lam, label, outside[0] if outside else None, method,
         task_residual(problem, dq, p),
-        time.perf_counter() - start,
+        time.perf_counter() - start, float(pull_scale),
     )  # fmt: skip
 
 
@@ -92,6 +92,9 @@ class BatchResult:
             labels (``-1``: none); :meth:`binding_of` gives the label.
         residual: (B,) ``max |J dq - p dw|`` of each item.
         method: ``"lp2"`` or ``"lp2s"``.
+        pull_scale: (B,) each item's share of sec. 3.1's pull
+            (:attr:`lpik.result.Result.pull_scale`; 1 for a safe step), or ``None``
+            where the producer does not report it (read as 1 by :meth:`__getitem__`).
     """
 
     q: FloatArray
@@ -104,6 +107,7 @@ class BatchResult:
     _fallback: dict[int, Result]
     residual: FloatArray
     method: str
+    pull_scale: FloatArray | None = None
 
     def __len__(self) -> int:
         return int(self.p.shape[0])
@@ -150,7 +154,7 @@ class BatchResult:
         return compiled_result(
             int(self.codes[i]), self.q[i].copy(), self.dq[i].copy(), float(self.p[i]),
             self.lam[i].copy(), self.binding_of(i), None, self.method, float(self.residual[i]),
-            0.0,
+            0.0, 1.0 if self.pull_scale is None else float(self.pull_scale[i]),
         )  # fmt: skip
 
 
@@ -190,13 +194,14 @@ def lp2_batch(problems: Sequence[Problem] | BatchArrays, method: str = "lp2s") -
     B, m, n = arrays.J.shape
     dq, lam = np.empty((B, n)), np.empty((B, m))
     codes, ps, bindings = np.empty(B, dtype=np.int64), np.empty(B), np.empty(B, dtype=np.int64)
+    scales = np.empty(B)
     BATCH_KERNELS[method](
         arrays.J, arrays.dw, arrays.H, arrays.h_diag, arrays.c, arrays.c_ref, arrays.lower,
         arrays.upper, arrays.lam_min, arrays.lam_max, arrays.G, arrays.g, dq, lam, codes, ps,
-        bindings, 4 * numba.get_num_threads(),
+        bindings, scales, 4 * numba.get_num_threads(),
     )  # fmt: skip
     infeasible = codes == K.INFEASIBLE
-    ps[infeasible], lam[infeasible] = 0.0, np.nan  # dq: the kernel's safe step
+    ps[infeasible], lam[infeasible], scales[infeasible] = 0.0, np.nan, 1.0  # dq: the safe step
     one_by_one = (codes != K.OK) & ~infeasible
     if problem_list is not None:  # steps from outside the limits say so, and steps around
         # the current motion (lpik.continuation) are solved so: one by one
@@ -206,7 +211,7 @@ def lp2_batch(problems: Sequence[Problem] | BatchArrays, method: str = "lp2s") -
         problem = problem_list[i] if problem_list is not None else raw_problem(arrays, i)
         res = solve_compiled(problem, saturate=method == "lp2s")
         fallback[i] = res
-        dq[i], ps[i] = res.dq, res.p
+        dq[i], ps[i], scales[i] = res.dq, res.p, res.pull_scale
         lam[i] = np.nan if res.lam is None else res.lam
     residual = batch_residuals(arrays.J, arrays.dw, dq, ps)
     for i, res in fallback.items():
@@ -214,7 +219,7 @@ def lp2_batch(problems: Sequence[Problem] | BatchArrays, method: str = "lp2s") -
     return BatchResult(
         q=arrays.q0 + dq, dq=dq, p=ps, lam=lam, codes=codes, binding_codes=bindings,
         _labels=_label_tables(arrays, problem_list), _fallback=fallback,
-        residual=residual, method=method,
+        residual=residual, method=method, pull_scale=scales,
     )  # fmt: skip
 
 

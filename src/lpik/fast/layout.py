@@ -44,14 +44,15 @@ LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H, AUTO_BOUND = range
 SECOND_ORDER, CONTINUATION = 21, 22
 # out: what a step reports
 Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, BOUND, BOUNDED, OUTSIDE = range(23, 34)
+PULL_SCALE = 34
 # scratch of the step
-GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(34, 41)
-LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(41, 49)
-STOP, STOP_SCRATCH, LAST, ORIGIN, SAFE = range(49, 54)
+GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(35, 42)
+LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(42, 50)
+STOP, STOP_SCRATCH, LAST, ORIGIN, SAFE = range(50, 55)
 # the kinematics at the last step's q0, and the second-order term
-PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(54, 58)
+PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(55, 59)
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 58
+END = 59
 #: Length of the header.
 HEADER = END + 1
 
@@ -114,6 +115,7 @@ BLOCKS = (
     Block(BOUND, "bound", ("m",), "the automatic bound B_k on |lam_k| the step ran under"),
     Block(BOUNDED, "bounded", (1,), "1: LP2 under the auto bound, 0: not, -1: no rule"),
     Block(OUTSIDE, "outside", (1,), "the label index of the limit the state is outside of (-1)"),
+    Block(PULL_SCALE, "pull_scale", (1,), "the share of sec. 3.1's pull the step took (1: whole)"),
     Block(GOAL, "goal", (4, 4), "the commanded pose"),
     Block(FRAME, "frame", (4, 4), "the task frame at q0"),
     Block(JACOBIAN6, "jacobian6", (6, "n"), "the world-aligned Jacobian [v; omega]"),
@@ -141,7 +143,7 @@ BLOCKS = (
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.
 OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "bound", "bounded",
-              "outside")  # fmt: skip
+              "outside", "pull_scale")  # fmt: skip
 #: The blocks :func:`pack` fills from its arguments (the others start at zero).
 INPUT_BLOCKS = tuple(b.name for b in BLOCKS if b.slot < Q)
 
@@ -199,7 +201,7 @@ def pack(
 
 def out_range(state: FloatArray) -> slice:
     """Where :data:`OUT_BLOCKS` lie in ``state``."""
-    return slice(int(state[Q]), int(state[OUTSIDE + 1]))
+    return slice(int(state[Q]), int(state[PULL_SCALE + 1]))
 
 
 def out_fields(state: FloatArray) -> dict[str, slice]:
@@ -242,5 +244,5 @@ def tensor_at(state, slot, d0, d1, d2):
 def copy_out(state, outs, b):
     """Row ``b`` of ``outs`` = the out blocks a step left in ``state``."""
     start = int(state[Q])
-    for k in range(int(state[OUTSIDE + 1]) - start):
+    for k in range(int(state[PULL_SCALE + 1]) - start):
         outs[b, k] = state[start + k]

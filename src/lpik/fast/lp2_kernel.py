@@ -24,7 +24,7 @@ from lpik.check import loop_check
 from lpik.fast.jacobi import jacobi_svd
 from lpik.fast.linalg import cho_solve, cho_solve2, cholesky, refine
 from lpik.fast.ratio import limit_code, slacks
-from lpik.fast.smoothing import add_smoothing, compiled_pull_room
+from lpik.fast.smoothing import add_smoothing, compiled_pull_scale
 from lpik.fast.twins import compiled_twin
 from lpik.fast.workspace import (
     A_L,
@@ -43,6 +43,7 @@ from lpik.fast.workspace import (
     HINV_R,
     LO,
     OUT,
+    PULL_SCALE,
     RHS,
     RHS2,
     RHS3,
@@ -61,7 +62,8 @@ from lpik.tolerances import (
     RATE_TOL,
 )
 
-__all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kernel"]
+__all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kernel",
+           "pull_scale_of"]  # fmt: skip
 
 #: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
 _HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
@@ -72,7 +74,7 @@ condition_bound = njit(cache=True)(kkt.condition_bound)  # lp2s's later passes
 _stop = njit((float64[:], float64[:], float64[:], int64), cache=True)(singular._stop)
 singular_core = compiled_twin(
     singular.singular_core, _svd=jacobi_svd, loop_check=_loop_check, _stop=_stop,
-    pull_room=compiled_pull_room,
+    pull_scale=compiled_pull_scale,
     **{name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS},
 )  # fmt: skip
 
@@ -88,11 +90,24 @@ SINGULAR_PATH_NEVER, SINGULAR_PATH_ALWAYS, SINGULAR_PATH_AFTER_CHECK = np.int64(
 
 @njit(cache=True)
 def lp2_kernel(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam):
-    """:func:`lp2_core` with its own workspace."""
+    """:func:`lp2_core` with its own workspace; its outcome and the pull's share it took.
+
+    Returns ``(code, p, binding, residual, pull_scale)``: :func:`lp2_core`'s answer and
+    the share of sec. 3.1's pull it left in the workspace (:func:`pull_scale_of`).
+    """
     m, n = J.shape
-    ws = np.empty(workspace_size(n, m, G.shape[0]))
-    return lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws,
-                    SINGULAR_PATH_ALWAYS, MAX_SCHUR_CONDITION)  # fmt: skip
+    r = G.shape[0]
+    ws = np.empty(workspace_size(n, m, r))
+    code, p, binding, res = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max,
+                                     G, g, dq, lam, ws, SINGULAR_PATH_ALWAYS,
+                                     MAX_SCHUR_CONDITION)  # fmt: skip
+    return code, p, binding, res, pull_scale_of(ws, n, m, r)
+
+
+@njit(cache=True)
+def pull_scale_of(ws, n, m, r):
+    """The share of sec. 3.1's pull the last :func:`lp2_core` on ``ws`` took (1: whole, none)."""
+    return vector(ws, PULL_SCALE, n, m, r)[0]
 
 
 @njit(cache=True)
@@ -111,8 +126,9 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         H: ``M + Lambda``, (n, n).
         h_diag: True when ``H`` is diagonal (no factorisation of ``H`` needed).
         c: ``f``, the criterion's part of ``c`` without sec. 3.1's term, (n,).
-        c_ref: ``Lambda (q_ref - q0)``, sec. 3.1's pull, (n,); scaled as
-            :func:`lpik.methods.kkt.smoothing_scale` scales it.
+        c_ref: ``Lambda (q_ref - q0)``, sec. 3.1's pull, (n,); weighed as
+            :func:`lpik.methods.kkt.smoothing_scale` weighs it (whole where it fits),
+            the share taken left in ``ws``'s block ``PULL_SCALE`` (:func:`pull_scale_of`).
         lower: Lower bounds on ``dq``, (n,).
         upper: Upper bounds on ``dq``, (n,).
         lam_min: Lower multiplier bounds, (m,).
@@ -157,6 +173,8 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     rhs, rhs2, rhs3 = vector(ws, RHS, n, m, r), vector(ws, RHS2, n, m, r), vector(ws, RHS3, n, m, r)
     av, bv = vector(ws, AV, n, m, r), vector(ws, BV, n, m, r)
     lo, hi = vector(ws, LO, n, m, r), vector(ws, HI, n, m, r)
+    pull = vector(ws, PULL_SCALE, n, m, r)  # the share of sec. 3.1's pull taken: none yet
+    pull[0] = 1.0
     # --- affine solution: dq = a_q + p b_q, lam = a_l + p b_l (Schur complement) ---
     # A pinned joint (lower == upper: lpik.methods.kkt.pinned_system) keeps dq = d: its
     # criterion row is dropped, its column of J leaves the Schur complement (H' is the
@@ -212,7 +230,8 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     if not cholesky(S, LS):
         if singular_path != SINGULAR_PATH_ALWAYS:
             return SINGULAR, 0.0, -1, 0.0
-        return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
+        return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam,
+                             pull)  # fmt: skip
     dmax, dmin = 0.0, np.inf
     for a in range(m):
         dmax = max(dmax, LS[a, a])
@@ -224,7 +243,8 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
     ):
         if singular_path != SINGULAR_PATH_ALWAYS:
             return SINGULAR, 0.0, -1, 0.0
-        return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam)
+        return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam,
+                             pull)  # fmt: skip
     for a in range(m):
         s = 0.0
         for i in range(n):
@@ -241,14 +261,15 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         a_q[i] = sa
         b_q[i] = sb
     refine(J, H, h_diag, c, lower, upper, LH, LS, HinvJt, a_q, a_l, col, out, rhs, rhs2)
-    # --- sec. 3.1's pull, scaled (lpik.methods.kkt.smoothing_scale) ---
+    # --- sec. 3.1's pull, whole where it fits (lpik.methods.kkt.smoothing_scale) ---
     smooth = False
     for i in range(n):
         if lower[i] != upper[i] and c_ref[i] != 0.0:
             smooth = True
     if smooth:
-        add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, lam_min, lam_max, a_q,
-                      a_l, (col, Hinvr, e_q, out), (rhs3, e_l, rhs, rhs2))  # fmt: skip
+        pull[0] = add_smoothing(J, H, h_diag, LH, LS, HinvJt, c_ref, lower, upper, lam_min,
+                                lam_max, a_q, a_l, (col, Hinvr, e_q, out),
+                                (rhs3, e_l, rhs, rhs2))  # fmt: skip
     # --- ratio test over joints, multipliers, rows ---
     for i in range(n):
         av[i], bv[i], lo[i], hi[i] = a_q[i], b_q[i], lower[i], upper[i]
@@ -304,7 +325,7 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         if singular_path == SINGULAR_PATH_NEVER:
             return CHECK_FAILED, p, binding, res
         code, p, binding, res = singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max,
-                                              G, g, dq, lam)  # fmt: skip
+                                              G, g, dq, lam, pull)  # fmt: skip
         if code == SINGULAR and singular_path == SINGULAR_PATH_AFTER_CHECK:
             return CHECK_FAILED, p, binding, res  # HiGHS decides: the caller's numpy method
         return code, p, binding, res
@@ -336,12 +357,14 @@ def lp2_batch_kernel(
     codes,
     ps,
     bindings,
+    scales,
     chunks,
 ):
     """:func:`lp2_core` over a batch (leading axis ``B`` on every argument), in parallel.
 
     The batch is cut into ``chunks`` parts (a few per thread); each allocates its
-    workspace once.
+    workspace once. ``scales`` receives each item's share of sec. 3.1's pull
+    (:func:`pull_scale_of`).
     """
     B, m, n = J.shape
     chunks = max(1, min(B, chunks))
@@ -371,3 +394,4 @@ def lp2_batch_kernel(
             codes[b] = code
             ps[b] = p
             bindings[b] = binding
+            scales[b] = pull_scale_of(ws, n, m, G.shape[1])

@@ -20,7 +20,9 @@ from lpik.fast.lp2_kernel import (
     SINGULAR_PATH_ALWAYS,
     _workspace_size,
     lp2_core,
+    pull_scale_of,
 )
+from lpik.fast.workspace import PULL_SCALE, vector
 from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION, SATURATION_MAX_CONDITION
 
 
@@ -57,7 +59,8 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
     (saturated joints end with coinciding bounds).
 
     Returns:
-        ``(code, p, binding, residual)`` of the pass with the largest ``p``. An
+        ``(code, p, binding, residual)`` of the pass with the largest ``p``, whose
+        share of sec. 3.1's pull is left in ``ws`` (``pull_scale_of``). An
         infeasible first pass whose conflict is a joint's bound saturates that
         joint as a stopping bound would (the first feasible pass goes on as
         usual; none feasible: the first pass's safe step and conflict). Any
@@ -68,6 +71,7 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
         redundancy left), a later ``CHECK_FAILED`` hands the step to the numpy method.
     """
     m, n = J.shape
+    pull = vector(ws, PULL_SCALE, n, m, G.shape[0])  # each pass's share of sec. 3.1's pull
     code, p, binding, residual = lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min,
                                           lam_max, G, g, dq, lam, ws, SINGULAR_PATH_ALWAYS,
                                           MAX_SCHUR_CONDITION)  # fmt: skip
@@ -76,6 +80,7 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
     if code != OK and not stuck:
         return code, p, binding, residual
     first_binding = binding
+    best_pull = pull[0]
     if stuck:
         _keep(best, dq, lam)
     free = 0
@@ -85,6 +90,7 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
     while p < FULL_P and 0 <= binding < 2 * n and free - 1 >= m:
         if code == OK:  # the best pass so far (while stuck: the first pass's safe step)
             _keep(best, dq, lam)
+            best_pull = pull[0]
         joint = binding // 2
         if binding % 2 == 1:
             lower[joint] = upper[joint]
@@ -102,6 +108,7 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
             continue
         if code2 != OK or (not stuck and p2 < p):  # keep the best pass (SINGULAR: no redundancy)
             _restore(dq, lam, best)
+            pull[0] = best_pull
             break
         code, p, binding, residual, stuck = code2, p2, binding2, residual2, False
     if stuck:  # no pass feasible: the first pass's safe step and conflict
@@ -112,17 +119,23 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
 
 @njit(cache=True)
 def lp2s_kernel(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam):
-    """:func:`lp2s_core` with its own workspace, on copies of the bounds."""
+    """:func:`lp2s_core` with its own workspace, on copies of the bounds.
+
+    Returns ``(code, p, binding, residual, pull_scale)``, as
+    :func:`lpik.fast.lp2_kernel.lp2_kernel`.
+    """
     m, n = J.shape
     ws = np.empty(_workspace_size(n, m, G.shape[0]))
-    return lp2s_core(J, dw, H, h_diag, c, c_ref, lower.copy(), upper.copy(), lam_min, lam_max,
-                     G, g, dq, lam, ws, np.empty(n + m))  # fmt: skip
+    code, p, binding, res = lp2s_core(J, dw, H, h_diag, c, c_ref, lower.copy(), upper.copy(),
+                                      lam_min, lam_max, G, g, dq, lam, ws,
+                                      np.empty(n + m))  # fmt: skip
+    return code, p, binding, res, pull_scale_of(ws, n, m, G.shape[0])
 
 
 @njit(cache=True, parallel=True)
 def lp2s_batch_kernel(
     J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, codes, ps, bindings,
-    chunks,
+    scales, chunks,
 ):  # fmt: skip
     """:func:`lp2s_core` over a batch (leading axis ``B`` on every argument), in parallel.
 
@@ -143,3 +156,4 @@ def lp2s_batch_kernel(
             codes[b] = code
             ps[b] = p
             bindings[b] = binding
+            scales[b] = pull_scale_of(ws, n, m, G.shape[1])

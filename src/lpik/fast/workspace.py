@@ -30,6 +30,7 @@ _MATRIX = "float64[:, :](float64[::1], int64, int64, int64, int64)"
 HINV_JT, H_FACTOR, HINV_C, COL, OUT, A_Q, B_Q = range(7)
 SCHUR, SCHUR_FACTOR, RHS, A_L, B_L, RHS2, E_L, RHS3 = range(7, 15)
 HINV_R, E_Q, AV, BV, LO, HI = range(15, 21)
+PULL_SCALE = 21
 
 
 @dataclass(frozen=True)
@@ -39,7 +40,7 @@ class Block:
     Attributes:
         index: Its place in :data:`BLOCKS`, the block's module constant.
         name: The name the kernel gives it.
-        shape: One or two axes, each ``"n"``, ``"m"`` or ``"t"``.
+        shape: No axis (one number), or one or two, each ``"n"``, ``"m"`` or ``"t"``.
         doc: What it holds.
     """
 
@@ -72,6 +73,7 @@ BLOCKS = (
     Block(BV, "bv", ("t",), "the ratio test's entries a + p b: b"),
     Block(LO, "lo", ("t",), "the entries' lower bounds"),
     Block(HI, "hi", ("t",), "the entries' upper bounds"),
+    Block(PULL_SCALE, "pull_scale", (), "the share of sec. 3.1's pull the step took (1: whole)"),
 )
 assert [b.index for b in BLOCKS] == list(range(len(BLOCKS))), "BLOCKS out of their constants' order"
 #: The number of blocks.

@@ -3,10 +3,11 @@
 LP2's rows ``H dq + J^T lam = c`` and ``J dq = p dw`` (eq. 18, with sec. 3.1's
 term in ``H = M + Lambda`` and ``c = f + Lambda (q_ref - q0)``) fix ``dq`` and
 ``lam`` once ``p`` is chosen. This module solves them (:func:`affine_solution`),
-fixes pinned joints (:func:`pinned_system`) and scales the smoothing term so
-that its pull towards ``q_ref`` never takes more of a joint's step band than
-:data:`~lpik.tolerances.SMOOTHING_SHARE` (:func:`smoothing_scale`): a pull
-that alone would exceed one step made every step of LP2 infeasible.
+fixes pinned joints (:func:`pinned_system`) and weighs the smoothing term
+(:func:`smoothing_scale`): whole where its pull towards ``q_ref`` fits the
+step at ``p = 0``, else scaled so that it takes no more of a joint's step band
+than :data:`~lpik.tolerances.SMOOTHING_SHARE`: a pull that alone would exceed
+one step made every step of LP2 infeasible.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from lpik.methods.assembly import criterion, reference_pull
-from lpik.methods.pull import pull_room
+from lpik.methods.pull import pull_scale
 from lpik.problem import Problem
 from lpik.tolerances import MAX_SCHUR_CONDITION
 from lpik.types import FloatArray
@@ -158,23 +159,22 @@ def smoothing_scale(
     upper: FloatArray,
     multipliers: tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None = None,
 ) -> float:
-    """The largest ``s`` in [0, 1] by which sec. 3.1's pull ``e_q`` may be added to the step.
+    """The share ``s`` in [0, 1] of sec. 3.1's pull ``e_q`` the step takes (:func:`pull_scale`).
 
     ``a_q`` is the step at ``p = 0`` without the pull, ``e_q`` the pull's share
-    of it (both resolved by eq. 18). On each joint ``s e_q`` may take at most
+    of it (both resolved by eq. 18); ``multipliers`` ``(a_l, e_l, lam_min,
+    lam_max)`` the same for the multipliers and their bounds (sec. 3.2). Where
+    the whole pull keeps the step at ``p = 0`` within every bound, ``s = 1``:
+    the paper's LP2. Only where it does not may ``s e_q`` take at most
     :data:`~lpik.tolerances.SMOOTHING_SHARE` of the room between ``a_q`` and
-    its bounds (and any amount towards the bounds when ``a_q`` is outside
-    them), so the rest of the band is left for the command
-    (:func:`lpik.methods.pull.pull_room`). ``multipliers`` ``(a_l, e_l, lam_min,
-    lam_max)``: the same for the multipliers and their bounds (sec. 3.2), so that
-    a bounded multiplier cannot make the step infeasible on the pull's account.
-    ``s = 1`` is the paper's term; a smaller ``s`` a weaker pull this step.
-    Continuous in the state.
+    its bounds on each joint (and of each multiplier's), so the rest of the
+    band is left for the command (:func:`lpik.methods.pull.pull_room`) and the
+    pull cannot make the step infeasible on its own account.
     """
-    s = pull_room(a_q, e_q, lower, upper, 1.0)
-    if multipliers is not None:
-        s = pull_room(*multipliers, s)
-    return float(s)
+    if multipliers is None:
+        none = np.empty(0)
+        multipliers = (none, none, none, none)
+    return float(pull_scale(a_q, e_q, lower, upper, *multipliers))
 
 
 def smoothing(problem: Problem, affine: AffineSolution | None | EllipsisType = ...) -> float:

@@ -27,7 +27,7 @@ two free multiplier directions under finite multiplier bounds).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -187,8 +187,9 @@ def _singular_path(problem: Problem, start: float, name_outside: bool) -> Result
     """LP2 by :func:`~lpik.methods.singular.singular_core`; ``None`` where HiGHS must decide."""
     J, dw, H, _, c, c_ref, lower, upper, lam_min, lam_max, G, g = kernel_args(problem)
     dq, lam = np.empty(problem.n), np.empty(problem.m)
+    pull = np.ones(1)
     code, p, binding, _ = singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G,
-                                        g, dq, lam)  # fmt: skip
+                                        g, dq, lam, pull)  # fmt: skip
     if code not in (SINGULAR_OK, SINGULAR_INFEASIBLE):
         return None
     labels = code_labels(*problem.step_bounds()[2:], problem.m, problem.row_labels)
@@ -196,7 +197,16 @@ def _singular_path(problem: Problem, start: float, name_outside: bool) -> Result
     if code == SINGULAR_INFEASIBLE:
         return safe_step(problem, "lp2", INFEASIBLE, label, solve_time=time.perf_counter() - start,
                          path="singular", name_outside=name_outside)  # fmt: skip
-    return finish(problem, "lp2", dq, p, lam, label, start, "singular", name_outside=name_outside)
+    result = finish(problem, "lp2", dq, p, lam, label, start, "singular", name_outside=name_outside)
+    return pulled(result, float(pull[0]))
+
+
+def pulled(result: Result, scale: float) -> Result:
+    """``result`` reporting the share ``scale`` of sec. 3.1's pull its step took.
+
+    A safe step takes no pull and keeps :attr:`~lpik.result.Result.pull_scale` 1.
+    """
+    return replace(result, pull_scale=scale) if result.moved and scale != 1.0 else result
 
 
 def _ratio_path(problem: Problem, aff: AffineSolution, start: float, name_outside: bool) -> Result:
@@ -223,7 +233,7 @@ def _ratio_path(problem: Problem, aff: AffineSolution, start: float, name_outsid
             name_outside=name_outside,
         )
     p = test.p
-    return finish(
+    result = finish(
         problem,
         "lp2",
         aff.a_q + p * aff.b_q,
@@ -234,6 +244,7 @@ def _ratio_path(problem: Problem, aff: AffineSolution, start: float, name_outsid
         "ratio-test",
         name_outside=name_outside,
     )
+    return pulled(result, aff.smoothing)
 
 
 def _highs_path(
@@ -280,7 +291,8 @@ def _highs_path(
     binding = binding_from_duals(
         problem, sol, lp, p, A_eq.shape[0], lam_slice=slice(n, n + m), pinned=pinned
     )
-    return finish(problem, "lp2", dq, p, lam, binding, start, "highs", name_outside=name_outside)
+    result = finish(problem, "lp2", dq, p, lam, binding, start, "highs", name_outside=name_outside)
+    return pulled(result, scale)
 
 
 def _criterion_failure(

@@ -45,7 +45,7 @@ import math
 import numpy as np
 
 from lpik.check import loop_check
-from lpik.methods.pull import pull_room
+from lpik.methods.pull import pull_scale
 from lpik.tolerances import (
     EQUALITY_RTOL,
     FULL_P,
@@ -178,13 +178,14 @@ def _free_range(A, count, var, p, z):
     return lo, hi
 
 
-def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam):
+def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, pull):
     """LP2 (eqs. 15-18) through the singular value decomposition; writes ``dq`` and ``lam``.
 
     Arguments and return value as :func:`lpik.fast.lp2_kernel.lp2_core` (without
     ``h_diag`` and the workspace): ``c`` is the criterion's ``f`` part, ``c_ref``
-    sec. 3.1's pull (scaled as :func:`lpik.methods.kkt.smoothing_scale` scales
-    it), joints with ``lower == upper`` are pinned. Returns
+    sec. 3.1's pull (weighed as :func:`lpik.methods.kkt.smoothing_scale` weighs
+    it: :func:`~lpik.methods.pull.pull_scale`, whose ``s`` goes to ``pull[0]``),
+    joints with ``lower == upper`` are pinned. Returns
     ``(code, p, binding, residual)``; :data:`SINGULAR` when more than
     :data:`MAX_FREE_MULTIPLIERS` free multiplier directions meet finite
     multiplier bounds.
@@ -251,8 +252,9 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     _backward(L, ay, a_q)
     _backward(L, ey, e_q)
     _backward(L, by, b_q)
-    # --- sec. 3.1's pull, scaled to leave room for the command (smoothing_scale) ---
-    scale = pull_room(al, el, lam_min, lam_max, pull_room(a_q, e_q, lower, upper, 1.0))
+    # --- sec. 3.1's pull: whole where it fits, else scaled to leave room (smoothing_scale) ---
+    scale = pull_scale(a_q, e_q, lower, upper, al, el, lam_min, lam_max)
+    pull[0] = scale
     for i in range(n):
         a_q[i] += scale * e_q[i]
     for a in range(m):
