@@ -14,7 +14,10 @@ Two mechanisms, usable alone or together:
   approach speed [m/s]. To first order the distance after the step is then
   at least ``d - r (d - d_s)`` with ``r = xi dt / (d_i - d_s)``, which is
   ``>= d_s`` as long as ``r <= 1``; lpik caps ``r`` at 1. A pair already
-  closer than ``d_s`` (or overlapping) may only move apart. The rows go into
+  closer than ``d_s`` (or overlapping) gets the same row, mirrored: the
+  right-hand side is negative, so the row demands that the distance grow by
+  ``r (d_s - d)`` in this step, back to ``d_s`` smoothly at the damper's rate
+  (the step is then ``recovering``: :mod:`lpik.collision.recovery`). The rows go into
   the problem as ``G q <= h`` (:class:`DistanceRows`, a limit of
   :mod:`lpik.limits`), so ``lp1``, ``l1`` and ``lp2`` keep them and name the
   one that stops the arm, e.g. ``"collision panda_link5 - shelf"``.
@@ -39,8 +42,11 @@ from typing import Any
 
 import numpy as np
 
+from lpik.collision import recovery
 from lpik.collision.distance import Proximities, Proximity
 from lpik.limits import Piece, StepContext
+from lpik.problem import Problem
+from lpik.result import Result
 from lpik.tolerances import FEASIBILITY_TOL
 from lpik.types import FloatArray
 
@@ -68,11 +74,13 @@ def damper_row(distance, gradient, q0, share, safety, row):  # type: ignore[no-u
     """The velocity damper's row of one pair within ``d_i``: ``row = -grad`` and its ``h``.
 
     ``row . q <= h`` bounds the approach in this step (the rule of
-    :class:`DistanceRows`); plain loops, so that :mod:`lpik.fast.avoiding_step`
-    compiles this very function (:func:`lpik.fast.twins.compiled_twin`). Returns
-    NaN, leaving ``row`` as it is, for a pair whose distance hardly depends on
-    ``q`` (its witness point on a joint's axis): a row that cannot change by the
-    feasibility tolerance constrains nothing but would tie the ratio test at ``p = 0``.
+    :class:`DistanceRows`): ``h - row . q0 = r (d - d_s)``, on both sides of ``d_s``,
+    so that inside it the row demands the increase ``r (d_s - d)``; plain loops, so
+    that :mod:`lpik.fast.avoiding_step` compiles this very function
+    (:func:`lpik.fast.twins.compiled_twin`). Returns NaN, leaving ``row`` as it
+    is, for a pair whose distance hardly depends on ``q`` (its witness point on a
+    joint's axis): a row that cannot change by the feasibility tolerance
+    constrains nothing but would tie the ratio test at ``p = 0``.
     """
     n = gradient.shape[0]
     steepest = 0.0
@@ -80,7 +88,7 @@ def damper_row(distance, gradient, q0, share, safety, row):  # type: ignore[no-u
         steepest = max(steepest, abs(gradient[i]))
     if steepest <= FEASIBILITY_TOL:
         return math.nan
-    h = share * max(distance - safety, 0.0)
+    h = share * (distance - safety)
     for i in range(n):
         row[i] = -gradient[i]
         h += row[i] * q0[i]
@@ -94,10 +102,13 @@ class DistanceRows:
     Args:
         proximities: The robot's bodies and the scene.
         approach_speed: ``xi``, the largest approach speed of a pair [m/s] (> 0).
+        inside_only: Rows only for the pairs inside the safety distance (the
+            potential field's guarantee: :meth:`CollisionAvoidance.rows`).
     """
 
     proximities: Proximities
     approach_speed: float = DEFAULT_APPROACH_SPEED
+    inside_only: bool = False
 
     def __post_init__(self) -> None:
         xi = self.approach_speed
@@ -116,8 +127,9 @@ class DistanceRows:
         share = damper_share(self.approach_speed, dt, d_s, d_i)
         n = q0.size
         pairs, G, h = [], [], []
+        reach = d_s - FEASIBILITY_TOL if self.inside_only else d_i
         for k, p in enumerate(self.proximities.at(q0)):
-            if p.distance >= d_i:
+            if p.distance >= reach:
                 continue
             row = np.zeros(n)
             rhs = damper_row(p.distance, p.gradient, q0, share, d_s, row)
@@ -213,11 +225,18 @@ class CollisionAvoidance:
         """The scene."""
         return self.proximities.scene
 
+    def rows(self) -> DistanceRows:
+        """The hard rows: every pair within ``d_i``; with the field alone, the pairs inside ``d_s``.
+
+        The field's own force has no hard guarantee; inside ``d_s`` its rows make the
+        distance grow back as the damper's do (:mod:`lpik.collision.recovery`).
+        """
+        inside_only = self.mechanism == "field"
+        return DistanceRows(self.proximities, self.approach_speed, inside_only)
+
     def limits(self) -> list[DistanceRows]:
-        """The hard rows as a limit (none for the field alone)."""
-        if self.mechanism == "field":
-            return []
-        return [DistanceRows(self.proximities, self.approach_speed)]
+        """The hard rows as a limit (:meth:`rows`)."""
+        return [self.rows()]
 
     def weights(
         self, weights: Mapping[str, Any], q: FloatArray, dt: float, J: FloatArray
@@ -249,6 +268,61 @@ class CollisionAvoidance:
         force = field_scale(force, np.atleast_2d(J), M, lo, hi) * force
         out["f"] = force + np.asarray(out.get("f", 0.0), dtype=np.float64)
         return out
+
+    def inside(self, q: FloatArray) -> dict[str, float]:
+        """The pairs closer than ``d_s`` at ``q``: their rows' labels -> signed distance [m]."""
+        found = self.proximities.at(q)
+        return recovery.inside_pairs([p.label for p in found], [p.distance for p in found],
+                            self.scene.safety_distance)  # fmt: skip
+
+    def recovered(
+        self, problem: Problem, result: Result, dt: float, least_error: recovery.LeastError
+    ) -> Result:
+        """The recovery stage: from inside ``d_s`` the distance grows back.
+
+        The rule of :mod:`lpik.collision.recovery`; ``result`` as it is where no pair
+        is inside.
+
+        Args:
+            problem: The step's problem (a pair inside without a row, the field's in a
+                compiled step, gets its row here).
+            result: The method's step on it.
+            dt: Control period [s].
+            least_error: The least-error LP (:data:`lpik.collision.recovery.LeastError`).
+        """
+        inside = self.inside(problem.q0)
+        if not inside:
+            return result
+        problem = self.with_rows(problem, inside, dt)
+        return recovery.recovered(problem, result, inside, least_error)
+
+    def with_rows(self, problem: Problem, inside: Mapping[str, float], dt: float) -> Problem:
+        """``problem`` with a damper's row for every pair of ``inside`` without an active one.
+
+        A pair's row is missing where the problem has none (the field's) or an
+        inactive one (``0 q <= INACTIVE_RHS``, a controller's reserved row).
+        """
+        labels = [str(label) for label in problem.row_labels]
+        G, h = problem.G.copy(), problem.h.copy()
+        active = np.abs(G).max(axis=1, initial=0.0) > 0.0
+        pairs, rows, rhs = DistanceRows(self.proximities, self.approach_speed, True).pair_rows(
+            problem.q0, dt)  # fmt: skip
+        found = self.proximities.at(problem.q0)
+        extra = []
+        for k, row, b in zip(pairs, rows, rhs):
+            label = found[k].label
+            at = labels.index(label) if label in labels else -1
+            if at < 0:
+                extra.append((label, row, b))
+            elif not active[at]:
+                G[at], h[at] = row, b
+        if not extra and np.array_equal(G, problem.G):
+            return problem
+        return problem.replace(
+            G=np.vstack([G, *(row for _, row, _ in extra)]),
+            h=np.concatenate([h, [b for _, _, b in extra]]),
+            row_labels=(*problem.row_labels, *(label for label, _, _ in extra)),
+        )
 
     def closest(self, q: FloatArray) -> tuple[float, str]:
         """Smallest signed distance at ``q`` [m] and the pair's name."""

@@ -8,7 +8,12 @@ held equal to coal), the gradient ``-n^T (J_1 - J_2)`` of each pair within the
 influence distance (as :mod:`lpik.collision.distance` defines it) and its row
 by :func:`lpik.collision.avoidance.damper_row` (compiled here as it is),
 written into the state's rows block; then the fused step itself
-(:func:`lpik.fast.step.task_step`).
+(:func:`lpik.fast.step.task_step`). A pair inside the safety distance gets
+the damper's row mirrored, which demands that its distance grow; where no
+step keeps it, or ``p`` is frozen near 0, the kernel's outcome goes to the
+recovery step of :mod:`lpik.collision.recovery`, which
+:class:`~lpik.control.avoiding_controller.AvoidingLp2Controller` takes in
+Python on the step's problem (its distances: ``found``).
 
 The robot and the scene travel as a few arrays (:func:`pack_bodies`):
 ``capsules`` (k, 8): joint, ``a``, ``b`` in that joint's frame, radius;
