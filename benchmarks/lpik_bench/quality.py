@@ -47,17 +47,20 @@ from lpik_bench.quality_metrics import (
 from lpik_bench.quality_scenarios import SCENARIOS, Leg
 from lpik_bench.workload import DT, QDD_MAX
 
-#: ``v_max`` [m/s] and ``w_max`` [rad/s] of the +acc variants: lpik's clamp off, so that
-#: they are given the command the peers are given (V = error / dt; like against like).
+#: ``v_max`` [m/s] and ``w_max`` [rad/s] of every variant: lpik's clamp off, so that each is
+#: given the command the peers are given (V = error / dt; like against like).
 UNCLAMPED = 1e6
+_OPEN = {"v_max": UNCLAMPED, "w_max": UNCLAMPED}
 #: lpik's variants: name -> keyword arguments of Lp2Controller (besides ``model`` and ``dt``).
+#: ``mode="progress"`` (the progress mode) is skipped with a note where lpik lacks it.
 VARIANTS: dict[str, dict[str, Any]] = {
-    "lp2s": {},
-    "lp2s +acc": {"qdd_max": QDD_MAX, "v_max": UNCLAMPED, "w_max": UNCLAMPED},
-    "lp2": {"saturate": False},
-    "lp2 +acc": {"saturate": False, "qdd_max": QDD_MAX, "v_max": UNCLAMPED, "w_max": UNCLAMPED},
-    "lp2s unbounded": {"lambda_bound": None},
-    "lp2 unbounded": {"saturate": False, "lambda_bound": None},
+    "lp2s": {**_OPEN},
+    "lp2s +acc": {"qdd_max": QDD_MAX, **_OPEN},
+    "lp2": {"saturate": False, **_OPEN},
+    "lp2 +acc": {"saturate": False, "qdd_max": QDD_MAX, **_OPEN},
+    "lp2s unbounded": {"lambda_bound": None, **_OPEN},
+    "lp2 unbounded": {"saturate": False, "lambda_bound": None, **_OPEN},
+    "lp2s progress": {"mode": "progress", **_OPEN},
 }
 
 #: ``step(q, q_prev, target) -> (dq, p, status, binding, ns)``: one timed step.
@@ -80,6 +83,11 @@ class Contender:
             the frozen steps (see :data:`DirectionCall`).
         limited_scenarios_only: Runs only in the acceleration-limited scenarios
             (a peer's step with acceleration limits, "+acc").
+        mode: lpik's ``"direction"`` (keeps the commanded direction) or ``"progress"``
+            (the progress mode); the peer each is judged against on tracking is
+            :data:`lpik_bench.quality_report.LIKE_PEERS`.
+        with_scene: ``with_scene(scene, q0)``: the same contender among the obstacles of
+            ``scene`` (None: no obstacle support, n/a in a scenario with obstacles).
     """
 
     name: str
@@ -89,6 +97,8 @@ class Contender:
     note: str = ""
     direction: DirectionCall | None = None
     limited_scenarios_only: bool = False
+    mode: str = "direction"
+    with_scene: Callable[[Any, FloatArray], Contender] | None = None
 
     @property
     def is_lpik(self) -> bool:
@@ -101,7 +111,6 @@ def lpik_contenders(
 ) -> tuple[list[Contender], list[str]]:
     """lpik's variants by name, and a note for each one the installed lpik cannot build."""
     from lpik.control.controller import Lp2Controller
-    from lpik.methods.lp1 import lp1
 
     out, notes = [], []
     for name in names:
@@ -111,21 +120,32 @@ def lpik_contenders(
         except TypeError as exc:
             notes.append(f"{name}: not available in this lpik ({exc})")
             continue
-
-        def step(q: FloatArray, prev: FloatArray, target: FloatArray, c: Any = controller) -> tuple:
-            t0 = time.perf_counter_ns()
-            result = c.step(q, target, prev)
-            ns = time.perf_counter_ns() - t0
-            return result.q - q, result.p, result.status, result.binding, ns
-
-        def direction(q: FloatArray, prev: FloatArray, target: FloatArray, c: Any = controller
-                      ) -> float:  # fmt: skip
-            return float(lp1(c.problem(q, target, prev)).p)
-
         args = ", ".join(f"{k}={v!r}" for k, v in kwargs.items()) or "default arguments"
-        out.append(Contender(name, "lpik", step, "qdd_max" in kwargs, f"Lp2Controller({args})",
-                             direction))  # fmt: skip
+        out.append(_lpik_contender(name, controller, kwargs, f"Lp2Controller({args})"))
     return out, notes
+
+
+def _lpik_contender(name: str, controller: Any, kwargs: dict[str, Any], note: str) -> Contender:
+    """One lpik variant over ``controller``; its ``with_scene`` builds it among obstacles."""
+    from lpik.control.controller import Lp2Controller
+    from lpik.methods.lp1 import lp1
+
+    def step(q: FloatArray, prev: FloatArray, target: FloatArray) -> tuple:
+        t0 = time.perf_counter_ns()
+        result = controller.step(q, target, prev)
+        ns = time.perf_counter_ns() - t0
+        return result.q - q, result.p, result.status, result.binding, ns
+
+    def direction(q: FloatArray, prev: FloatArray, target: FloatArray) -> float:
+        return float(lp1(controller.problem(q, target, prev)).p)
+
+    def with_scene(scene: Any, q0: FloatArray) -> Contender:
+        among = Lp2Controller(controller.model, dt=controller.dt, scene=scene, home=q0, **kwargs)
+        return _lpik_contender(name, among, kwargs, note)
+
+    mode = "progress" if kwargs.get("mode") == "progress" else "direction"
+    return Contender(name, "lpik", step, "qdd_max" in kwargs, note, direction, mode=mode,
+                     with_scene=with_scene)  # fmt: skip
 
 
 def peer_contenders(names: tuple[str, ...]) -> tuple[list[Contender], list[str]]:
@@ -152,10 +172,19 @@ def peer_contenders(names: tuple[str, ...]) -> tuple[list[Contender], list[str]]
         name += "" if peer.qdd_max is None else " +acc"
         note = f"{peer.method} ({peer.library} {peer.version}): {peer.note}"
         limited = peer.qdd_max is not None
+        among = _mink_with_scene if peer.library == "mink" and not limited else None
         out.append(Contender(name, peer.library, _peer_call(peer.step, limited), limited, note,
-                             limited_scenarios_only=limited))  # fmt: skip
+                             limited_scenarios_only=limited, with_scene=among))  # fmt: skip
     skipped = dict.fromkeys(f"{s.library}: {s.reason}" for s in peers.skipped + with_limits.skipped)
     return out, list(skipped)
+
+
+def _mink_with_scene(scene: Any, q0: FloatArray) -> Contender:
+    """mink among ``scene``'s obstacles (:func:`lpik_bench.quality_obstacle.mink_among`)."""
+    from lpik_bench.quality_obstacle import mink_among
+
+    note = "solve_ik daqp with CollisionAvoidanceLimit"
+    return Contender("mink", "mink", _peer_call(mink_among(scene, q0), False), note=note)
 
 
 def _peer_call(fn: Any, needs_prev: bool) -> StepCall:
@@ -214,6 +243,21 @@ def run_leg(contender: Contender, leg: Leg, dt: float = DT) -> LegRun:
     return LegRun(qs, ns, failed, p, status, binding, first_failure)
 
 
+def _runs(
+    c: Contender, scenario: Any, dt: float
+) -> tuple[list[LegRun] | None, DirectionCall | None]:
+    """``c``'s run of each leg (among each leg's obstacles, if any) and its direction call.
+
+    None for a scenario with obstacles where ``c`` has none (n/a).
+    """
+    if not any(leg.scene is not None for leg in scenario.legs):
+        return [run_leg(c, leg, dt) for leg in scenario.legs], c.direction
+    if c.with_scene is None:
+        return None, None
+    runs = [run_leg(c.with_scene(leg.scene, leg.q0), leg, dt) for leg in scenario.legs]
+    return runs, None  # LP1's p among one leg's obstacles: not asked for
+
+
 def run_suite(
     scenarios: tuple[str, ...] = tuple(SCENARIOS),
     *,
@@ -254,15 +298,20 @@ def run_suite(
             if c.limited_scenarios_only and not scenario.acceleration_checked:
                 continue
             t1 = time.perf_counter()
-            runs = [run_leg(c, leg, dt) for leg in scenario.legs]
+            runs, direction = _runs(c, scenario, dt)
+            if runs is None:  # no obstacle support: n/a
+                result.not_applicable.append(c.name)
+                continue
             check = c.acceleration_limited or scenario.acceleration_checked
             result.rows[c.name] = scenario_metrics(
-                model, scenario.legs, runs, dt, QDD_MAX if check else None, c.direction
+                model, scenario.legs, runs, dt, QDD_MAX if check else None, direction
             )
             if c.is_lpik:
                 result.lpik.add(c.name)
             if c.acceleration_limited:
                 result.limited.add(c.name)
+            if c.mode == "progress":
+                result.progress.add(c.name)
             say(f"  {c.name}: {time.perf_counter() - t1:.1f} s")
         result.wall_s = time.perf_counter() - t0
         results.append(result)

@@ -112,6 +112,21 @@ class Settling:
     braking: int
 
 
+@dataclass(frozen=True)
+class Clearance:
+    """One leg among obstacles: the distance to them at the start, its least, the steps
+    until it stays at or above ``d_s`` (None: never), the tool's position error at the end.
+
+    Distances and the error in [mm].
+    """
+
+    label: str
+    start_mm: float
+    min_mm: float
+    out_after: int | None
+    final_mm: float
+
+
 @dataclass(eq=False)
 class Metrics:
     """One library's metrics on one scenario (see the module docstring)."""
@@ -130,6 +145,7 @@ class Metrics:
     first_failure: str | None = None
     recoveries: list[Recovery] = field(default_factory=list)
     settlings: list[Settling] = field(default_factory=list)
+    clearances: list[Clearance] = field(default_factory=list)
     braking: int = 0
     p_mean: float | None = None
     p_zero: float | None = None
@@ -157,6 +173,22 @@ class Metrics:
     def overshoot(self) -> float:
         """The largest overshoot of the point-to-point legs [mm]."""
         return max((s.overshoot for s in self.settlings), default=0.0)
+
+    @property
+    def out_after(self) -> float:
+        """The most steps a leg took to get out of ``d_s`` for good (inf: a leg never did)."""
+        steps = [math.inf if c.out_after is None else c.out_after for c in self.clearances]
+        return max(steps, default=0)
+
+    @property
+    def deeper(self) -> float:
+        """How much closer to the obstacles than at its start a leg came, the most [mm]."""
+        return max((max(c.start_mm - c.min_mm, 0.0) for c in self.clearances), default=0.0)
+
+    @property
+    def final_error(self) -> float:
+        """The largest tool position error at the end of a leg among obstacles [mm]."""
+        return max((c.final_mm for c in self.clearances), default=0.0)
 
     @property
     def step_median(self) -> float:
@@ -272,6 +304,8 @@ def scenario_metrics(
             m.recoveries.append(_recovery(leg, after, change, dt))
         if leg.held:
             m.settlings.append(_settling(leg, after, _braking(run), dt))
+        if leg.scene is not None:
+            m.clearances.append(_clearance(model, leg, q, after[0][-1]))
         m.braking += _braking(run)
         times.append(run.step_ns)
         if run.p is not None:
@@ -308,6 +342,19 @@ def _recovery(
     return Recovery(leg.label, recovered, after_ms, chatter, 1e3 * float(after[0][-1]))
 
 
+def _clearance(model: PoseTask, leg: Leg, q: FloatArray, final: float) -> Clearance:
+    """The clearance of a run among the leg's obstacles (see :class:`Clearance`)."""
+    from lpik_bench.quality_obstacle import ball_distances
+
+    distance = ball_distances(model, leg.scene, leg.q0)
+    d = np.array([distance(qk) for qk in q])
+    inside = np.flatnonzero(d < leg.scene.safety_distance)
+    out_after = 0 if not inside.size else int(inside[-1]) + 1
+    never = out_after >= d.size
+    return Clearance(leg.label, 1e3 * float(d[0]), 1e3 * float(d.min()),
+                     None if never else out_after, 1e3 * float(final))  # fmt: skip
+
+
 def _braking(run: LegRun) -> int:
     """Steps the library did not answer: lpik's safe steps, a peer's failed steps."""
     if run.status is None:
@@ -331,7 +378,9 @@ class ScenarioResult:
     """One scenario's rows: contender name -> metrics, in the order run.
 
     ``lpik``: the rows of lpik's variants; ``limited``: the rows of the libraries
-    that hold the acceleration limit (lpik's +acc variants, Drake's +acc step).
+    that hold the acceleration limit (lpik's +acc variants, Drake's +acc step);
+    ``progress``: lpik's variants in the progress mode; ``not_applicable``: the
+    libraries that did not run for want of obstacle support.
     """
 
     scenario: Scenario
@@ -339,6 +388,8 @@ class ScenarioResult:
     lpik: set[str] = field(default_factory=set)
     wall_s: float = 0.0
     limited: set[str] = field(default_factory=set)
+    progress: set[str] = field(default_factory=set)
+    not_applicable: list[str] = field(default_factory=list)
 
 
 @dataclass(eq=False)

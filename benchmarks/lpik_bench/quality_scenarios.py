@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -71,6 +72,8 @@ class Leg:
         note: How the leg was built (found values).
         held: The target is one pose from the first step on (a point-to-point move):
             its settle time and overshoot are measured.
+        scene: Obstacles the leg runs among (an lpik ``Scene``; None: none): only the
+            libraries with obstacle support run it (:mod:`lpik_bench.quality_obstacle`).
     """
 
     label: str
@@ -80,6 +83,7 @@ class Leg:
     settle_from: int | None = None
     note: str = ""
     held: bool = False
+    scene: Any = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -419,12 +423,27 @@ def _random_moves(model: PoseTask, q0: FloatArray) -> list[tuple[FloatArray, str
     return out
 
 
-def point_to_point(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
-    """A step target held from rest: 5 cm along +x, then the poses of random configurations."""
+def point_step(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
+    """The getting-started example: a pose 5 cm along +x held from rest at home."""
     q0 = home_configuration("panda")
     goal = moved(model.pose(q0), np.array([POINT["step"], 0.0, 0.0]))
-    legs = [make_leg(model, f"{POINT['step'] * 100:g} cm +x", q0, lambda t: goal,
-                     POINT["step_duration"], dt, max_steps, held=True)]  # fmt: skip
+    leg = make_leg(model, f"{POINT['step'] * 100:g} cm +x", q0, lambda t: goal,
+                   POINT["step_duration"], dt, max_steps, held=True)  # fmt: skip
+    what = (
+        f"The 1 kHz loop of docs/getting-started.md: from rest at the home configuration the "
+        f"target is the home pose moved {POINT['step'] * 100:g} cm along +x, held for "
+        f"{POINT['step_duration']:g} s, each step given the last configuration as `q_prev`. "
+        f"Every library's accelerations are checked against {QDD_MAX:g} rad/s^2, and those "
+        "that take acceleration limits run with them."
+    )
+    return Scenario("step", "7. Point-to-point step under acceleration limits", what, (leg,),
+                    acceleration_checked=True)  # fmt: skip
+
+
+def point_to_point(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
+    """Step targets held from rest: the poses of random configurations about home."""
+    q0 = home_configuration("panda")
+    legs = []
     for k, (goal_q, size) in enumerate(_random_moves(model, q0)):
         least = rest_to_rest_time(goal_q - q0, model.qd_max, QDD_MAX)
         pose = model.pose(goal_q)
@@ -434,18 +453,24 @@ def point_to_point(model: PoseTask, dt: float, max_steps: int | None) -> Scenari
                              witness=lambda t, goal_q=goal_q: goal_q))  # fmt: skip
     what = (
         f"The target is one pose from the first step on, held, from rest at the home "
-        f"configuration: {POINT['step'] * 100:g} cm along +x ({POINT['step_duration']:g} s), "
-        f"and the poses of {POINT['moves']} configurations drawn within "
+        f"configuration: the poses of {POINT['moves']} configurations drawn within "
         f"{POINT['spread']:g} rad of home and the end-stops, at least "
         f"{POINT['distance'] * 100:g} cm and {POINT['turn']:g} rad away "
         f"({POINT['duration']:g} s each; distance, turn, and the least time in which the "
         f"joints reach that configuration at their velocity limits and {QDD_MAX:g} rad/s^2: "
-        + "; ".join(f"{leg.label}: {leg.note}" for leg in legs[1:])
+        + "; ".join(f"{leg.label}: {leg.note}" for leg in legs)
         + "). Every library's accelerations are checked, and those that take acceleration "
         "limits run with them."
     )
-    return Scenario("point", "7. Point to point under acceleration limits", what, tuple(legs),
-                    acceleration_checked=True)  # fmt: skip
+    return Scenario("point", "8. Point to point: larger moves under acceleration limits", what,
+                    tuple(legs), acceleration_checked=True)  # fmt: skip
+
+
+def obstacle(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
+    """A start inside an obstacle's safety distance (:mod:`lpik_bench.quality_obstacle`)."""
+    from lpik_bench.quality_obstacle import obstacle_start
+
+    return obstacle_start(model, dt, max_steps)
 
 
 #: Scenario builders, in the order of the report: ``builder(model, dt, max_steps) -> Scenario``.
@@ -456,5 +481,7 @@ SCENARIOS: dict[str, Callable[[PoseTask, float, int | None], Scenario]] = {
     "steps": step_inputs,
     "singular": singular,
     "acceleration": acceleration,
+    "step": point_step,
     "point": point_to_point,
+    "obstacle": obstacle,
 }
