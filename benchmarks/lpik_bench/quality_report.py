@@ -412,13 +412,17 @@ def goal_summary(suite: SuiteResult) -> list[str]:
     return [*lines, "", f"Scenarios where a variant meets every judged metric: {totals}."]
 
 
+def _like_labels() -> str:
+    return ", ".join(m.label for m in METRICS if m.key in AGAINST_LIKE)
+
+
 def goal_text() -> str:
     """The goal and how each metric is judged (:mod:`lpik_bench.quality_judge`)."""
     return (
         "The goal: every scenario met on every judged metric, with zero violations. "
         "**Like against like**: every library gets the same command (the peers' V = error / "
         "dt; lpik with its clamp off). lpik's default (lp2s) keeps the commanded direction: "
-        f"on tracking ({', '.join(AGAINST_LIKE)}) it is judged against the peer that keeps "
+        f"on tracking ({_like_labels()}) it is judged against the peer that keeps "
         f"it too ({', '.join(LIKE_PEERS['direction'])}: V scaled by alpha), the progress mode "
         f"against {', '.join(LIKE_PEERS['progress'])}; on every other metric every variant is "
         "judged against every peer. In the acceleration-limited scenarios the libraries "
