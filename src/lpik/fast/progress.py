@@ -377,14 +377,13 @@ def progress_in_state(state, q0, q_prev, dq):
 
 
 @njit(cache=True)
-def further_in_state(state, q0, q_prev, dq):
-    """``mode="progress"``'s second stage on the exact step a fused step left in ``state``.
+def further_in_state(state, q0, q_prev, dq1, dq):
+    """``mode="progress"``'s second stage after the exact step ``dq1``, over ``state``'s step.
 
     ``dq`` receives the step; returns ``(outcome, error before, error after)``, the
     L1 task errors of the exact step and of ``dq``.
     """
     J, dw, lower, upper, G, g = _state_rows(state, q0, q_prev)
-    dq1 = L.vector(state, L.DQ).copy()
     code = further_progress(J, dw, lower, upper, G, g, dq1, dq)
     before = least_error_value(J, dw, dq1) - _motion(dq1)
     return code, before, least_error_value(J, dw, dq) - _motion(dq)

@@ -221,6 +221,10 @@ class StallWatch:
         self.run = self.run + 1 if is_stall(result.p, along) else 0
         return self.run >= self.after
 
+    def clear(self) -> None:
+        """A step that did not stall: the count starts again."""
+        self.run = 0
+
     def check(self, result: Result, problem_of: Callable[[], Problem]) -> Result:
         """``result``, or the progress step (HiGHS) once the step has stalled ``after`` times.
 
