@@ -197,6 +197,74 @@ def braking_scale(motion: FloatArray, qdd_max: FloatArray, qd_max: FloatArray, d
     return share
 
 
+def add_target_motion(
+    dw: FloatArray, motion: FloatArray, rows: FloatArray, v_max: float, w_max: float, dt: float
+) -> None:
+    """``dw += motion``: the target's own motion over the last period, fed forward; clamped again.
+
+    Under acceleration limits the command brakes to stop on the target
+    (:func:`braking_scale`). A target that moves on is not where the arm
+    stops: braked toward each new position, the arm would lag behind a moving
+    target by its braking distance. The target's own displacement over the
+    last period (the task rows of ``[p_t - p_t,prev; log(R_t R_t,prev^T)]``)
+    is added to the braked command, so that the braking acts on the error
+    relative to the target's motion: a target moving at a constant speed is
+    tracked without lag, and one that stops is braked for as before. The sum
+    is clamped as a whole (:func:`clamp_command`, ``v_max``, ``w_max``).
+    Only consecutive steps of one loop have a target motion
+    (:class:`TargetMotion`). Plain loops: :mod:`lpik.fast` compiles this very
+    function.
+
+    Args:
+        dw: The braked, clamped command, (m,), changed in place.
+        motion: The target's motion over the last period in the task's rows, (m,).
+        rows: Index of each kept row in :data:`TASK_ROWS`, (m,).
+        v_max: Largest linear speed [m/s].
+        w_max: Largest angular speed [rad/s].
+        dt: Control period [s].
+    """
+    for k in range(rows.shape[0]):
+        dw[k] += motion[k]
+    clamp_command(dw, rows, v_max, w_max, dt, math.inf)
+
+
+class TargetMotion:
+    """The target's motion over the last period, where the step follows the last one in a loop.
+
+    A step follows the last one when its ``q_prev`` is the last step's
+    ``q0``; the same step asked again (the same ``q0`` and target) gets the
+    same motion; any other step (a first step, a jump of the state, a row of
+    a batch) has none. The fused step keeps the same memory in its state
+    (:func:`lpik.fast.command_law.target_motion`).
+    """
+
+    def __init__(self) -> None:
+        self._q: FloatArray | None = None
+        self._target: FloatArray | None = None
+        self._motion: FloatArray | None = None
+
+    def motion(
+        self, model: TaskModel, q0: FloatArray, q_prev: FloatArray | None, target: Any
+    ) -> FloatArray | None:
+        """The rows of ``[p_t - p_t,prev; log(R_t R_t,prev^T)]``, or None (remembers the step)."""
+        value = np.asarray(target, dtype=np.float64)
+        seen = self._q is not None
+        if seen and np.array_equal(q0, self._q) and np.array_equal(value, self._target):
+            return self._motion  # the same step again
+        motion = None
+        if seen and q_prev is not None and np.array_equal(q_prev, self._q):
+            motion = _target_difference(model, self._target, value)
+        self._q, self._target, self._motion = np.array(q0, dtype=np.float64), value.copy(), motion
+        return motion
+
+
+def _target_difference(model: TaskModel, before: Any, after: Any) -> FloatArray:
+    """``after - before`` in the task's rows (a pose task: the rows of its pose difference)."""
+    if getattr(model, "KIND", None) == "pose":
+        return pose_difference(before, after)[task_rows(model).astype(int)]
+    return np.asarray(model.difference(before, after), dtype=np.float64)
+
+
 def along_screw(e6: FloatArray, rows: FloatArray, scale: float) -> bool:
     """The step ``scale [dp; phi]`` of a pose difference, along its own screw, in place.
 
@@ -353,6 +421,7 @@ def commanded_displacement(
     w_max: float,
     dt: float,
     stop: tuple[FloatArray, FloatArray, FloatArray] | None = None,
+    target_motion: FloatArray | None = None,
 ) -> FloatArray:
     """The step's ``dw`` from the task value ``pose`` at ``q`` towards ``target`` (the law above).
 
@@ -367,6 +436,8 @@ def commanded_displacement(
             acceleration and velocity limits (the smaller side, inf: none): the
             command then slows down in time to stop on the target
             (:func:`braking_scale`); None: it does not.
+        target_motion: The target's motion over the last period (:class:`TargetMotion`),
+            fed forward (:func:`add_target_motion`); None: none.
     """
     if np.shape(target) != np.shape(pose):
         raise ValueError(
@@ -377,11 +448,13 @@ def commanded_displacement(
     if getattr(model, "KIND", None) != "pose":
         dw = np.array(model.difference(pose, target), dtype=np.float64)
         clamp_command(dw, rows, v_max, w_max, dt, _brake(stop, dw, dt))
-        return dw
-    e6 = pose_difference(pose, target)
-    dw = np.empty(rows.size)
-    error = np.array([e6[int(row)] for row in rows])
-    command_rows(e6, rows, dw, v_max, w_max, dt, _brake(stop, error, dt))
+    else:
+        e6 = pose_difference(pose, target)
+        dw = np.empty(rows.size)
+        error = np.array([e6[int(row)] for row in rows])
+        command_rows(e6, rows, dw, v_max, w_max, dt, _brake(stop, error, dt))
+    if target_motion is not None:
+        add_target_motion(dw, target_motion, rows, v_max, w_max, dt)
     return dw
 
 

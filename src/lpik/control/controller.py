@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 from lpik.collision import CollisionAvoidance, DistanceRows
 from lpik.collision.avoidance import INACTIVE_RHS
 from lpik.collision.model import as_avoidance
-from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
+from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX, TargetMotion
 from lpik.control.backend_step import fuses_kinematics, step_functions
 from lpik.control.inputs import (
     TARGET_SHAPES,
@@ -685,6 +685,7 @@ class Lp2Controller:
         fallback: dict[int, Result] = {}
         for b in np.nonzero(again)[0].tolist():
             prev = None if Qp is None else Qp[b]
+            self._forget_target()  # rows are independent: no target motion between them
             res = self.step(Q0[b], T[b], prev, watch=False)
             if self._watch_stall or self._further:  # the stall stage, row by row
                 res = self._stalled(res, Q0[b], prev, count=False)
@@ -697,6 +698,11 @@ class Lp2Controller:
             binding_codes=outs[:, self._label_at].astype(np.int64), _labels=lambda b: table,
             _fallback=fallback, residual=residual, method=self.method,
         )  # fmt: skip
+
+    def _forget_target(self) -> None:
+        """The next step has no target motion to feed forward (:class:`TargetMotion`)."""
+        self._state[int(self._state[layout.MEMORY])] = 0.0
+        self.stepper.target_motion = TargetMotion()
 
     # -- inputs and the problem -----------------------------------------------------------
 

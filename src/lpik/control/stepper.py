@@ -38,6 +38,7 @@ from lpik.command import (
     DEFAULT_V_MAX,
     DEFAULT_W_MAX,
     ClampedTarget,
+    TargetMotion,
     commanded_displacement,
     second_order_term,
     task_rows,
@@ -201,6 +202,8 @@ class Stepper:
         self.clamped = False
         #: Wall time [s] of the last :meth:`step`'s method, bound policy and stall stages.
         self.solve_time = 0.0
+        #: The target's motion between consecutive steps, fed forward under acceleration limits.
+        self.target_motion = TargetMotion()
 
     # -- the stages ---------------------------------------------------------------------
 
@@ -222,8 +225,10 @@ class Stepper:
             dw = np.array(target(model, q0, self.dt), dtype=np.float64)
         else:
             stop = None if J is None or self.stop_rates is None else (J, *self.stop_rates)
-            dw = commanded_displacement(model, model.pose(q0), task_value(model, target),
-                                        v_max, w_max, self.dt, stop)  # fmt: skip
+            value = task_value(model, target)
+            motion = None if stop is None else self.target_motion.motion(model, q0, q_prev, value)
+            dw = commanded_displacement(model, model.pose(q0), value, v_max, w_max, self.dt,
+                                        stop, motion)  # fmt: skip
         if self.second_order and q_prev is not None:
             dw -= second_order_term(model, q_prev, q0)
         return dw

@@ -29,6 +29,10 @@ command_rows = compiled_twin(
 least_motion = njit(cache=True)(command.least_motion)
 #: The braking share of the command (:func:`lpik.command.braking_scale`).
 braking_scale = compiled_twin(command.braking_scale, braking_room=njit(cache=True)(braking_room))
+#: The target's motion fed forward (:func:`lpik.command.add_target_motion`).
+add_target_motion = compiled_twin(
+    command.add_target_motion, clamp_command=njit(cache=True)(command.clamp_command)
+)
 #: Whether a target commands every row of the task (:func:`lpik.command.target_fits`).
 target_fits = njit(cache=True)(command.target_fits)
 #: The last step's second-order term (:func:`lpik.command.second_order_rows`).
@@ -138,3 +142,43 @@ def braking_share(state, J, e6, rows):
         stop[2, i] = min(limits[3, i], -limits[2, i])
     least_motion(J, error, stop[0], L.matrix_at(state, L.STOP_SCRATCH, m, m + 1))
     return braking_scale(stop[0], stop[1], stop[2], state[L.DT])
+
+
+@njit(cache=True)
+def target_motion(state, q0, q_prev, goal):
+    """The target's motion over the last period, where the step follows the last one.
+
+    :class:`lpik.command.TargetMotion`'s rule on the state's ``memory*``
+    blocks: a step whose ``q_prev`` is the last step's ``q0`` gets the pose
+    error from the last goal to ``goal``; the same step asked again (the same
+    ``q0`` and goal) gets the same; any other step none. Returns the
+    ``target_motion`` block (entry 0: 1 where the target moved, then
+    ``[dp; log]`` and its task rows from entry 7); remembers this step.
+    """
+    n = q0.shape[0]
+    memory, seen_q = L.vector(state, L.MEMORY), L.vector(state, L.MEMORY_Q)
+    seen_goal, motion = L.matrix_at(state, L.MEMORY_GOAL, 4, 4), L.vector(state, L.TARGET_MOTION)
+    if memory[0] != 0.0 and _equal(q0, seen_q, n) and _equal(goal.ravel(), seen_goal.ravel(), 16):
+        return motion  # the same step again
+    motion[0] = 0.0
+    if memory[0] != 0.0 and _equal(q_prev, seen_q, n):
+        pose_error(seen_goal, goal, motion[1:7], L.vector(state, L.LOG_SCRATCH))
+        rows = L.vector(state, L.ROW_INDEX)
+        for k in range(rows.shape[0]):
+            motion[7 + k] = motion[1 + int(rows[k])]
+        motion[0] = 1.0
+    for i in range(n):
+        seen_q[i] = q0[i]
+    for a in range(4):
+        for b in range(4):
+            seen_goal[a, b] = goal[a, b]
+    memory[0] = 1.0
+    return motion
+
+
+@njit(cache=True)
+def _equal(a, b, size):
+    for i in range(size):
+        if a[i] != b[i]:
+            return False
+    return True

@@ -51,8 +51,10 @@ LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(42, 50)
 STOP, STOP_SCRATCH, LAST, ORIGIN, SAFE = range(50, 55)
 # the kinematics at the last step's q0, and the second-order term
 PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(55, 59)
+# the last step's q0 and goal, and the target's motion since (fed forward under acc. limits)
+MEMORY, MEMORY_Q, MEMORY_GOAL, TARGET_MOTION = range(59, 63)
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 59
+END = 63
 #: Length of the header.
 HEADER = END + 1
 
@@ -140,6 +142,10 @@ BLOCKS = (
     Block(PREV_FRAME, "prev_frame", (4, 4), "the task frame at prev_q"),
     Block(PREV_JACOBIAN6, "prev_jacobian6", (6, "n"), "the world-aligned Jacobian at prev_q"),
     Block(RHO, "rho", (2, "m"), "J(q_prev) (q0 - q_prev), and the second-order term"),
+    Block(MEMORY, "memory", (1,), "1: memory_q and memory_goal hold the last step's (0: none)"),
+    Block(MEMORY_Q, "memory_q", ("n",), "the last step's q0"),
+    Block(MEMORY_GOAL, "memory_goal", (4, 4), "the last step's goal"),
+    Block(TARGET_MOTION, "target_motion", (13,), "1: the target moved; [dp; log]; its task rows"),
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.
 OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "bound", "bounded",

@@ -34,11 +34,13 @@ from lpik.continuation import motion_decay as _motion_decay
 from lpik.fast import layout as L
 from lpik.fast.autobound import bound_in_state
 from lpik.fast.command_law import (
+    add_target_motion,
     braking_share,
     command_rows,
     previous_kinematics,
     take_off_second_order,
     target_fits,
+    target_motion,
 )
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
 from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core
@@ -371,10 +373,14 @@ def task_step(state, q0, q_prev, target):
         row = int(rows[k])
         for i in range(n):
             J[k, i] = J6[row, i]
-    brake = math.inf
+    brake, moved = math.inf, False
     if L.vector(state, L.CONTINUATION)[0] != 0.0:
         brake = braking_share(state, J, e6, rows)
+        moved = target_motion(state, q0, q_prev, goal)[0] != 0.0
     command_rows(e6, rows, dw, state[L.V_MAX], state[L.W_MAX], state[L.DT], brake)
+    if moved:
+        motion = L.vector(state, L.TARGET_MOTION)
+        add_target_motion(dw, motion[7 : 7 + m], rows, state[L.V_MAX], state[L.W_MAX], state[L.DT])
     if L.vector(state, L.SECOND_ORDER)[0] != 0.0:
         take_off_second_order(state, q0, q_prev, rows, J6, dw)
     position = L.vector(state, L.POSITION)
@@ -454,5 +460,6 @@ def chain_step_batch(state, q0, q_prev, targets, outs, codes, chunks):
     for chunk in prange(chunks):
         local = state.copy()
         for b in range(chunk * B // chunks, (chunk + 1) * B // chunks):
+            local[int(local[L.MEMORY])] = 0.0  # rows are independent: no target motion
             codes[b] = _chain_step_any(local, q0[b], q_prev[b], targets[b])
             L.copy_out(local, outs, b)
