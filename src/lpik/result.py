@@ -38,9 +38,11 @@ STATUSES: dict[str, str] = {
     "a speed above its limit); the step moves it back as fast as the limits allow and p is "
     "the fraction of the command the other joints achieve (J dq = p dw); where they cannot "
     "hold the task even at p = 0, the step is the safe step (p = 0, residual = |J dq|)",
-    OFF_DIRECTION: "on_stall only: p = 0 had lasted; the step reduces the task error as much "
-    "as every limit allows (least L1 error), not along the commanded direction; p = 0 and "
-    "residual = max |J dq - dw|, what remains of the command",
+    OFF_DIRECTION: "the step left the commanded direction to reduce the task error as much as "
+    "every limit allows (least L1 error): the stall stage's progress step, where the exact "
+    "step had stalled (on_stall; p = 0), or mode='progress''s second stage after the exact "
+    "step (p and binding are the exact step's); residual = max |J dq - dw|, what remains of "
+    "the command",
     INFEASIBLE: "no step meets the method's conditions and every limit, not even p = 0; "
     "the safe step",
     SINGULAR: "the method's linear system is singular; the safe step",

@@ -17,34 +17,21 @@ step is the recovery of :mod:`lpik.collision.recovery` (status ``recovering``,
 naming the pair, the distance growing back at the damper's rate): the
 compiled step where it keeps the direction and the rows, else the recovery
 step on the step's problem, its LP compiled
-(:func:`lpik.fast.progress.least_error`).
+(:func:`lpik.fast.progress.least_error`); the recovery stage is
+:class:`~lpik.control.controller.Lp2Controller`'s, for every controller with a scene.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik.collision.avoidance import INACTIVE_RHS
-from lpik.collision.recovery import inside_pairs
 from lpik.control.controller import Lp2Controller, SceneRows, StateRows
-from lpik.fast.progress import SOLVED, least_error
-from lpik.result import INFEASIBLE, OPTIMAL, Result
 from lpik.robots.base import TaskModel
-from lpik.types import FloatArray
 
 __all__ = ["INACTIVE_RHS", "AvoidingLp2Controller", "SceneRows", "StateRows"]
-
-
-def compiled_least_error(*arrays: Any) -> tuple[str, FloatArray]:
-    """:func:`lpik.fast.progress.least_error` as the recovery's LP takes it: ``(status, dq)``.
-
-    ``arrays``: ``J, target, lower, upper, G, g`` (:data:`lpik.collision.recovery.LeastError`).
-    """
-    code, dq = least_error(*arrays)
-    return (OPTIMAL if code == SOLVED else INFEASIBLE), dq
 
 
 class AvoidingLp2Controller(Lp2Controller):
@@ -75,45 +62,3 @@ class AvoidingLp2Controller(Lp2Controller):
             raise ValueError("scene: expected a Scene or a CollisionAvoidance, got None")
         super().__init__(model, dt=dt, scene=scene, home=home,
                          compiled_distances=compiled_distances, **options)  # fmt: skip
-
-    def step(
-        self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, watch: bool = True
-    ) -> Result:
-        """The compiled step; from inside the safety distance, then the recovery stage.
-
-        :meth:`lpik.control.controller.Lp2Controller.step`, then
-        :meth:`lpik.collision.CollisionAvoidance.recovered` on the step's problem.
-        """
-        result = super().step(q0, target, q_prev, watch=watch)
-        avoidance = self.avoidance
-        if avoidance is None or not self.inside(q0):
-            return result
-        problem = self.problem(q0, target, q_prev)
-        return avoidance.recovered(problem, result, self.dt, compiled_least_error)
-
-    def step_into(
-        self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None, *, out: FloatArray
-    ) -> float:
-        """:meth:`lpik.control.controller.Lp2Controller.step_into`, with :meth:`step`'s recovery.
-
-        From inside the safety distance the step is :meth:`step`'s (a Result).
-        """
-        p = super().step_into(q0, target, q_prev, out=out)
-        if not self.inside(q0):
-            return p
-        self._last, self._last_code = self.step(q0, target, q_prev), -1
-        out[...] = self._last.q
-        return self._last.p
-
-    def inside(self, q0: ArrayLike) -> dict[str, float]:
-        """The pairs inside the safety distance at ``q0``, just stepped from: label -> distance.
-
-        Read from the compiled step's distances where it computes them, else from
-        coal's (which the step's rows have just asked for at ``q0``).
-        """
-        avoidance = self.avoidance
-        if avoidance is None:
-            return {}
-        if self.found is None:
-            return avoidance.inside(np.asarray(q0, dtype=np.float64))
-        return inside_pairs(self.pair_labels, self.found[:, 0], avoidance.scene.safety_distance)

@@ -31,9 +31,10 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from lpik.collision import CollisionAvoidance, DistanceRows
+from lpik.collision import CollisionAvoidance
 from lpik.collision.avoidance import INACTIVE_RHS
 from lpik.collision.model import as_avoidance
+from lpik.collision.recovery import inside_pairs
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX, TargetMotion
 from lpik.control.backend_step import fuses_kinematics, step_functions
 from lpik.control.inputs import (
@@ -53,14 +54,14 @@ from lpik.fast.batch import BatchResult
 from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.outcome import compiled_result
-from lpik.fast.progress import SOLVED, further_in_state, progress_in_state
+from lpik.fast.progress import SOLVED, further_in_state, least_error, progress_in_state
 from lpik.fast.step import BAD_INPUT
 from lpik.labels import step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
 from lpik.methods.progress import is_stall, progress_result, share_along
 from lpik.problem import Problem, reference_configuration
-from lpik.result import OFF_DIRECTION, OPTIMAL, Result
+from lpik.result import INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import FULL_P, STALL_P
 from lpik.types import FloatArray
@@ -104,7 +105,7 @@ class SceneRows:
 
     def __init__(self, model: TaskModel, avoidance: CollisionAvoidance) -> None:
         self.avoidance = avoidance
-        self._rows = DistanceRows(avoidance.proximities, avoidance.approach_speed)
+        self._rows = avoidance.rows()  # with the field alone: the pairs inside d_s
         probe = avoidance.proximities.at(
             np.clip(np.zeros(model.n_joints), model.q_min, model.q_max)
         )
@@ -134,13 +135,21 @@ class SceneRows:
         """This step's rows (and force) by coal into the state buffer."""
         self.G[:] = 0.0
         self.h[:] = INACTIVE_RHS
-        if self.avoidance.mechanism != "field":
-            pairs, G, h = self._rows.pair_rows(q0, dt)
-            self.G[pairs] = G
-            self.h[pairs] = h
+        pairs, G, h = self._rows.pair_rows(q0, dt)
+        self.G[pairs] = G
+        self.h[pairs] = h
         weights = self.avoidance.weights({"f": self._f0}, q0, dt, self.model.jacobian(q0))
         self._f[:] = weights["f"]
         self._stepper.weights["f"] = weights["f"]
+
+
+def compiled_least_error(*arrays: Any) -> tuple[str, FloatArray]:
+    """:func:`lpik.fast.progress.least_error` as the recovery's LP takes it: ``(status, dq)``.
+
+    ``arrays``: ``J, target, lower, upper, G, g`` (:data:`lpik.collision.recovery.LeastError`).
+    """
+    code, dq = least_error(*arrays)
+    return (OPTIMAL if code == SOLVED else INFEASIBLE), dq
 
 
 class Lp2Controller:
@@ -330,7 +339,7 @@ class Lp2Controller:
         #: path of :meth:`step` copies it and fills in the numbers.
         self._optimal_fields = dict(
             compiled_result(OK, np.empty(0), np.empty(0), 0.0, None, None, None, self.method,
-                            0.0, 0.0).__dict__
+                            0.0, 0.0, 1.0).__dict__
         )  # fmt: skip
         return layout.pack(
             n, m, template.G.shape[0],
@@ -352,6 +361,7 @@ class Lp2Controller:
         self._q, self._dq, self._lam = fields["q"], fields["dq"], fields["lam"]
         self._p, self._label_at = fields["p"].start, fields["label"].start
         self._residual, self._outside = fields["residual"].start, fields["outside"].start
+        self._pull_scale_at = fields["pull_scale"].start
         self._bounded_at, self._bound_at = fields["bounded"].start, fields["bound"]
         self._dw = fields["dw"]
         self._q_view = self._out[self._q]  # the kernel's q, for step_into
@@ -412,15 +422,44 @@ class Lp2Controller:
             fields["lam"] = out[self._lam]
             fields["binding"] = None if label < 0 else self._labels[int(label)]
             fields["residual"] = out.item(self._residual)
+            fields["pull_scale"] = out.item(self._pull_scale_at)
             fields["solve_time"] = perf_counter() - start
             result = Result.trusted(fields)
         else:
             result = self._not_optimal(code, q0, target, q_prev, start)
         if self.automatic_bound is not None and result.p < FULL_P:
             result = self._bounded(q0, target, q_prev, result)
-        if not watch or not (self._watch_stall or self._further):
+        if watch and (self._watch_stall or self._further):
+            result = self._stalled(result, q0, q_prev, count=True)
+        if self.scene_rows is None:
             return result
-        return self._stalled(result, q0, q_prev, count=True)
+        return self._recovered(q0, target, q_prev, result)
+
+    def _recovered(self, q0: Any, target: Any, q_prev: Any, result: Result) -> Result:
+        """The recovery stage: from inside the scene's safety distance the distance grows back.
+
+        :meth:`lpik.collision.CollisionAvoidance.recovered` (the rule of
+        :mod:`lpik.collision.recovery`) on the step's problem, its LP compiled
+        (:func:`lpik.fast.progress.least_error`); ``result`` where no pair is inside.
+        """
+        avoidance = self.avoidance
+        if avoidance is None or not self.inside(q0):
+            return result
+        problem = self.problem(q0, target, q_prev)
+        return avoidance.recovered(problem, result, self.dt, compiled_least_error)
+
+    def inside(self, q0: ArrayLike) -> dict[str, float]:
+        """The pairs inside the safety distance at ``q0``, just stepped from: label -> distance.
+
+        Read from the compiled step's distances where it computes them, else from
+        coal's (which the step's rows have just asked for at ``q0``); empty without a scene.
+        """
+        avoidance = self.avoidance
+        if avoidance is None:
+            return {}
+        if self.found is None:
+            return avoidance.inside(np.asarray(q0, dtype=np.float64))
+        return inside_pairs(self.pair_labels, self.found[:, 0], avoidance.scene.safety_distance)
 
     def _run(self, q0: Any, target: Any, q_prev: Any) -> int:
         """The kernel on the step's inputs (converted where they are not its arrays)."""
@@ -477,6 +516,15 @@ class Lp2Controller:
                 f"out: must be a float64 array of shape ({self._n},), got "
                 f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
             )
+        p = self._step_into(q0, target, q_prev, out)
+        if self.scene_rows is None or not self.inside(q0):
+            return p
+        self._last, self._last_code = self.step(q0, target, q_prev), -1  # the recovery stage
+        out[...] = self._last.q
+        return self._last.p
+
+    def _step_into(self, q0: Any, target: Any, q_prev: Any, out: FloatArray) -> float:
+        """:meth:`step_into` but for the recovery stage."""
         if self._further or self._python_bound:  # a Result
             self._last, self._last_code = self.step(q0, target, q_prev), -1
             out[...] = self._last.q
@@ -535,7 +583,7 @@ class Lp2Controller:
                 code, out[self._q], out[self._dq], out.item(self._p), out[self._lam],
                 None if label < 0 else self._labels[label],
                 self._labels[outside].outside() if outside >= 0 else None, self.method,
-                out.item(self._residual), perf_counter() - start,
+                out.item(self._residual), perf_counter() - start, out.item(self._pull_scale_at),
             )  # fmt: skip
         if code == BAD_INPUT:
             self._converted(q0, target, q_prev, check_finite=True)  # raises, naming the input
@@ -680,8 +728,10 @@ class Lp2Controller:
         q, dq = outs[:, self._q].copy(), outs[:, self._dq].copy()
         lam, p = outs[:, self._lam].copy(), outs[:, self._p].copy()
         residual = outs[:, self._residual].copy()
+        pull_scale = outs[:, self._pull_scale_at].copy()
         infeasible = codes == KERNEL_INFEASIBLE
         p[infeasible], lam[infeasible] = 0, np.nan  # q, dq: the kernel's safe step
+        pull_scale[infeasible] = 1.0
         fallback: dict[int, Result] = {}
         for b in np.nonzero(again)[0].tolist():
             prev = None if Qp is None else Qp[b]
@@ -691,12 +741,13 @@ class Lp2Controller:
                 res = self._stalled(res, Q0[b], prev, count=False)
             fallback[b] = res
             q[b], dq[b], p[b], residual[b] = res.q, res.dq, res.p, res.residual
+            pull_scale[b] = res.pull_scale
             lam[b] = np.nan if res.lam is None else res.lam
         table = self._labels
         return BatchResult(
             q=q, dq=dq, p=p, lam=lam, codes=codes,
             binding_codes=outs[:, self._label_at].astype(np.int64), _labels=lambda b: table,
-            _fallback=fallback, residual=residual, method=self.method,
+            _fallback=fallback, residual=residual, method=self.method, pull_scale=pull_scale,
         )  # fmt: skip
 
     def _forget_target(self) -> None:

@@ -9,6 +9,7 @@ A step goes through named stages, each written once::
     bound policy result under the automatic multiplier bound where it applies (sec. 3.2)
     stall        the progress step once the step has stalled (on_stall; mode="progress": after
                  every exact step with p < 1, the least error the limits leave)
+    recovery     from inside a scene's safety distance, the distance grows back (lpik.collision)
     applied      a classical step clamped to the end-stops the machine cannot pass
 
 :class:`Stepper` runs them with the numpy layers (the *numpy engine*).
@@ -59,7 +60,7 @@ from lpik.limits import (
     build_problem,
 )
 from lpik.methods.autobound import bound_for_step
-from lpik.methods.progress import StallWatch, further_step
+from lpik.methods.progress import StallWatch, further_step, least_error_lp
 from lpik.methods.registry import DEFAULT_METHOD, MethodSpec, get_method
 from lpik.problem import Problem
 from lpik.result import VIOLATES_LIMITS, Result
@@ -302,6 +303,17 @@ class Stepper:
             return checked
         return further_step(problem_of(), result, solver=self._solver)
 
+    def recovered(self, problem: Problem, result: Result) -> Result:
+        """The recovery stage: from inside a scene's safety distance, the distance grows back.
+
+        :meth:`lpik.collision.CollisionAvoidance.recovered` (the rule of
+        :mod:`lpik.collision.recovery`), its LP :func:`lpik.methods.progress.least_error_lp`.
+        """
+        if self.avoidance is None:
+            return result
+        least_error = partial(least_error_lp, solver=self._solver)
+        return self.avoidance.recovered(problem, result, self.dt, least_error)
+
     def applied(self, problem: Problem, result: Result) -> Result:
         """The applied stage: a classical step that breaks an end-stop, clamped to it.
 
@@ -334,7 +346,7 @@ class Stepper:
         problem = self.problem(q, target, prev)
         start = time.perf_counter()
         result = self.bounded(problem, self.solve(problem))
-        result = self.stalled(result, lambda: problem)
+        result = self.recovered(problem, self.stalled(result, lambda: problem))
         self.solve_time = time.perf_counter() - start
         return self.applied(problem, result)
 

@@ -43,7 +43,7 @@ from lpik.fast.command_law import (
     target_motion,
 )
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
-from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core
+from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core, pull_scale_of
 from lpik.fast.saturation import lp2s_core
 from lpik.fast.signatures import loaded_kernel, typed_kernel
 from lpik.fast.twins import compiled_twin, inlined_twin, rebound
@@ -267,6 +267,7 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     state[int(state[L.LABEL])] = label
     state[int(state[L.RESIDUAL])] = residual
     state[int(state[L.OUTSIDE])] = outside
+    state[int(state[L.PULL_SCALE])] = pull_scale_of(ws, n, m, r) if code == OK else 1.0
     return code
 
 
