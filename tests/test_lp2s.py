@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from core_reference import SATURATION_ROUNDING, bracket, hard_violation, lp2_reference
 from core_strategies import Case, cases, examples
@@ -164,7 +165,7 @@ def test_the_paper_pull_in_keeps_p_at_one() -> None:
     """LP2 stops at joint 1's end-stop (p -> 0, x = 1.83 m); saturated, the other joints pull
     the tool in all the way along the commanded line, smoothly."""
     setup = get_scenario("pull-in").setup(PLANAR)
-    plain, sat = setup.run("lp2"), setup.run("lp2s")
+    plain, sat = setup.run("lp2", on_stall=None), setup.run("lp2s", on_stall=None)  # strict steps
     assert (plain.p == 0).any() and (sat.p == 1).all()
     assert sat.position_end[0] < 1.3 < plain.position_end[0]
     assert np.allclose(sat.position[:, 1], sat.position[0, 1], atol=1e-3)  # on the line, to 1 mm
@@ -176,8 +177,8 @@ def test_the_paper_pull_in_keeps_p_at_one() -> None:
 def test_the_controller_saturates_as_simulate_does(robot: str) -> None:
     pytest.importorskip("numba")
     setup = get_scenario("pull-in").setup(robot)
-    log = setup.run("lp2s")
-    controller = setup.controller(saturate=True)
+    log = setup.run("lp2s", on_stall=None)  # the saturating method itself, no stall stage
+    controller = setup.controller(saturate=True, on_stall=None)
     q, prev = setup.q0.copy(), None
     for k in range(setup.steps):
         res = controller.step(q, setup.target, prev)
@@ -240,3 +241,32 @@ def test_the_highs_path_never_names_a_saturated_joint(case: Case) -> None:
         named = res.binding
         assert not (named is not None and named.kind in ("end-stop", "velocity", "acceleration")
                     and named.index == joint), (path, named)  # fmt: skip
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_a_pass_pays_only_for_motion_in_proportion_to_the_p_it_gains(seed: int) -> None:
+    """worth_it (numpy) and the compiled passes' twin decide alike.
+
+    A sliver of p for a large swing of the joints (the step-input jitter of
+    benchmarks/quality.py, scenario 4) does not pay.
+    """
+    from lpik.fast.saturation import _worth_it
+    from lpik.methods.lp2s import worth_it
+    from lpik.result import Result
+    from lpik.tolerances import SATURATION_MAX_PRICE
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 8))
+    dq1, dq2 = rng.normal(size=n), rng.normal(size=n) * 10.0 ** rng.uniform(-3, 1)
+    p1 = float(rng.uniform(0.0, 1.0))
+    p2 = min(1.0, p1 + float(10.0 ** rng.uniform(-6, 0)))
+
+    def result(dq: np.ndarray, p: float) -> Result:
+        return Result(status=OPTIMAL, q=dq, dq=dq, p=p, lam=None, binding=None, method="lp2")
+
+    says = worth_it(result(dq1, p1), result(dq2, p2))
+    assert says == _worth_it(np.r_[dq1, 0.0], dq2, p1, p2)
+    price = np.linalg.norm(dq2 - dq1) / (p2 - p1) / (np.linalg.norm(dq1) / p1)
+    if abs(price / SATURATION_MAX_PRICE - 1.0) > 1e-9:  # (not on the edge, where rounding decides)
+        assert says == (price <= SATURATION_MAX_PRICE)

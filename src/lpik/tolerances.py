@@ -49,6 +49,12 @@ MAX_SCHUR_CONDITION = 1e10
 #: the last free joints across their bounds, and rounding of the order of this times
 #: the machine epsilon breaks ``J dq = p dw``: at 1e8 it stays within 1e-7 of ``|dw|``.
 SATURATION_MAX_CONDITION = 1e8
+#: LP2 with saturation takes a later pass only where the joint motion it adds per unit of
+#: task motion it gains, ``|dq' - dq| / ((p' - p) |dw|)``, is at most this many times that of
+#: the step so far, ``|dq| / (p |dw|)``. A pass through a nearly singular free-joint system
+#: gains a sliver of ``p`` for a large null-space swing, and whether it is taken flips from
+#: step to step (quality suite, scenario 4: +0.1 % of ``p`` for 2 rad/s on four joints).
+SATURATION_MAX_PRICE = 10.0
 #: On LP2's singular path, a singular value of ``J L^-T`` (``H = L L^T``) at or below this
 #: share of the largest counts as 0 (``J`` has the lower rank; what is left is rounding).
 #: Above it the decomposition solves eq. 18 exactly, however ill-conditioned.

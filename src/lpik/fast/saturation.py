@@ -9,6 +9,8 @@ their tie-breaking are those of the numpy method, which the tests hold equal.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, prange
 
@@ -23,7 +25,12 @@ from lpik.fast.lp2_kernel import (
     pull_scale_of,
 )
 from lpik.fast.workspace import PULL_SCALE, vector
-from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION, SATURATION_MAX_CONDITION
+from lpik.tolerances import (
+    FULL_P,
+    MAX_SCHUR_CONDITION,
+    SATURATION_MAX_CONDITION,
+    SATURATION_MAX_PRICE,
+)
 
 
 @njit(cache=True)
@@ -48,6 +55,23 @@ def _restore(dq, lam, best):
         dq[i] = best[i]
     for k in range(lam.shape[0]):
         lam[k] = best[n + k]
+
+
+@njit(cache=True)
+def _worth_it(best, dq, p_before, p_after):
+    """:func:`lpik.methods.lp2s.worth_it`: whether the pass ``dq`` at ``p_after`` pays.
+
+    Against the step kept in ``best[:n]`` at ``p_before``; plain loops.
+    """
+    if p_before <= 0.0:
+        return True
+    added = 0.0
+    before = 0.0
+    for i in range(dq.shape[0]):
+        added += (dq[i] - best[i]) ** 2
+        before += best[i] ** 2
+    gain = p_after - p_before
+    return math.sqrt(added) <= SATURATION_MAX_PRICE * gain * math.sqrt(before) / p_before
 
 
 @njit(cache=True)
@@ -107,6 +131,10 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
             binding = binding2
             continue
         if code2 != OK or (not stuck and p2 < p):  # keep the best pass (SINGULAR: no redundancy)
+            _restore(dq, lam, best)
+            pull[0] = best_pull
+            break
+        if not stuck and not _worth_it(best, dq, p, p2):  # the pass does not pay
             _restore(dq, lam, best)
             pull[0] = best_pull
             break

@@ -12,7 +12,10 @@ repeated until the command is met, or what stops it is not a joint's bound
 (fewer free joints than task rows, or a free joints' Jacobian so ill-conditioned
 that eq. 18's Schur complement fails :data:`~lpik.tolerances.SATURATION_MAX_CONDITION`:
 there the last few free joints would race at their velocity limits for a
-sliver of ``p``, and rounding would break ``J dq = p dw``).
+sliver of ``p``, and rounding would break ``J dq = p dw``), or the pass does not
+pay (:func:`worth_it`): it would swing the joints far more per unit of ``p``
+gained than the step so far moves them, a nearly singular free-joint system
+whose pass is taken on one step and not on the next (joint-velocity jitter).
 
 Each pass starts from the previous one's answer: at ``p*`` the fixed joint sits
 exactly at its bound and the other joints' criterion rows hold, so that answer
@@ -25,6 +28,8 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
+
 from lpik.continuation import around_motion
 from lpik.highs import HighsSolver
 from lpik.methods.assembly import finish
@@ -33,7 +38,7 @@ from lpik.methods.kkt import affine_solution
 from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, Result, safe_step
-from lpik.tolerances import FULL_P, SATURATION_MAX_CONDITION
+from lpik.tolerances import FULL_P, SATURATION_MAX_CONDITION, SATURATION_MAX_PRICE
 
 
 def joint_bound_index(problem: Problem) -> dict[str, tuple[int, int]]:
@@ -120,8 +125,24 @@ def saturation_passes(
             continue  # saturate the next conflict
         if not (current_result.moved and (stuck or current_result.p >= best.p)):
             break
+        if not stuck and not worth_it(best, current_result):
+            break
         best, best_problem, stuck = current_result, current, False
     return best, best_problem
+
+
+def worth_it(before: Result, after: Result) -> bool:
+    """Whether a later pass pays for the motion it adds.
+
+    The joint motion it adds per unit of ``p`` gained must be at most
+    :data:`~lpik.tolerances.SATURATION_MAX_PRICE` times that of the step before it
+    (a nearly singular free-joint system swings the joints for a sliver of ``p``).
+    """
+    if before.p <= 0.0:  # from a standstill any motion the pass finds is worth it
+        return True
+    gain = after.p - before.p
+    added = float(np.linalg.norm(after.dq - before.dq))
+    return added <= SATURATION_MAX_PRICE * gain * float(np.linalg.norm(before.dq)) / before.p
 
 
 def _renamed(result: Result) -> Result:
