@@ -23,7 +23,9 @@ def test_a_run_with_a_scene_writes_min_distance_and_closest(tmp_path, capsys, av
     args = ["simulate", "pull-in", "--scene", str(scene), "--avoid", avoid, "--steps", "250"]
     assert main([*args, "--out", str(out)]) == 0
     rows = list(csv.DictReader(out.open(encoding="utf-8")))
-    assert list(rows[0])[-2:] == ["min_distance", "closest"]
+    # the scene's two columns, then the log's last: the share of sec. 3.1's pull each step took
+    assert list(rows[0])[-3:] == ["min_distance", "closest", "pull_scale"]
+    assert all(0.0 <= float(r["pull_scale"]) <= 1.0 for r in rows)
     assert min(float(r["min_distance"]) for r in rows) >= 0.05 - 1e-3
     assert {r["closest"] for r in rows} <= {f"link {i} - ball" for i in range(1, 5)} | {
         "link 1 - link 3", "link 1 - link 4", "link 2 - link 4"}  # fmt: skip

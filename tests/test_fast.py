@@ -23,7 +23,13 @@ from lpik.highs import HighsSolver  # noqa: E402
 from lpik.methods.lp2 import PATHS, affine_solution, lp2  # noqa: E402
 from lpik.methods.lp2s import lp2s  # noqa: E402
 from lpik.problem import Problem  # noqa: E402
-from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, SOLVER_ERROR  # noqa: E402
+from lpik.result import (  # noqa: E402
+    INFEASIBLE,
+    OFF_DIRECTION,
+    OPTIMAL,
+    RECOVERING,
+    SOLVER_ERROR,
+)
 from lpik.robots.base import TaskModel  # noqa: E402
 from lpik.robots.planar import planar_arm  # noqa: E402
 from lpik.tolerances import EQUALITY_RTOL  # noqa: E402
@@ -392,7 +398,12 @@ def test_batch_rejects_what_is_not_a_problem() -> None:
 
 
 def _closed_loop_matches(controller, q, target, steps: int) -> dict[str, int]:
-    """Run the compiled controller and, on every step, the numpy layers; they must agree."""
+    """Run the compiled controller and, on every step, the numpy layers; they must agree.
+
+    The controller takes the strict step (``on_stall=None``): ``lp2``/``lp2s`` on its
+    problem is the method its kernel compiles. The default's stall stage is held equal
+    to the numpy Stepper in tests/test_progress_compiled.py.
+    """
     seen = {"compiled": 0, "binding": 0, "infeasible": 0}
     q_prev = None
     reference = lp2s if controller.method == "lp2s" else lp2
@@ -426,7 +437,7 @@ def test_controller_equals_numpy_layers_planar(saturate: bool) -> None:
     arm = planar_arm([1, 1, 1, 1], q_min=np.deg2rad([-180, -180, -180, -180]),
                      q_max=np.deg2rad([95, 180, 180, 180]), qd_max=1.0)  # fmt: skip
     controller = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5,
-                               saturate=saturate)  # fmt: skip
+                               saturate=saturate, on_stall=None)  # fmt: skip
     seen = _closed_loop_matches(controller, np.deg2rad([60.0, -30, -30, -30]),
                                 np.array([0.2, 0.866, 0.0]), 400)  # fmt: skip
     assert seen["compiled"] == 400 and (saturate or seen["binding"] > 50)
@@ -439,7 +450,8 @@ def test_controller_equals_numpy_layers_planar_pose(saturate: bool) -> None:
 
     arm = planar_arm([1, 1, 1, 1], q_min=np.deg2rad([-180, -180, -180, -180]),
                      q_max=np.deg2rad([95, 180, 180, 180]), qd_max=1.0, task="pose")  # fmt: skip
-    controller = Lp2Controller(arm, dt=0.01, v_max=0.5, w_max=1.0, qdd_max=30.0, saturate=saturate)
+    controller = Lp2Controller(arm, dt=0.01, v_max=0.5, w_max=1.0, qdd_max=30.0, saturate=saturate,
+                               on_stall=None)  # fmt: skip
     target = _planar_pose(0.2, 0.866, np.pi / 2)
     seen = _closed_loop_matches(controller, np.deg2rad([60.0, -30, -30, -30]), target, 400)
     assert seen["compiled"] == 400 and (saturate or seen["binding"] > 50)
@@ -464,7 +476,8 @@ def test_controller_equals_numpy_layers_panda(saturate: bool) -> None:
     target = panda.pose(q)
     target[:3, 3] += [0.3, -0.2, -0.2]
     controller = Lp2Controller(panda, dt=0.001, v_max=0.5, w_max=1.0, qdd_max=10.0,
-                               Lambda=np.full(7, 1e-4), saturate=saturate)  # fmt: skip
+                               Lambda=np.full(7, 1e-4), saturate=saturate,
+                               on_stall=None)  # fmt: skip
     seen = _closed_loop_matches(controller, q, target, 600)
     assert seen["compiled"] == 600 and seen["binding"] > 10
 
@@ -533,8 +546,11 @@ def test_controller_converts_other_inputs_to_the_same_step() -> None:
         assert (got.p, got.status, got.binding) == (ref.p, ref.status, ref.binding)
     whole = np.array([0, 0, 0, -2, 0, 2, 1])  # integers
     by_int = controller.step(whole, target)
-    assert by_int.status == OPTIMAL
-    np.testing.assert_array_equal(by_int.q, controller.step(whole.astype(float), target).q)
+    by_float = controller.step(whole.astype(float), target)
+    # From rest the acceleration limits leave p below STALL_P with no motion along the
+    # command: by default (on_stall=1) the stall stage takes the progress step
+    assert by_int.status == by_float.status == OFF_DIRECTION
+    np.testing.assert_array_equal(by_int.q, by_float.q)
     # xyz, a rotation and a pose address the same compiled step of a position task.
     position = Lp2Controller(_panda("position"), dt=0.001)
     by_xyz = position.step(q, np.ascontiguousarray(target[:3, 3]))
@@ -558,7 +574,7 @@ def test_controller_labels_every_kind_of_binding_limit_as_the_numpy_layers(satur
     controller = Lp2Controller(
         arm, dt=0.05, v_max=2.0, qdd_max=np.array([4.0, 6.0, 8.0, 10.0]), lambda_bound=0.05,
         G=np.array([[1.0, 1.0, 0.0, 0.0]]), h=np.array([1.5]), row_labels=("elbow row",),
-        saturate=saturate,
+        saturate=saturate, on_stall=None,  # the strict step: lp2/lp2s's compiled twin
     )  # fmt: skip
     reference, tol = (lp2s, 1e-9) if saturate else (lp2, 1e-12)
     kinds: dict[str, int] = {}
@@ -636,8 +652,15 @@ def test_step_into_gives_the_steps_answers_without_a_result() -> None:
 
 
 def _assert_rows_equal_steps(controller, batch, q0, targets, q_prev) -> None:
-    """Every row of ``batch`` equals the controller's single step on that row."""
+    """Every row of ``batch`` equals the controller's single step on that row.
+
+    Rows are independent states: a row whose ``q_prev`` is the last row's ``q0`` would
+    look to :meth:`step` like the next step of a loop and get the last row's target
+    motion fed forward (lpik.command.TargetMotion); ``step_batch`` forgets it between
+    rows, and so does the reference here.
+    """
     for b in range(len(batch)):
+        controller._forget_target()
         ref = controller.step(q0[b], targets[b], None if q_prev is None else q_prev[b])
         assert (batch.status_of(b), batch.binding_of(b)) == (ref.status, ref.binding), b
         assert abs(batch.p[b] - ref.p) <= 1e-12
@@ -669,7 +692,7 @@ def test_step_batch_equals_steps_panda() -> None:
     batch = controller.step_batch(q0, poses, q_prev)
     _assert_rows_equal_steps(controller, batch, q0, poses, q_prev)
     statuses = set(batch.status)
-    assert {OPTIMAL, INFEASIBLE, RECOVERING} >= statuses >= {OPTIMAL}
+    assert {OPTIMAL, INFEASIBLE, RECOVERING, OFF_DIRECTION} >= statuses >= {OPTIMAL}
     assert (batch.p == 1).any() and ((batch.p > 0) & (batch.p < 1)).any()
     # at rest (q_prev None), lists in
     at_rest = controller.step_batch(q0[:50].tolist(), poses[:50].tolist())
@@ -694,10 +717,14 @@ def test_step_batch_equals_steps_planar_with_singular_rows() -> None:
     batch = controller.step_batch(q0, targets, q_prev)
     _assert_rows_equal_steps(controller, batch, q0, targets, q_prev)
     assert set(batch.path) == {"compiled"}
-    for b in range(5):  # the singular rows, against the general LP
-        reference = lp2(controller.problem(q0[b], targets[b], q_prev[b]), path="highs")
-        assert (batch[b].status, batch[b].binding) == (reference.status, reference.binding)
-        assert abs(batch.p[b] - reference.p) <= 1e-9
+    # the singular rows, against the general LP: the strict step (no stall stage) is lp2's twin
+    strict = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5, on_stall=None)
+    singular = strict.step_batch(q0[:5], targets[:5], q_prev[:5])
+    assert set(singular.path) == {"compiled"}
+    for b in range(5):
+        reference = lp2(strict.problem(q0[b], targets[b], q_prev[b]), path="highs")
+        assert (singular[b].status, singular[b].binding) == (reference.status, reference.binding)
+        assert abs(singular.p[b] - reference.p) <= 1e-9
     assert OPTIMAL in set(batch.status) and {INFEASIBLE, RECOVERING} & set(batch.status)
 
 
@@ -765,7 +792,8 @@ def test_fused_step_keeps_every_hard_limit_and_moves_along_the_command(state) ->
     arm, dt, n = controller.model, controller.dt, len(q0)
     res = controller.step(q0, goal, q_prev)
     event(f"{res.status}, p {'= 1' if res.p == 1 else '< 1' if res.p > 0 else '= 0'}")
-    assert res.status in {OPTIMAL, INFEASIBLE, RECOVERING, SOLVER_ERROR} or res.path == "highs"
+    statuses = {OPTIMAL, INFEASIBLE, RECOVERING, SOLVER_ERROR, OFF_DIRECTION}
+    assert res.status in statuses or res.path == "highs"
     assert 0.0 <= res.p <= 1.0
     np.testing.assert_allclose(res.q, q0 + res.dq, rtol=0, atol=1e-12)
     tol = 1e-9
@@ -779,15 +807,20 @@ def test_fused_step_keeps_every_hard_limit_and_moves_along_the_command(state) ->
     else:  # every limit holds
         assert (res.q >= arm.q_min - tol).all() and (res.q <= arm.q_max + tol).all()
         assert (np.abs(res.dq) <= arm.qd_max * dt + tol).all()
-    if res.lam is None:  # the safe step: each joint comes to rest as fast as it may
-        lower, upper = problem.step_bounds()[:2]
+    lower, upper = problem.step_bounds()[:2]
+    if res.status == OFF_DIRECTION:  # the stall stage (on_stall=1, the default): the strict
+        # step stalled, and the step of least L1 task error within every bound was taken; it
+        # leaves the commanded direction by design, so J dq = p dw is not asked of it
+        assert res.p == 0.0 and res.lam is None
+        assert (res.dq >= lower - tol).all() and (res.dq <= upper + tol).all()
+    elif res.lam is None:  # the safe step: each joint comes to rest as fast as it may
         np.testing.assert_allclose(res.dq, np.clip(0.0, lower, upper), rtol=0, atol=1e-12)
         assert res.p == 0.0 and (res.binding is not None or res.status != INFEASIBLE)
         return
-    # J dq = p dw (eq. 12), around the current motion under acceleration limits, within the
-    # library's own check (lpik.check): at a singular configuration the part of a tiny
-    # second-order command that no joint can make (5e-9 m seen) is left as residual
-    assert task_residual(problem, res.dq, res.p) <= EQUALITY_RTOL
+    else:  # J dq = p dw (eq. 12), around the current motion under acceleration limits,
+        # within the library's own check (lpik.check): at a singular configuration the part
+        # of a tiny second-order command that no joint can make (5e-9 m seen) is left
+        assert task_residual(problem, res.dq, res.p) <= EQUALITY_RTOL
     batch = controller.step_batch(q0[None], goal[None], None if q_prev is None else q_prev[None])
     assert (batch.status_of(0), batch.binding_of(0)) == (res.status, res.binding)
     np.testing.assert_allclose(batch.q[0], res.q, rtol=0, atol=1e-12)
