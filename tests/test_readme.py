@@ -17,7 +17,8 @@ def test_readme_python_blocks_run(tmp_path, monkeypatch) -> None:
     for block in blocks:
         exec(compile(block, str(README), "exec"), namespace)
     assert 0.0 <= namespace["result"].p <= 1.0
-    assert namespace["log"].binding[-1] == "joint 1 upper end-stop"
+    assert namespace["log"].status[-1] == "off_direction"  # the stall stage, on by default
+    assert namespace["strict"].binding[-1] == "joint 1 upper end-stop"  # on_stall=None
     assert (tmp_path / "pull-in-lp2.csv").is_file()
 
 
