@@ -7,7 +7,7 @@ import pytest
 from scipy.optimize import linprog
 
 from lpik.methods import solve
-from lpik.methods.progress import StallWatch, progress_step
+from lpik.methods.progress import MOTION_WEIGHT, StallWatch, progress_step
 from lpik.paper.scenarios import PLANAR, get_scenario
 from lpik.paper.setup import PAPER_COMMAND
 from lpik.problem import Problem
@@ -41,13 +41,16 @@ def test_the_progress_step_is_the_least_l1_error_of_an_independent_lp() -> None:
         lo, hi = -rng.uniform(0, 0.02, n), rng.uniform(0, 0.02, n)
         P = Problem(J=J, dw=dw, q0=q0, q_min=lo, q_max=hi)
         res = progress_step(P)
-        # linprog: min sum t, t >= +-(J dq - dw), within the bounds
-        c = np.concatenate([np.zeros(n), np.ones(m)])
-        A = np.block([[J, -np.eye(m)], [-J, -np.eye(m)]])
-        bounds = [*zip(lo, hi), *[(0, None)] * m]
-        ref = linprog(c, A_ub=A, b_ub=np.concatenate([dw, -dw]), bounds=bounds, method="highs")
-        error = float(np.abs(J @ res.dq - dw).sum())
-        assert error == pytest.approx(ref.fun, abs=1e-6)
+        # linprog: min sum t + MOTION_WEIGHT sum u, t >= +-(J dq - dw), u >= +-dq, within the bounds
+        c = np.concatenate([np.zeros(n), np.ones(m), np.full(n, MOTION_WEIGHT)])
+        Z, I_n, I_m = np.zeros, np.eye(n), np.eye(m)
+        A = np.block([[J, -I_m, Z((m, n))], [-J, -I_m, Z((m, n))],
+                      [I_n, Z((n, m)), -I_n], [-I_n, Z((n, m)), -I_n]])  # fmt: skip
+        bounds = [*zip(lo, hi), *[(0, None)] * (m + n)]
+        b_ub = np.concatenate([dw, -dw, np.zeros(2 * n)])
+        ref = linprog(c, A_ub=A, b_ub=b_ub, bounds=bounds, method="highs")
+        value = float(np.abs(J @ res.dq - dw).sum() + MOTION_WEIGHT * np.abs(res.dq).sum())
+        assert value == pytest.approx(ref.fun, abs=1e-9)
         assert np.all(res.dq >= P.q_min - 1e-9) and np.all(res.dq <= P.q_max + 1e-9)
 
 
