@@ -400,8 +400,8 @@ def test_batch_rejects_what_is_not_a_problem() -> None:
 def _closed_loop_matches(controller, q, target, steps: int) -> dict[str, int]:
     """Run the compiled controller and, on every step, the numpy layers; they must agree.
 
-    The controller takes the strict step (``on_stall=None``): ``lp2``/``lp2s`` on its
-    problem is the method its kernel compiles. The default's stall stage is held equal
+    The controller takes the strict step (``on_stall=None``, the default): ``lp2``/``lp2s``
+    on its problem is the method its kernel compiles. The opt-in stall stage is held equal
     to the numpy Stepper in tests/test_progress_compiled.py.
     """
     seen = {"compiled": 0, "binding": 0, "infeasible": 0}
@@ -547,10 +547,15 @@ def test_controller_converts_other_inputs_to_the_same_step() -> None:
     whole = np.array([0, 0, 0, -2, 0, 2, 1])  # integers
     by_int = controller.step(whole, target)
     by_float = controller.step(whole.astype(float), target)
-    # From rest the acceleration limits leave p below STALL_P with no motion along the
-    # command: by default (on_stall=1) the stall stage takes the progress step
-    assert by_int.status == by_float.status == OFF_DIRECTION
+    assert by_int.status == by_float.status == OPTIMAL  # the strict step, the default
     np.testing.assert_array_equal(by_int.q, by_float.q)
+    # From rest the acceleration limits leave p below STALL_P with no motion along the
+    # command: with the stall stage on (opt-in, on_stall=1) that reads as a stall, and the
+    # progress step leaves the direction (one reason the stage is not the default)
+    staller = Lp2Controller(model, dt=0.001, qdd_max=10.0, on_stall=1)
+    from_int, from_float = staller.step(whole, target), staller.step(whole.astype(float), target)
+    assert from_int.status == from_float.status == OFF_DIRECTION
+    np.testing.assert_array_equal(from_int.q, from_float.q)
     # xyz, a rotation and a pose address the same compiled step of a position task.
     position = Lp2Controller(_panda("position"), dt=0.001)
     by_xyz = position.step(q, np.ascontiguousarray(target[:3, 3]))
@@ -679,7 +684,7 @@ def test_step_batch_equals_steps_panda() -> None:
 
     model = _panda("pose")
     controller = Lp2Controller(model, dt=0.001, qdd_max=10.0, lambda_bound=2.0,
-                               Lambda=np.full(7, 1e-4))  # fmt: skip
+                               Lambda=np.full(7, 1e-4), on_stall=1)  # fmt: skip
     rng = np.random.default_rng(11)
     B = 400
     span = model.q_max - model.q_min
@@ -706,7 +711,8 @@ def test_step_batch_equals_steps_planar_with_singular_rows() -> None:
 
     arm = planar_arm([1, 1, 1, 1], q_min=np.deg2rad([-180, -180, -180, -180]),
                      q_max=np.deg2rad([95, 180, 180, 180]), qd_max=1.0)  # fmt: skip
-    controller = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5)
+    controller = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5,
+                               on_stall=1)  # rows with the stall stage, too  # fmt: skip
     rng = np.random.default_rng(5)
     B = 300
     q0 = rng.uniform(-1.5, 1.5, size=(B, 4))
@@ -718,7 +724,7 @@ def test_step_batch_equals_steps_planar_with_singular_rows() -> None:
     _assert_rows_equal_steps(controller, batch, q0, targets, q_prev)
     assert set(batch.path) == {"compiled"}
     # the singular rows, against the general LP: the strict step (no stall stage) is lp2's twin
-    strict = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5, on_stall=None)
+    strict = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5)
     singular = strict.step_batch(q0[:5], targets[:5], q_prev[:5])
     assert set(singular.path) == {"compiled"}
     for b in range(5):
@@ -769,8 +775,9 @@ def fused_states(draw: st_h.DrawFn) -> tuple[Any, np.ndarray, np.ndarray, np.nda
     dt = draw(st_h.sampled_from([1e-3, 1e-2]))
     qdd = draw(st_h.sampled_from([None, 5.0, 50.0]))
     bound = draw(st_h.sampled_from([None, 0.05, 1.0]))
+    on_stall = draw(st_h.sampled_from([None, 1]))  # the strict step (default) or the stall stage
     controller = Lp2Controller(arm, dt=dt, v_max=draw(floats(0.1, 1.0)), qdd_max=qdd,
-                               lambda_bound=bound)  # fmt: skip
+                               lambda_bound=bound, on_stall=on_stall)  # fmt: skip
     q0 = centre + half * np.array([draw(floats(-1.0, 1.0)) for _ in range(n)])
     speed = draw(st_h.sampled_from([0.0, 0.1, 1.0]))  # of the previous step, in qd_max units
     q_prev = q0 - speed * dt * arm.qd_max * np.array([draw(floats(-1.0, 1.0)) for _ in range(n)])
@@ -808,7 +815,7 @@ def test_fused_step_keeps_every_hard_limit_and_moves_along_the_command(state) ->
         assert (res.q >= arm.q_min - tol).all() and (res.q <= arm.q_max + tol).all()
         assert (np.abs(res.dq) <= arm.qd_max * dt + tol).all()
     lower, upper = problem.step_bounds()[:2]
-    if res.status == OFF_DIRECTION:  # the stall stage (on_stall=1, the default): the strict
+    if res.status == OFF_DIRECTION:  # the stall stage (opt-in, on_stall=1): the strict
         # step stalled, and the step of least L1 task error within every bound was taken; it
         # leaves the commanded direction by design, so J dq = p dw is not asked of it
         assert res.p == 0.0 and res.lam is None

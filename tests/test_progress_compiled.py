@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 from core_strategies import examples
+from lpik.defaults import DEFAULT_ON_STALL
 from lpik.methods.progress import (
     MOTION_WEIGHT,
     StallWatch,
@@ -135,21 +136,31 @@ def test_the_paper_runs_name_the_strict_steps() -> None:
     assert PAPER_COMMAND["on_stall"] is None
 
 
+def test_the_strict_step_is_the_default() -> None:
+    """The stall stage is opt-in: without ``on_stall`` a stalled arm stays stalled."""
+    assert DEFAULT_ON_STALL is None
+    setup = get_scenario("pull-in").setup(PLANAR)
+    log = setup.run("lp2")  # stalls at joint 1's end-stop near a singularity
+    assert OFF_DIRECTION not in set(log.status)
+    assert log.p[-1] <= STALL_P
+
+
 @pytest.mark.parametrize(("robot", "mode"), [(PLANAR, "exact"), ("panda", "progress")])
 def test_the_stall_stage_is_alike_on_every_path(robot: str, mode: str) -> None:
-    """pull-in stalls (an arm at its end-stops near a singularity): by default the progress
-    step takes over; numpy (HiGHS), the compiled step, step_into and batch rows agree."""
+    """pull-in stalls (an arm at its end-stops near a singularity): with the stall stage on
+    (``on_stall=1``) the progress step takes over; numpy (HiGHS), the compiled step,
+    step_into and batch rows agree."""
     setup = get_scenario("pull-in").setup(robot)
-    log = setup.run("lp2", mode=mode)
-    strict = setup.run("lp2", on_stall=None)
+    log = setup.run("lp2", mode=mode, on_stall=1)
+    strict = setup.run("lp2")  # the default: no stall stage
     target = setup.target[:3, 3] if setup.target.ndim == 2 else setup.target
     k = len(log.position_end)
     assert (log.status == OFF_DIRECTION).any()
     assert (np.linalg.norm(log.position_end - target[:k])
             < np.linalg.norm(strict.position_end - target[:k]))  # fmt: skip
-    controller = setup.controller(saturate=False, mode=mode)
-    into = setup.controller(saturate=False, mode=mode)
-    batch = setup.controller(saturate=False, mode=mode)
+    controller = setup.controller(saturate=False, mode=mode, on_stall=1)
+    into = setup.controller(saturate=False, mode=mode, on_stall=1)
+    batch = setup.controller(saturate=False, mode=mode, on_stall=1)
     q, prev, out = setup.q0.copy(), None, np.empty(setup.model.n_joints)
     for step in range(setup.steps):
         res = controller.step(q, setup.target, prev)

@@ -17,8 +17,9 @@ def test_readme_python_blocks_run(tmp_path, monkeypatch) -> None:
     for block in blocks:
         exec(compile(block, str(README), "exec"), namespace)
     assert 0.0 <= namespace["result"].p <= 1.0
-    assert namespace["log"].status[-1] == "off_direction"  # the stall stage, on by default
-    assert namespace["strict"].binding[-1] == "joint 1 upper end-stop"  # on_stall=None
+    assert namespace["log"].binding[-1] == "joint 1 upper end-stop"  # strict, the default
+    assert "off_direction" not in namespace["log"].status  # no stall stage unless asked for
+    assert namespace["with_stall_stage"].status[-1] == "off_direction"  # on_stall=1
     assert (tmp_path / "pull-in-lp2.csv").is_file()
 
 

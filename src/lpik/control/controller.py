@@ -189,8 +189,8 @@ class Lp2Controller:
         on_stall: The progress step (:mod:`lpik.methods.progress`, compiled in
             :mod:`lpik.fast.progress`; status ``off_direction``, ``p = 0``) after this
             many stalled steps in a row (``p`` near 0 and no motion along the command,
-            :data:`lpik.tolerances.STALL_P`); default
-            :data:`lpik.defaults.DEFAULT_ON_STALL`; ``None``: never (the paper's steps).
+            :data:`lpik.tolerances.STALL_P`); opt-in (``1`` turns it on); ``None``,
+            the default (:data:`lpik.defaults.DEFAULT_ON_STALL`): never (the paper's steps).
         mode: ``"exact"`` (default): keep the commanded direction (the paper's
             contract); ``"progress"``: after every exact step with ``p < 1``, spend
             what the limits leave on the task error that remains (compiled,

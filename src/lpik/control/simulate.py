@@ -107,8 +107,9 @@ def simulate(
             along the command, :data:`lpik.tolerances.STALL_P`), take the progress step
             (:func:`lpik.methods.progress.progress_step`: least task error within every
             limit, status ``off_direction``, ``p = 0``) while the arm stays stalled.
-            Default :data:`lpik.defaults.DEFAULT_ON_STALL`; ``None``: the method's
-            steps only (the paper's runs).
+            Opt-in (``1`` turns it on); ``None``, the default
+            (:data:`lpik.defaults.DEFAULT_ON_STALL`): the method's steps only (the
+            paper's runs).
         scene: Obstacles to avoid: a :class:`~lpik.collision.Scene` (the velocity
             damper's rows, self-collision included) or a
             :class:`~lpik.collision.CollisionAvoidance` (rows, field or both). The log

@@ -105,9 +105,10 @@ class Setup:
             dt: Control period [s]; default the scenario's.
             warm_start: Reuse one HiGHS instance across steps.
             progress: Called after every step with ``(done, steps)``.
-            on_stall: The progress step after this many stalled steps in a row
-                (default :data:`lpik.defaults.DEFAULT_ON_STALL`); ``None``: never
-                (the paper's runs, :data:`PAPER_COMMAND`).
+            on_stall: The progress step after this many stalled steps in a row,
+                opt-in (``1`` turns it on); ``None``, the default
+                (:data:`lpik.defaults.DEFAULT_ON_STALL`): never (the paper's runs,
+                :data:`PAPER_COMMAND`).
             mode: ``"exact"`` (default) or ``"progress"`` (:data:`lpik.defaults.MODES`).
             scene: Obstacles to avoid (a :class:`~lpik.collision.Scene` or
                 :class:`~lpik.collision.CollisionAvoidance`); default the setup's.
