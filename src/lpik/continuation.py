@@ -42,7 +42,8 @@ from typing import Any
 import numpy as np
 
 from lpik.problem import Problem
-from lpik.result import MOVING, RECOVERING, Result, safe_step
+from lpik.result import INFEASIBLE, MOVING, OPTIMAL, RECOVERING, Result, safe_step
+from lpik.tolerances import NO_CHANGE_P
 from lpik.types import FloatArray
 
 #: Share of the narrowest band a step spends on slowing the null-space motion
@@ -105,7 +106,16 @@ def resumed(problem: Problem, result: Result) -> Result:
     a limit, is ``recovering``, naming it; one that cannot move (a failure, an
     infeasible step) is the original problem's safe step, a controlled stop,
     with the same status and binding (``recovering`` from outside a limit).
+    So is a step that cannot change the motion toward the command at all
+    (``p = 0``, within :data:`~lpik.tolerances.NO_CHANGE_P`): it would coast
+    along the last motion, ``J dq = J last``, which a command it cannot follow
+    never turns (the hand drifts away, ever further); it is ``infeasible``,
+    naming what stopped ``p``, and the arm comes to rest within its limits,
+    from where the step is the paper's again.
     """
+    if result.status == OPTIMAL and result.p <= NO_CHANGE_P:  # no change toward the command
+        return safe_step(problem, result.method, INFEASIBLE, result.binding,
+                         solve_time=result.solve_time, path=result.path)  # fmt: skip
     if result.status not in MOVING:
         return safe_step(problem, result.method, result.status, result.binding,
                          solve_time=result.solve_time, path=result.path)  # fmt: skip

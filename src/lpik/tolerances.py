@@ -37,6 +37,9 @@ EQUALITY_RTOL = 1e-7
 # ---------------------------------------------------------- affine dexterity
 #: p at or above this counts as the full displacement (no binding limit).
 FULL_P = 1.0 - 1e-9
+#: A step solved around the motion (:mod:`lpik.continuation`) with ``p`` at or below this
+#: changes the motion toward the command by nothing but rounding: it is the controlled stop.
+NO_CHANGE_P = 1e-9
 
 # -------------------------------------------------------- LP2's ratio test
 #: Above this condition number of the Schur complement ``J H^-1 J^T`` (estimated as

@@ -47,7 +47,7 @@ from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core,
 from lpik.fast.saturation import lp2s_core
 from lpik.fast.signatures import loaded_kernel, typed_kernel
 from lpik.fast.twins import compiled_twin, inlined_twin, rebound
-from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION
+from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION, NO_CHANGE_P
 
 #: A step's outcome when q0, q_prev or the target has the wrong size or is not finite.
 BAD_INPUT = 4
@@ -252,6 +252,8 @@ def limit_and_solve(state, q0, q_prev, J, dw):
             lam, ws, SINGULAR_PATH_ALWAYS, MAX_SCHUR_CONDITION,
         )  # fmt: skip
     if moving:
+        if code == OK and p <= NO_CHANGE_P:  # no change toward the command (continuation.resumed)
+            code = INFEASIBLE
         resume_motion(state, code, J, dw, dq)
     q = L.vector(state, L.Q)
     for i in range(n):
