@@ -35,7 +35,7 @@ from lpik.highs import HighsSolver
 from lpik.methods.assembly import finish
 from lpik.methods.engines import compiled_step
 from lpik.methods.kkt import affine_solution
-from lpik.methods.lp2 import lp2
+from lpik.methods.lp2 import lp2, pulled
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, Result, safe_step
 from lpik.tolerances import FULL_P, SATURATION_MAX_CONDITION, SATURATION_MAX_PRICE
@@ -84,9 +84,10 @@ def lp2s(problem: Problem, *, path: str = "auto", solver: HighsSolver | None = N
                          solve_time=time.perf_counter() - start, path=best.path)  # fmt: skip
     if not best.moved or best.lam is None:  # LP2's own safe step: nothing to saturate
         return _renamed(best)
-    return finish(
+    result = finish(
         problem, "lp2s", best.dq, best.p, best.lam, best.binding, start, best.path, best.status
     )
+    return pulled(result, best.pull_scale)  # the best pass's share of sec. 3.1's pull
 
 
 def saturation_passes(
