@@ -231,11 +231,12 @@ def add_target_motion(
 class TargetMotion:
     """The target's motion over the last period, where the step follows the last one in a loop.
 
-    A step follows the last one when its ``q_prev`` is the last step's
-    ``q0``; the same step asked again (the same ``q0`` and target) gets the
-    same motion; any other step (a first step, a jump of the state, a row of
-    a batch) has none. The fused step keeps the same memory in its state
-    (:func:`lpik.fast.command_law.target_motion`).
+    A step follows the last one when the arm moved (``q_prev != q0``) and its
+    ``q_prev`` is the last step's ``q0``; the same step asked again (the same
+    ``q0`` and target) gets the same motion; any other step (a first step, a
+    step at rest or without ``q_prev``: an independent query, a jump of the
+    state, a row of a batch) has none. The fused step keeps the same memory in
+    its state (:func:`lpik.fast.command_law.target_motion`).
     """
 
     def __init__(self) -> None:
@@ -252,7 +253,8 @@ class TargetMotion:
         if seen and np.array_equal(q0, self._q) and np.array_equal(value, self._target):
             return self._motion  # the same step again
         motion = None
-        if seen and q_prev is not None and np.array_equal(q_prev, self._q):
+        moved = q_prev is not None and not np.array_equal(q_prev, q0)
+        if seen and moved and np.array_equal(q_prev, self._q):
             motion = _target_difference(model, self._target, value)
         self._q, self._target, self._motion = np.array(q0, dtype=np.float64), value.copy(), motion
         return motion

@@ -149,7 +149,8 @@ def target_motion(state, q0, q_prev, goal):
     """The target's motion over the last period, where the step follows the last one.
 
     :class:`lpik.command.TargetMotion`'s rule on the state's ``memory*``
-    blocks: a step whose ``q_prev`` is the last step's ``q0`` gets the pose
+    blocks: a step of an arm that moved whose ``q_prev`` is the last step's
+    ``q0`` gets the pose
     error from the last goal to ``goal``; the same step asked again (the same
     ``q0`` and goal) gets the same; any other step none. Returns the
     ``target_motion`` block (entry 0: 1 where the target moved, then
@@ -161,7 +162,7 @@ def target_motion(state, q0, q_prev, goal):
     if memory[0] != 0.0 and _equal(q0, seen_q, n) and _equal(goal.ravel(), seen_goal.ravel(), 16):
         return motion  # the same step again
     motion[0] = 0.0
-    if memory[0] != 0.0 and _equal(q_prev, seen_q, n):
+    if memory[0] != 0.0 and not _equal(q_prev, q0, n) and _equal(q_prev, seen_q, n):
         pose_error(seen_goal, goal, motion[1:7], L.vector(state, L.LOG_SCRATCH))
         rows = L.vector(state, L.ROW_INDEX)
         for k in range(rows.shape[0]):
