@@ -134,7 +134,8 @@ def _epilog() -> str:
                 "multipliers; nan for methods without them), then status, binding (the limit "
                 "that keeps p below 1, empty when none), path, clamped, solve_time_us; with "
                 "--scene also min_distance [m] (the smallest signed distance before the step, "
-                "self-collision included) and closest (its pair)."
+                "self-collision included) and closest (its pair); last, pull_scale (the share "
+                "of sec. 3.1's pull the step took, 1: whole or no pull)."
             ),
             _paragraph(
                 f"refused combinations (exit 2, one line): --lambda-bound with a method that "
