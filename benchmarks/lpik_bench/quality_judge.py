@@ -1,4 +1,4 @@
-"""How the motion-quality suite judges lpik's variants: like against like (issue 23, item 7).
+"""How the motion-quality suite judges lpik's variants: like against like.
 
 The decisions it follows:
 

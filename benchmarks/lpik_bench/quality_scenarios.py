@@ -12,7 +12,7 @@ order of the report, so a new scenario is one builder and one entry.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -467,10 +467,39 @@ def point_to_point(model: PoseTask, dt: float, max_steps: int | None) -> Scenari
 
 
 def obstacle(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
-    """A start inside an obstacle's safety distance (:mod:`lpik_bench.quality_obstacle`)."""
-    from lpik_bench.quality_obstacle import obstacle_start
+    """Two legs from home with the sphere overlapping link 4, then inside ``d_s``.
 
-    return obstacle_start(model, dt, max_steps)
+    The sphere, the distances and mink among obstacles: :mod:`lpik_bench.quality_obstacle`.
+    """
+    from lpik_bench.quality_obstacle import OBSTACLE, closest, sphere_scene
+
+    q0 = home_configuration("panda")
+    goal = model.pose(q0)
+    goal[:3, 3] = OBSTACLE["target"]
+    center = np.array(OBSTACLE["overlapping"], dtype=float)
+    near = closest(model, q0, center)
+    inside = center + (OBSTACLE["inside"] - near.distance) * near.normal
+    legs = []
+    for label, c in (("overlapping", center), ("inside d_s", inside)):
+        d = closest(model, q0, c)
+        at = ", ".join(f"{x:.3f}" for x in c)
+        note = f"{d.body} {d.distance * 1e3:.1f} mm from the sphere at ({at})"
+        leg = make_leg(model, label, q0, lambda t: goal, OBSTACLE["duration"], dt, max_steps,
+                       note=note, held=True)  # fmt: skip
+        legs.append(replace(leg, scene=sphere_scene(c)))
+    what = (
+        f"A {OBSTACLE['radius'] * 100:g} cm sphere at the Panda's link 4 at the home "
+        f"configuration, with d_s = {OBSTACLE['safety'] * 1e3:g} mm and d_i = "
+        f"{OBSTACLE['influence'] * 1e3:g} mm: "
+        + "; ".join(f"{leg.label}: {leg.note}" for leg in legs)
+        + f". The target is held from the first step: the tool at "
+        f"({', '.join(f'{x:g}' for x in OBSTACLE['target'])}) m, home orientation, "
+        f"{OBSTACLE['duration']:g} s per leg. Libraries without obstacles in their adapters "
+        "(drake, pink, rtb) are n/a; mink runs with its CollisionAvoidanceLimit over the "
+        "same capsules and distances."
+    )
+    return Scenario("obstacle", "9. Start inside an obstacle's safety distance", what,
+                    tuple(legs))  # fmt: skip
 
 
 #: Scenario builders, in the order of the report: ``builder(model, dt, max_steps) -> Scenario``.
