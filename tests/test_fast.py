@@ -665,7 +665,7 @@ def _assert_rows_equal_steps(controller, batch, q0, targets, q_prev) -> None:
     rows, and so does the reference here.
     """
     for b in range(len(batch)):
-        controller._forget_target()
+        controller.reset()
         ref = controller.step(q0[b], targets[b], None if q_prev is None else q_prev[b])
         assert (batch.status_of(b), batch.binding_of(b)) == (ref.status, ref.binding), b
         assert abs(batch.p[b] - ref.p) <= 1e-12

@@ -221,6 +221,7 @@ def _step_batch_agreement(workload: Workload, acc: Any) -> Agreement:
     rows = acc.step_batch(workload.q, workload.targets, workload.q_prev)
     err = np.empty(N)
     for i in range(N):
+        acc.reset()  # rows are independent states (no target motion from the row before)
         one = acc.step(workload.q[i], workload.targets[i], workload.q_prev[i])
         same = (rows.status_of(i), rows.binding_of(i)) == (one.status, one.binding)
         err[i] = np.abs(rows.dq[i] - one.dq).max() if same else np.inf

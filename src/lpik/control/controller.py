@@ -735,7 +735,7 @@ class Lp2Controller:
         fallback: dict[int, Result] = {}
         for b in np.nonzero(again)[0].tolist():
             prev = None if Qp is None else Qp[b]
-            self._forget_target()  # rows are independent: no target motion between them
+            self.reset()  # rows are independent: no target motion between them
             res = self.step(Q0[b], T[b], prev, watch=False)
             if self._watch_stall or self._further:  # the stall stage, row by row
                 res = self._stalled(res, Q0[b], prev, count=False)
@@ -750,10 +750,16 @@ class Lp2Controller:
             _fallback=fallback, residual=residual, method=self.method, pull_scale=pull_scale,
         )  # fmt: skip
 
-    def _forget_target(self) -> None:
-        """The next step has no target motion to feed forward (:class:`TargetMotion`)."""
+    def reset(self) -> None:
+        """Forget the last step: the next one starts a new loop.
+
+        It has no target motion to feed forward (:class:`~lpik.command.TargetMotion`)
+        and the count of stalled steps (``on_stall``) starts again. For a controller
+        moved to an unrelated state, or stepping independent states one by one.
+        """
         self._state[int(self._state[layout.MEMORY])] = 0.0
         self.stepper.target_motion = TargetMotion()
+        self.stepper.stall_watch.clear()
 
     # -- inputs and the problem -----------------------------------------------------------
 
