@@ -12,6 +12,8 @@ the default controller misses what it misses.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik_bench.quality_judge import (
@@ -180,14 +182,20 @@ def best_line(result: ScenarioResult) -> str:
 def settling_table(result: ScenarioResult) -> list[str]:
     """Per point-to-point leg: settle time, overshoot and braking steps of each library."""
     legs = [leg.label for leg in result.scenario.legs if leg.held]
+    return _per_leg_table(result, legs, lambda m: [
+        f"{'never' if s.settle_ms is None else f'{s.settle_ms:.0f} ms'}; "
+        f"{fmt(s.overshoot)} mm; {s.braking:,}"
+        for s in m.settlings
+    ])  # fmt: skip
+
+
+def _per_leg_table(
+    result: ScenarioResult, legs: list[str], cells: Callable[[Any], list[str]]
+) -> list[str]:
+    """A table of one row per library, one column per leg; ``cells(metrics)`` fills a row."""
     lines = ["| library | " + " | ".join(legs) + " |", "|---" + "|---" * len(legs) + "|"]
     for name, m in result.rows.items():
-        cells = [
-            f"{'never' if s.settle_ms is None else f'{s.settle_ms:.0f} ms'}; "
-            f"{fmt(s.overshoot)} mm; {s.braking:,}"
-            for s in m.settlings
-        ]
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        lines.append(f"| {name} | " + " | ".join(cells(m)) + " |")
     return lines
 
 
@@ -264,15 +272,11 @@ def section(result: ScenarioResult) -> list[str]:
 def clearance_table(result: ScenarioResult) -> list[str]:
     """Per leg among obstacles: distances, steps to get out of d_s, end error."""
     legs = [leg.label for leg in result.scenario.legs if leg.scene is not None]
-    lines = ["| library | " + " | ".join(legs) + " |", "|---" + "|---" * len(legs) + "|"]
-    for name, m in result.rows.items():
-        cells = [
-            f"{fmt(c.start_mm)} / {fmt(c.min_mm)}; "
-            f"{'never' if c.out_after is None else f'{c.out_after:,}'}; {fmt(c.final_mm)}"
-            for c in m.clearances
-        ]
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
-    return lines
+    return _per_leg_table(result, legs, lambda m: [
+        f"{fmt(c.start_mm)} / {fmt(c.min_mm)}; "
+        f"{'never' if c.out_after is None else f'{c.out_after:,}'}; {fmt(c.final_mm)}"
+        for c in m.clearances
+    ])  # fmt: skip
 
 
 #: The point-to-point metrics, as the report's list of metrics says them.

@@ -162,7 +162,7 @@ def target_motion(state, q0, q_prev, goal):
     if memory[0] != 0.0 and _equal(q0, seen_q, n) and _equal(goal.ravel(), seen_goal.ravel(), 16):
         return motion  # the same step again
     motion[0] = 0.0
-    if memory[0] != 0.0 and not _equal(q_prev, q0, n) and _equal(q_prev, seen_q, n):
+    if memory[0] != 0.0 and _moved(q0, q_prev) and _equal(q_prev, seen_q, n):
         pose_error(seen_goal, goal, motion[1:7], L.vector(state, L.LOG_SCRATCH))
         rows = L.vector(state, L.ROW_INDEX)
         for k in range(rows.shape[0]):
