@@ -88,9 +88,8 @@ def compile_kernels() -> list[KernelLoad]:
         loads.append(KernelLoad(name, seconds, source, str(kernel.stats.cache_path)))
 
     # The step kernel compiles (or loads) when step_kernel first asks for it.
-    ready("fused step, serial chain", step.step_kernel, step.loaded_step_kernel())
-    ready("fused step, a backend's kinematics", step.task_step_kernel,
-          step.loaded_task_step_kernel())  # fmt: skip
+    ready("fused step (a serial chain's, or a backend's kinematics)", step.step_kernel,
+          step.loaded_step_kernel())  # fmt: skip
     ready("fused step with distance rows (AvoidingLp2Controller)", avoiding_kernel,
           loaded_avoiding_kernel())  # fmt: skip
     panda = load_robot("panda", task="pose")

@@ -6,9 +6,9 @@ compiled call (:func:`lpik.fast.step.chain_step`). Any other backend of
 :class:`~lpik.robots.tasks.Kinematics` (a Pinocchio or MuJoCo model, or your
 own) computes the task frame and the world-aligned Jacobian (eqs. 1-2) itself;
 :class:`BackendKinematicsStep` writes them into the controller's state buffer
-and runs the rest of the step compiled (:func:`lpik.fast.step.task_step`: the
-command, the limits of eqs. 13-14 and sec. 3.2, LP2's ratio test of eqs.
-15-18). The answers equal those of the numpy layers over the same backend
+and runs the rest of the step compiled (:func:`lpik.fast.step.chain_step`, its
+state's ``chain`` block 0: the command, the limits of eqs. 13-14 and sec. 3.2,
+LP2's ratio test of eqs. 15-18). The answers equal those of the numpy layers over the same backend
 (tests hold them equal).
 """
 
@@ -26,7 +26,6 @@ from lpik.fast.step import (
     TARGET_AXES,
     chain_step_batch,
     step_kernel,
-    task_step_kernel,
 )
 from lpik.robots.base import TaskModel
 from lpik.robots.chain import SerialChain
@@ -54,7 +53,8 @@ class BackendKinematicsStep:
     Jacobian (6, n) at ``q0`` go into the ``frame`` and ``jacobian6`` blocks of
     ``state`` (and, where the command takes off the second-order term and the
     state does not hold them, those at ``q_prev`` into the ``prev_*`` blocks);
-    :func:`lpik.fast.step.task_step` does the rest.
+    :func:`lpik.fast.step.chain_step` does the rest (the state's ``chain``
+    block is 0: it takes the kinematics from the state).
 
     Args:
         kinematics: The backend (anything with ``fk`` and ``jacobian``, and
@@ -76,7 +76,7 @@ class BackendKinematicsStep:
         frame, jac = int(state[layout.PREV_FRAME]), int(state[layout.PREV_JACOBIAN6])
         self._prev_frame = slice(frame, frame + 16)
         self._prev_jacobian = slice(jac, jac + 6 * self._n)
-        self._kernel = task_step_kernel(target_axes)
+        self._kernel = step_kernel(target_axes)  # its state's chain block is 0
 
     def __call__(self, state: FloatArray, q0: Any, q_prev: Any, target: Any) -> int:
         """One step: the backend's kinematics at ``q0``, then the compiled rest (its code)."""

@@ -351,7 +351,7 @@ class Lp2Controller:
             lam_bounds=np.vstack([template.lam_min, template.lam_max]), G=template.G,
             h=template.h, auto_bound=settings(self.automatic_bound, fuses_kinematics(model)),
             second_order=[float(self.second_order), 0.0],
-            continuation=[float(self.stepper.continues)],
+            continuation=[float(self.stepper.continues)], chain=[float(fuses_kinematics(model))],
         )  # fmt: skip
 
     def _read_out_blocks(self) -> None:

@@ -41,20 +41,20 @@ N, M, R, H_DIAG, DT, V_MAX, W_MAX, SATURATE = range(8)
 # the chain and the constants of the step
 REVOLUTE, ROW_INDEX, ORIGINS, AXES, TIP = range(8, 13)
 LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H, AUTO_BOUND = range(13, 21)
-SECOND_ORDER, CONTINUATION = 21, 22
+SECOND_ORDER, CONTINUATION, CHAIN = 21, 22, 23
 # out: what a step reports
-Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, BOUND, BOUNDED, OUTSIDE = range(23, 34)
-PULL_SCALE = 34
+Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, BOUND, BOUNDED, OUTSIDE = range(24, 35)
+PULL_SCALE = 35
 # scratch of the step
-GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(35, 42)
-LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(42, 50)
-STOP, STOP_SCRATCH, LAST, ORIGIN, SAFE = range(50, 55)
+GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(36, 43)
+LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(43, 51)
+STOP, STOP_SCRATCH, LAST, ORIGIN, SAFE = range(51, 56)
 # the kinematics at the last step's q0, and the second-order term
-PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(55, 59)
+PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(56, 60)
 # the last step's q0 and goal, and the target's motion since (fed forward under acc. limits)
-MEMORY, MEMORY_Q, MEMORY_GOAL, TARGET_MOTION = range(59, 63)
+MEMORY, MEMORY_Q, MEMORY_GOAL, TARGET_MOTION = range(60, 64)
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 63
+END = 64
 #: Length of the header.
 HEADER = END + 1
 
@@ -106,6 +106,7 @@ BLOCKS = (
         (1,),
         "1: under acceleration limits the step is solved around the motion, the command brakes",
     ),
+    Block(CHAIN, "chain", (1,), "1: the step computes the chain's kinematics (0: a backend's)"),
     Block(Q, "q", ("n",), "the new joint coordinates q0 + dq"),
     Block(DQ, "dq", ("n",), "the step"),
     Block(LAM, "lam", ("m",), "the multipliers"),

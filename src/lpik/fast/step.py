@@ -12,7 +12,7 @@ and LP2's ratio
 test (eqs. 15-18), and under the automatic multiplier bound
 (:mod:`lpik.methods.autobound`, sec. 3.2) what ``simulate`` does after an
 unbounded step with ``p < 1``: the rule, and LP2 again under its bound
-(:func:`bounded_again`). Everything it reads and writes lives in one state
+(:func:`tighten_bounds`, and the step once more). Everything it reads and writes lives in one state
 buffer (:mod:`lpik.fast.layout`).
 
 :func:`step_kernel` compiles the step on first use (or loads it from the disk
@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
 from numba import njit, prange, types
 
 from lpik import bands
@@ -274,30 +275,34 @@ def limit_and_solve(state, q0, q_prev, J, dw):
 
 
 @njit(cache=True)
-def bounded_again(state, q0, q_prev, J, dw):
+def tighten_bounds(state, q0, m, saved):
     """After an unbounded step with ``p < 1``: the automatic multiplier bound (sec. 3.2).
 
     The rule (:func:`lpik.fast.autobound.bound_in_state`, that of
     :mod:`lpik.methods.autobound`) on the step :func:`limit_and_solve` left in
-    ``state``; where it bounds the multipliers, :func:`limit_and_solve` again
-    with ``|lam_k| <= B_k`` added to the state's multiplier bounds, which are
-    then restored. Returns the outcome of the step that stands.
+    ``state``. Where it bounds the multipliers, the state's multiplier bounds
+    (copied into ``saved``, (2, m)) get ``|lam_k| <= B_k`` added and the
+    ``bounded`` block says so; returns whether the step is to be solved again.
     """
     bounded = int(state[L.BOUNDED])
     state[bounded] = 0.0
     if state[int(state[L.P])] >= FULL_P or not bound_in_state(state, q0, L.vector(state, L.DQ)):
-        return OK
-    m = J.shape[0]
+        return False
     lam_bounds, bound = L.matrix_at(state, L.LAM_BOUNDS, 2, m), L.vector(state, L.BOUND)
-    saved = lam_bounds.copy()
-    for k in range(m):
+    for k in range(m):  # loops: an array assignment compiles its error message, seconds
+        saved[0, k], saved[1, k] = lam_bounds[0, k], lam_bounds[1, k]
         lam_bounds[0, k] = max(saved[0, k], -bound[k])
         lam_bounds[1, k] = min(saved[1, k], bound[k])
     state[bounded] = 1.0
-    code = limit_and_solve(state, q0, q_prev, J, dw)
-    for k in range(m):  # a loop: an array assignment compiles its error message, seconds
+    return True
+
+
+@njit(cache=True)
+def restore_bounds(state, m, saved):
+    """The state's multiplier bounds back as :func:`tighten_bounds` found them."""
+    lam_bounds = L.matrix_at(state, L.LAM_BOUNDS, 2, m)
+    for k in range(m):
         lam_bounds[0, k], lam_bounds[1, k] = saved[0, k], saved[1, k]
-    return code
 
 
 @njit(cache=True)
@@ -313,6 +318,11 @@ def _finite_joints(q0, q_prev, n):
 
 def chain_step(state, q0, q_prev, target):
     """One fused LP2 control step of a serial chain: FK, Jacobian, command, limits, LP2.
+
+    Where the state's ``chain`` block is 0, a kinematics backend (Pinocchio,
+    MuJoCo: :mod:`lpik.control.backend_step`) has written the pose and Jacobian
+    at ``q0`` (and at ``q_prev``) into the state, and the step starts from them:
+    one compiled kernel for both.
 
     Call it compiled, through :func:`step_kernel`: for C-contiguous float64 arrays
     only; other arguments raise a ``TypeError`` (the caller converts them), so a
@@ -331,13 +341,14 @@ def chain_step(state, q0, q_prev, target):
     n = int(state[L.N])
     if not _finite_joints(q0, q_prev, n):
         return BAD_INPUT
-    chain_fk_jacobian(
-        L.tensor_at(state, L.ORIGINS, n, 4, 4), L.matrix_at(state, L.AXES, n, 3),
-        L.vector(state, L.REVOLUTE), L.matrix_at(state, L.TIP, 4, 4), q0,
-        L.matrix_at(state, L.FRAME, 4, 4), L.matrix_at(state, L.JACOBIAN6, 6, n),
-        L.tensor_at(state, L.JOINTS, 2, n, 3),
-    )  # fmt: skip
-    previous_kinematics(state, q0, q_prev)
+    if L.vector(state, L.CHAIN)[0] != 0.0:  # else a backend wrote them (control.backend_step)
+        chain_fk_jacobian(
+            L.tensor_at(state, L.ORIGINS, n, 4, 4), L.matrix_at(state, L.AXES, n, 3),
+            L.vector(state, L.REVOLUTE), L.matrix_at(state, L.TIP, 4, 4), q0,
+            L.matrix_at(state, L.FRAME, 4, 4), L.matrix_at(state, L.JACOBIAN6, 6, n),
+            L.tensor_at(state, L.JOINTS, 2, n, 3),
+        )  # fmt: skip
+        previous_kinematics(state, q0, q_prev)
     return task_step(state, q0, q_prev, target)
 
 
@@ -353,7 +364,8 @@ def task_step(state, q0, q_prev, target):
     term where the ``second_order`` block says so: the ``prev_*`` blocks then
     hold the kinematics at ``q_prev``, as :func:`previous_kinematics` and the
     backend step leave them), the bounds and LP2, and, where the
-    state's ``auto_bound`` block says so, :func:`bounded_again`.
+    state's ``auto_bound`` block says so, the step again under the
+    automatic bound (:func:`tighten_bounds`).
 
     Returns:
         The LP2 kernel's outcome code, or :data:`BAD_INPUT`.
@@ -389,21 +401,28 @@ def task_step(state, q0, q_prev, target):
     position = L.vector(state, L.POSITION)
     for a in range(3):
         position[a] = T[a, 3]
-    code = limit_and_solve(state, q0, q_prev, J, dw)
-    if code != OK or state[int(state[L.AUTO_BOUND])] == 0.0:
-        return code
-    return bounded_again(state, q0, q_prev, J, dw)
+    # The step, then (sec. 3.2) where the automatic bound applies the step once more under
+    # it: one call site, so that the solve is compiled (inlined) once.
+    saved = np.empty((2, m))
+    code = OK
+    for again in range(2):
+        code = limit_and_solve(state, q0, q_prev, J, dw)
+        if again:
+            restore_bounds(state, m, saved)
+            break
+        if code != OK or state[int(state[L.AUTO_BOUND])] == 0.0:
+            break
+        if not tighten_bounds(state, q0, m, saved):
+            break
+    return code
 
 
 # The compiled steps inline their parts at numba's IR level (lpik.fast.twins.inlined_twin):
 # compiled one by one, each part would be optimised again inside each part above it.
-_solve = inlined_twin(limit_and_solve, lp2s_core=inlined_twin(lp2s_core))
-#: :func:`task_step` with :func:`limit_and_solve`, :func:`bounded_again` and
+#: :func:`task_step` with :func:`limit_and_solve` and
 #: :func:`lpik.fast.saturation.lp2s_core` inlined, to be inlined into a compiled step.
-_parts = {"limit_and_solve": _solve,
-          "bounded_again": inlined_twin(bounded_again, limit_and_solve=_solve)}  # fmt: skip
+_parts = {"limit_and_solve": inlined_twin(limit_and_solve, lp2s_core=inlined_twin(lp2s_core))}
 fused_task_step = inlined_twin(task_step, **_parts)
-_task_step = rebound(task_step, **_parts)
 _chain_step = rebound(chain_step, task_step=fused_task_step)
 
 _VECTOR = types.float64[::1]
@@ -426,16 +445,6 @@ def step_kernel(target_axes: tuple[int, ...] = TARGET_AXES) -> Any:
     ``TypeError`` instead of compiling in the middle of a loop.
     """
     return typed_kernel("chain_step", _chain_step, (STEP_SIGNATURES[a] for a in target_axes))
-
-
-def task_step_kernel(target_axes: tuple[int, ...] = TARGET_AXES) -> Any:
-    """The compiled :func:`task_step` for targets of ``target_axes`` axes (as step_kernel)."""
-    return typed_kernel("task_step", _task_step, (STEP_SIGNATURES[a] for a in target_axes))
-
-
-def loaded_task_step_kernel() -> Any:
-    """The compiled task step if :func:`task_step_kernel` has readied it, else None."""
-    return loaded_kernel("task_step")
 
 
 def loaded_step_kernel() -> Any:
