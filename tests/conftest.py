@@ -31,6 +31,15 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+#: At most this many pytest-xdist workers for ``-n auto``: each compiles what its tests
+#: use on an empty numba cache (a GiB or so of memory at its peak).
+MAX_WORKERS = 4
+
+
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+    """``-n auto``: one worker per core, at most :data:`MAX_WORKERS`."""
+    return max(1, min(MAX_WORKERS, os.cpu_count() or 1))
+
 #: The paper's start configuration (sec. 4, Fig. 2) [rad].
 PAPER_Q0 = np.radians([60.0, -30.0, -30.0, -30.0])
 
