@@ -40,6 +40,7 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     """``-n auto``: one worker per core, at most :data:`MAX_WORKERS`."""
     return max(1, min(MAX_WORKERS, os.cpu_count() or 1))
 
+
 #: The paper's start configuration (sec. 4, Fig. 2) [rad].
 PAPER_Q0 = np.radians([60.0, -30.0, -30.0, -30.0])
 

@@ -12,8 +12,7 @@ from lpik.cli.compile import compile_kernels  # noqa: E402
 from lpik.cli.main import main  # noqa: E402
 
 NAMES = [
-    "fused step, serial chain",
-    "fused step, a backend's kinematics",
+    "fused step (a serial chain's, or a backend's kinematics)",
     "fused step with distance rows (AvoidingLp2Controller)",
     "fused step batch, serial chain",
     "the automatic multiplier bound's rule, after a step on the HiGHS path",
