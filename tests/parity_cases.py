@@ -77,10 +77,15 @@ class Family:
         return collision_avoidance(self.model, self.scene, self.home)
 
     def options(self) -> dict[str, Any]:
-        """The keywords of a :class:`~lpik.control.stepper.Stepper` for this family."""
+        """The keywords of a :class:`~lpik.control.stepper.Stepper` for this family.
+
+        ``on_stall=None``: the suite compares the method's step (the stall stage, which
+        problem-level entry points do not have, has its own parity test in
+        ``test_progress_compiled.py``).
+        """
         return {
             "dt": self.dt, "v_max": self.v_max, "w_max": self.w_max, "qdd_max": self.qdd_max,
-            "weights": self.weights, "scene": self.scene, "home": self.home,
+            "weights": self.weights, "scene": self.scene, "home": self.home, "on_stall": None,
         }  # fmt: skip
 
 

@@ -42,9 +42,9 @@ def test_the_edge_singularity_without_chatter_as_the_papers_bound() -> None:
     dt and the arm alone, is as smooth as the bound the paper derived from the run."""
     setup = get_scenario("edge-singularity").setup()
     free, auto, paper = (  # the automatic bound is the default
-        setup.run("lp2", lambda_bound=None),
-        setup.run("lp2"),
-        setup.run("lp2", lambda_bound=0.1),
+        setup.run("lp2", lambda_bound=None, on_stall=None),
+        setup.run("lp2", on_stall=None),
+        setup.run("lp2", lambda_bound=0.1, on_stall=None),
     )
     assert jitter(auto) < 0.01 * jitter(free)
     assert jitter(auto) < 1.5 * jitter(paper)
@@ -68,7 +68,7 @@ def test_pushed_beyond_reach_for_long_it_comes_back(robot: str) -> None:
     error = np.linalg.norm(model.difference(model.pose(log.q_end), home))
     assert error < 1e-3, error
     assert log.metrics().jitter < 50.0
-    assert (log.p[hold:] > 0).any() and (log.status == "optimal").all()
+    assert (log.p[hold:] > 0).any() and set(log.status) <= {"optimal", "off_direction"}
 
 
 def test_the_controller_follows_simulate_step_by_step() -> None:

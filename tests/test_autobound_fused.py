@@ -28,7 +28,7 @@ from lpik.methods.lp2s import lp2s  # noqa: E402
 from lpik.result import INFEASIBLE, RECOVERING, Result  # noqa: E402
 from lpik_bench.singular import singular_workload  # noqa: E402
 
-OPTIONS = {"dt": 1e-3, "v_max": 0.5, "w_max": 1.0}
+OPTIONS = {"dt": 1e-3, "v_max": 0.5, "w_max": 1.0, "on_stall": None}  # the method's step
 
 
 @pytest.fixture(scope="module")

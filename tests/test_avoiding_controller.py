@@ -90,7 +90,7 @@ def test_the_automatic_bound_is_applied_inside_the_avoiding_step(compiled: bool)
 
     def make(**options):  # type: ignore[no-untyped-def]
         return AvoidingLp2Controller(model, scene, home, dt=1e-3, compiled_distances=compiled,
-                                     **options)  # fmt: skip
+                                     on_stall=None, **options)  # the method's step  # fmt: skip
 
     controller, free_twin = make(), make(lambda_bound=None)
     auto = controller.automatic_bound

@@ -64,6 +64,7 @@ def test_every_kind_is_named_alike_by_the_numpy_layers_and_the_compiled_step() -
     controller = Lp2Controller(
         arm, dt=0.05, v_max=2.0, qdd_max=np.array([4.0, 6.0, 8.0, 10.0]), lambda_bound=0.05,
         G=np.array([[1.0, 1.0, 0.0, 0.0]]), h=np.array([1.5]), row_labels=("elbow row",),
+        on_stall=None,  # the method's step, against the LP's
     )  # fmt: skip
     rng = np.random.default_rng(11)
     seen: set[str] = set()
@@ -103,7 +104,7 @@ def test_the_highs_path_and_a_batch_name_the_same_binding() -> None:
     from lpik.control.controller import Lp2Controller
 
     arm = _arm()
-    controller = Lp2Controller(arm, dt=0.05, v_max=2.0, lambda_bound=0.05)
+    controller = Lp2Controller(arm, dt=0.05, v_max=2.0, lambda_bound=0.05, on_stall=None)
     rng = np.random.default_rng(3)
     q0 = rng.uniform(-1.5, 1.5, (40, 4))
     targets = np.array([arm.pose(q) + np.append(rng.normal(0, 0.2, 2), 0) for q in q0])

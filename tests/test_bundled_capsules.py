@@ -96,9 +96,9 @@ def test_links_with_two_capsules_get_one_row_each_in_the_compiled_step() -> None
             "influence_distance": 0.15,
         }
     )  # fmt: skip
-    compiled = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt)
+    compiled = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt, on_stall=None)
     through_coal = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt,
-                                         compiled_distances=False)  # fmt: skip
+                                         compiled_distances=False, on_stall=None)  # fmt: skip
     labels = compiled.pair_labels
     assert labels.count("collision upper_arm_link - post") == 2
     q, q_coal, bound = setup.q0.copy(), setup.q0.copy(), set()

@@ -130,7 +130,7 @@ def test_the_help_names_every_method_and_on_stall(capsys) -> None:
     text = " ".join(capsys.readouterr().out.split())
     assert all(name in text for name in METHODS)
     assert "--on-stall N" in text
-    assert "opt-in" in text and "(default none)" in text  # the strict step unless asked
+    assert "none: never, the paper's strict steps (default 1)" in text
 
 
 def test_on_stall_must_be_a_positive_step_count(capsys) -> None:

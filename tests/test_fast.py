@@ -32,7 +32,7 @@ from lpik.result import (  # noqa: E402
 )
 from lpik.robots.base import TaskModel  # noqa: E402
 from lpik.robots.planar import planar_arm  # noqa: E402
-from lpik.tolerances import EQUALITY_RTOL  # noqa: E402
+from lpik.tolerances import EQUALITY_RTOL, STALL_P  # noqa: E402
 
 N_RANDOM = 20000  # instances held to the HiGHS path
 
@@ -547,15 +547,14 @@ def test_controller_converts_other_inputs_to_the_same_step() -> None:
     whole = np.array([0, 0, 0, -2, 0, 2, 1])  # integers
     by_int = controller.step(whole, target)
     by_float = controller.step(whole.astype(float), target)
-    assert by_int.status == by_float.status == OPTIMAL  # the strict step, the default
+    assert by_int.status == by_float.status == OPTIMAL
     np.testing.assert_array_equal(by_int.q, by_float.q)
-    # From rest the acceleration limits leave p below STALL_P with no motion along the
-    # command: with the stall stage on (opt-in, on_stall=1) that reads as a stall, and the
-    # progress step leaves the direction (one reason the stage is not the default)
-    staller = Lp2Controller(model, dt=0.001, qdd_max=10.0, on_stall=1)
-    from_int, from_float = staller.step(whole, target), staller.step(whole.astype(float), target)
-    assert from_int.status == from_float.status == OFF_DIRECTION
-    np.testing.assert_array_equal(from_int.q, from_float.q)
+    # From rest the acceleration limits leave p below STALL_P: the step is held by an
+    # acceleration limit, not stalled, so the stall stage (on_stall=1, the default) keeps
+    # the direction; the strict step is the same step
+    strict = Lp2Controller(model, dt=0.001, qdd_max=10.0, on_stall=None)
+    assert by_int.p < STALL_P and by_int.binding.kind == "acceleration"
+    np.testing.assert_array_equal(strict.step(whole, target).q, by_int.q)
     # xyz, a rotation and a pose address the same compiled step of a position task.
     position = Lp2Controller(_panda("position"), dt=0.001)
     by_xyz = position.step(q, np.ascontiguousarray(target[:3, 3]))
@@ -724,7 +723,7 @@ def test_step_batch_equals_steps_planar_with_singular_rows() -> None:
     _assert_rows_equal_steps(controller, batch, q0, targets, q_prev)
     assert set(batch.path) == {"compiled"}
     # the singular rows, against the general LP: the strict step (no stall stage) is lp2's twin
-    strict = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5)
+    strict = Lp2Controller(arm, dt=0.01, v_max=0.5, qdd_max=30.0, lambda_bound=0.5, on_stall=None)
     singular = strict.step_batch(q0[:5], targets[:5], q_prev[:5])
     assert set(singular.path) == {"compiled"}
     for b in range(5):

@@ -50,10 +50,11 @@ def test_the_same_values_give_the_same_steps_in_every_entry_point() -> None:
     # the paper's LP2 and step: it stops at the end-stop, so that every kind of limit binds
     controller = Lp2Controller(ARM, dt=dt, limits=LIMITS, M=np.ones(4), f=np.zeros(4),
                                Lambda=np.zeros(4), saturate=False, second_order=False,
-                               continuation=False)  # fmt: skip
+                               continuation=False, on_stall=None)  # fmt: skip
     log = simulate(ARM, ClampedTarget(target, v_max=0.5), q0, steps, dt=dt, limits=LIMITS,
                    weights={"M": np.ones(4), "f": np.zeros(4), "Lambda": np.zeros(4)},
-                   method=controller.method, second_order=False, continuation=False)  # fmt: skip
+                   method=controller.method, second_order=False, continuation=False,
+                   on_stall=None)  # fmt: skip
     q, prev = q0.copy(), None
     kinds = set()
     for k in range(steps):

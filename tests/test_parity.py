@@ -150,7 +150,7 @@ def controller_options(family: Family, method: str, bound: Any) -> dict[str, Any
     return {
         "dt": family.dt, "v_max": family.v_max, "w_max": family.w_max,
         "qdd_max": family.qdd_max, "lambda_bound": bound, "saturate": method == "lp2s",
-        **(family.weights or {}),
+        "on_stall": None, **(family.weights or {}),
     }  # fmt: skip
 
 
@@ -273,7 +273,7 @@ def _simulate(case: Case, method: str, bound: Any) -> Outcome:
     log = simulate(
         f.model, ClampedTarget(case.target, f.v_max, f.w_max), case.q0, 1, method=method,
         dt=f.dt, lambda_bound=bound, qdd_max=f.qdd_max, weights=f.weights,
-        scene=f.avoidance(),  # its home is the family's, not q0
+        scene=f.avoidance(), on_stall=None,  # its home is the family's, not q0
     )  # fmt: skip
     return Outcome(q=log.q_end, p=float(log.p[0]), status=str(log.status[0]),
                    binding=text(log.binding[0]), method=log.method, residual=None,
@@ -290,7 +290,8 @@ def _console_step(family: str, method: str, bound: Any) -> Callable[..., Any]:
                          v_max=f.v_max, w_max=f.w_max, capsules=(), scene=f.scene,
                          planar=family.startswith("planar"))  # fmt: skip
     return make_stepper(robot, Settings(method=method, v_max=f.v_max, w_max=f.w_max,
-                                        lambda_bound=bound, qdd_max=f.qdd_max))  # fmt: skip
+                                        lambda_bound=bound, qdd_max=f.qdd_max,
+                                        on_stall=None))  # fmt: skip
 
 
 def _console(case: Case, method: str, bound: Any) -> Outcome:

@@ -101,9 +101,11 @@ def controllers(workload: Workload) -> tuple[Lp2Controller, Lp2Controller]:
 
     w = workload
     # the paper's LP2 (the rows say "lp2 fused"); lp2s, the default, adds passes only at a bound
-    plain = Lp2Controller(w.model, dt=w.dt, v_max=w.v_max, w_max=w.w_max, saturate=False)
+    # on_stall=None: the method's step, which the runs check against the LP
+    plain = Lp2Controller(w.model, dt=w.dt, v_max=w.v_max, w_max=w.w_max, saturate=False,
+                          on_stall=None)  # fmt: skip
     acc = Lp2Controller(w.model, dt=w.dt, v_max=w.v_max, w_max=w.w_max, qdd_max=w.qdd_max,
-                        saturate=False)  # fmt: skip
+                        saturate=False, on_stall=None)  # fmt: skip
     return plain, acc
 
 
@@ -136,7 +138,7 @@ class PlanarWorkload:
         from lpik.control.controller import Lp2Controller
 
         return Lp2Controller(self.model, dt=self.dt, v_max=0.5, qdd_max=self.qdd_max,
-                             saturate=False)  # fmt: skip
+                             saturate=False, on_stall=None)  # fmt: skip
 
 
 def planar_workload(steps: int = 400, qdd_max: float = 10.0) -> PlanarWorkload:

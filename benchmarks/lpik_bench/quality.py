@@ -56,6 +56,9 @@ _OPEN = {"v_max": UNCLAMPED, "w_max": UNCLAMPED}
 VARIANTS: dict[str, dict[str, Any]] = {
     "lp2s": {**_OPEN},
     "lp2s +acc": {"qdd_max": QDD_MAX, **_OPEN},
+    # the paper's strict steps (no stall stage): what the default's stall stage buys and costs
+    "lp2s strict": {"on_stall": None, **_OPEN},
+    "lp2s +acc strict": {"on_stall": None, "qdd_max": QDD_MAX, **_OPEN},
     "lp2": {"saturate": False, **_OPEN},
     "lp2 +acc": {"saturate": False, "qdd_max": QDD_MAX, **_OPEN},
     "lp2s unbounded": {"lambda_bound": None, **_OPEN},

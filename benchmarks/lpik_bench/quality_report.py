@@ -495,8 +495,8 @@ def intro(suite: SuiteResult) -> list[str]:
         "seen most; of the frozen steps, those with no exact direction at all: LP1's `p` (the "
         "largest fraction of the command that any step within the limits follows exactly) is "
         "0 there, so no step that keeps the commanded direction can move, and only leaving it "
-        "(the opt-in `on_stall` progress step) makes progress. **Step time**: the library's "
-        "step call alone, median / p99 / max [us]. "
+        "(the `on_stall` progress step, on by default) makes progress. **Step time**: the "
+        "library's step call alone, median / p99 / max [us]. "
         "The machine is a shared 2-core virtual machine on which other work ran at the same "
         "time: step times are noisy (the max most of all) and only their order of magnitude "
         "is a finding here; docs/benchmarks.md has careful timings.",

@@ -97,7 +97,8 @@ class SingularWorkload:
         from lpik.control.controller import Lp2Controller
 
         return Lp2Controller(self.model, dt=self.dt, v_max=V_MAX, w_max=W_MAX,
-                             qdd_max=QDD_MAX if acc else None, lambda_bound=bound)  # fmt: skip
+                             qdd_max=QDD_MAX if acc else None, lambda_bound=bound,
+                             on_stall=None)  # the method's step, checked against LP2  # fmt: skip
 
     def describe(self) -> str:
         """One line: items, kinds, the spread of ``sigma_min(J)``."""

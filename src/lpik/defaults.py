@@ -9,13 +9,13 @@ read them from here.
 #: saturation in the null space (``lp2s``). The paper's runs name ``lp2`` explicitly.
 DEFAULT_METHOD = "lp2s"
 
-#: Steps that stall (``p`` near 0 and no motion along the command,
-#: :data:`lpik.tolerances.STALL_P`) in a row before the progress step
-#: (:mod:`lpik.methods.progress`) is taken; ``None``: never (the paper's strict step,
-#: the default). Opt-in (``on_stall=1``) because, measured: with targets beyond reach
-#: the least-L1 step jumps between vertices (lp2s's joint-velocity jitter 26,440 rad/s
-#: against 447 strict), and under acceleration limits a start from rest reads as a stall.
-DEFAULT_ON_STALL: int | None = None
+#: Steps that stall (:func:`lpik.methods.progress.is_stall`: no step along the command,
+#: or one with ``p <= STALL_P`` that time does not free and that gains far less than the
+#: progress step) in a row before the progress step (:mod:`lpik.methods.progress`) is
+#: taken; ``None``: never (the paper's strict step: the direction or no motion). On by
+#: default, so that an arm with a target it could still come nearer to does not freeze.
+#: The paper's runs name ``None`` (:data:`lpik.paper.setup.PAPER_COMMAND`).
+DEFAULT_ON_STALL: int | None = 1
 
 #: The ways a controller spends the limits: ``"exact"`` keeps the commanded direction
 #: (the paper's steps, the default); ``"progress"`` adds, after the exact step, the step

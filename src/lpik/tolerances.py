@@ -78,19 +78,17 @@ SMOOTHING_SHARE = 0.5
 PULL_TOL = 1e-10
 
 # ---------------------------------------------------- stalls and the progress step
-#: A step is a stall when it follows at most this share of its command: ``p`` at or
-#: below it and the task's motion along the command, ``dw . J dq / |dw|^2``, at or
-#: below it too. The second condition keeps a step that moves the arm along the
-#: command at small ``p`` from counting (solved around the motion under acceleration
-#: limits, ``p`` is the share of the commanded *change* of the motion, which can be
-#: small while the arm moves fine). At 1e-2 a stalled arm closes less than 1 % of the
-#: command per period, where the progress step, which is never worse in L1 error
-#: than the exact step (the exact step is one of its candidates), does better.
+#: A step can stall only when it follows at most this share of its command (``p``);
+#: above it the exact step stands without a look at the progress step.
 STALL_P = 1e-2
+#: A step with ``p <= STALL_P`` that an acceleration limit does not hold stalls when it
+#: reduces the L1 task error by less than this share of what the progress step (the
+#: least error within the same limits) achieves (:func:`lpik.methods.progress.is_stall`).
+STALL_SHARE = 0.5
 #: The compiled progress LP's simplex: a pivot entry of at most this size is not taken.
 SIMPLEX_PIVOT_TOL = 1e-11
 #: The compiled progress LP's simplex: a reduced cost beyond minus this improves the step
-#: (the costs are 1 per task row and ``MOTION_WEIGHT`` = 1e-6 per joint).
+#: (the costs are 1 per task row and ``MOTION_WEIGHT`` per joint).
 SIMPLEX_COST_TOL = 1e-13
 
 # ----------------------------------------------------- binding from the duals

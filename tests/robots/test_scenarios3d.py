@@ -14,7 +14,7 @@ from lpik.robots.rotations import log_so3
 
 def test_pull_in_follows_a_straight_line_then_stops(robot_name: str) -> None:
     setup = SCENARIOS["pull-in"].setup(robot_name)
-    log = setup.run()
+    log = setup.run(on_stall=None)  # the paper's steps: along the line, then a stop
     start, target = log.position[0], setup.target
     line = (target[:3, 3] - start) / np.linalg.norm(target[:3, 3] - start)
     path = log.position - start

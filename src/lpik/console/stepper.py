@@ -25,6 +25,7 @@ from typing import Any
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik.console.robot import ConsoleRobot
 from lpik.control.stepper import Stepper as PipelineStepper
+from lpik.defaults import DEFAULT_ON_STALL
 from lpik.limits import MultiplierBounds, multiplier_limit
 from lpik.methods.registry import DEFAULT_METHOD, METHODS, get_method
 from lpik.result import Result
@@ -54,6 +55,8 @@ class Settings:
             multipliers) or None (unbounded, the paper's LP2). Methods without
             multipliers ignore ``"auto"``.
         qdd_max: Acceleration limit of every joint [rad/s^2], or None (off).
+        on_stall: The stall stage (:mod:`lpik.methods.progress`): the progress step
+            after this many stalled steps in a row; None: the paper's strict steps.
     """
 
     method: str = DEFAULT_METHOD
@@ -61,6 +64,7 @@ class Settings:
     w_max: float = DEFAULT_W_MAX
     lambda_bound: float | str | None = "auto"
     qdd_max: float | None = None
+    on_stall: int | None = DEFAULT_ON_STALL
 
     def __post_init__(self) -> None:
         spec = get_method(self.method)
@@ -103,6 +107,7 @@ def make_stepper(robot: ConsoleRobot, settings: Settings) -> Stepper:
         "w_max": settings.w_max,
         "lambda_bound": settings.lambda_bound,
         "qdd_max": settings.qdd_max,
+        "on_stall": settings.on_stall,
     }
     if settings.method not in COMPILED:
         return PipelineStepper(robot.model, dt=robot.dt, method=settings.method,

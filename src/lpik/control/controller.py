@@ -59,7 +59,7 @@ from lpik.fast.step import BAD_INPUT
 from lpik.labels import step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
-from lpik.methods.progress import is_stall, progress_result, share_along
+from lpik.methods.progress import STALLS, is_stall, l1_error, progress_result
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result
 from lpik.robots.base import TaskModel
@@ -188,9 +188,9 @@ class Lp2Controller:
             at the first bound it meets.
         on_stall: The progress step (:mod:`lpik.methods.progress`, compiled in
             :mod:`lpik.fast.progress`; status ``off_direction``, ``p = 0``) after this
-            many stalled steps in a row (``p`` near 0 and no motion along the command,
-            :data:`lpik.tolerances.STALL_P`); opt-in (``1`` turns it on); ``None``,
-            the default (:data:`lpik.defaults.DEFAULT_ON_STALL`): never (the paper's steps).
+            many stalled steps in a row (:func:`lpik.methods.progress.is_stall`); default
+            :data:`lpik.defaults.DEFAULT_ON_STALL` (1); ``None``: never, the paper's
+            strict steps (the direction or no motion).
         mode: ``"exact"`` (default): keep the commanded direction (the paper's
             contract); ``"progress"``: after every exact step with ``p < 1``, spend
             what the limits leave on the task error that remains (compiled,
@@ -604,20 +604,29 @@ class Lp2Controller:
         left them in the state; the bounds are recomputed from ``q0`` and ``q_prev``.
         """
         watch, n, m = self.stepper.stall_watch, self._n, self._m
+        further = self._further and result.status == OPTIMAL and result.p < 1.0
+        may_stall = watch.after is not None and result.p <= STALL_P and result.status in STALLS
+        if not (may_stall or further):
+            if count:
+                watch.clear()
+            return result
         J = layout.matrix_at(self._state, layout.JACOBIAN, m, n)
         dw = self._out[self._dw]
-        along = partial(share_along, J, dw, result.dq)
-        stalled = (watch.stalls(result, along) if count
-                   else watch.after == 1 and is_stall(result.p, along))  # fmt: skip
-        further = self._further and result.status == OPTIMAL and result.p < 1.0
-        if not (stalled or further):
-            return result
         start, dq = perf_counter(), np.empty(n)
         q = np.ascontiguousarray(q0, dtype=np.float64)
         prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
-        if stalled:
-            code, before, _ = progress_in_state(self._state, q, prev, dq)
-            p, binding = 0.0, None
+        stalled = False
+        if may_stall:
+            code, before, after = progress_in_state(self._state, q, prev, dq)
+            exact_gain = before - l1_error(J, dw, result.dq)
+            stall = code == SOLVED and is_stall(
+                result.p, exact_gain, before - after, result.binding
+            )
+            stalled = watch.count(stall) if count else watch.after == 1 and stall
+            if not (stalled or further):
+                return result
+        if stalled:  # p 0; binding: the limit that stopped the direction
+            p, binding = 0.0, result.binding
         else:
             dq1 = np.ascontiguousarray(result.dq, dtype=np.float64)
             code, before, _ = further_in_state(self._state, q, prev, dq1, dq)

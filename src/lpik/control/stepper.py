@@ -123,9 +123,9 @@ class Stepper:
         second_order: Take off each command the last step's second-order term
             (:func:`lpik.command.second_order_term`); ``False``: the law alone.
         on_stall: The progress step (:mod:`lpik.methods.progress`) after this many
-            stalled steps in a row (``p`` near 0, :data:`lpik.tolerances.STALL_P`); opt-in
-            (``1`` turns it on). None, the default
-            (:data:`lpik.defaults.DEFAULT_ON_STALL`): never, the paper's strict steps.
+            stalled steps in a row (:func:`lpik.methods.progress.is_stall`); default
+            :data:`lpik.defaults.DEFAULT_ON_STALL` (1); ``None``: never, the paper's
+            strict steps.
         mode: ``"exact"`` (default): the method's step; ``"progress"``: after every
             exact step with ``p < 1``, the least task error the limits leave
             (:func:`lpik.methods.progress.further_step`).

@@ -48,7 +48,7 @@ import numpy as np
 from numba import njit
 
 from lpik.fast import layout as L
-from lpik.fast.step import step_bounds
+from lpik.fast.step import continues, step_bounds
 from lpik.methods.progress import MOTION_WEIGHT
 from lpik.tolerances import FEASIBILITY_TOL, SIMPLEX_COST_TOL, SIMPLEX_PIVOT_TOL
 
@@ -371,8 +371,23 @@ def progress_in_state(state, q0, q_prev, dq):
     task errors ``sum |dw|`` and ``sum |J dq - dw|``.
     """
     J, dw, lower, upper, G, g = _state_rows(state, q0, q_prev)
-    code = least_error_step(J, dw, lower, upper, G, g, dq)
-    zero = np.zeros(q0.shape[0])
+    n, m, r = q0.shape[0], J.shape[0], G.shape[0]
+    # the motion term from the arm's motion under acceleration limits (progress_center)
+    center = np.zeros(n)
+    if continues(state, q0, q_prev):
+        for i in range(n):
+            center[i] = min(max(q0[i] - q_prev[i], lower[i]), upper[i])
+    shifted, lo, hi, rhs, delta = dw.copy(), lower - center, upper - center, g.copy(), np.empty(n)
+    for k in range(m):
+        for i in range(n):
+            shifted[k] -= J[k, i] * center[i]
+    for j in range(r):
+        for i in range(n):
+            rhs[j] -= G[j, i] * center[i]
+    code = least_error_step(J, shifted, lo, hi, G, rhs, delta)
+    for i in range(n):
+        dq[i] = min(max(center[i] + delta[i], lower[i]), upper[i])
+    zero = np.zeros(n)
     return code, least_error_value(J, dw, zero), least_error_value(J, dw, dq) - _motion(dq)
 
 
