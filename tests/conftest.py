@@ -9,6 +9,10 @@ Hypothesis profiles (select with ``HYPOTHESIS_PROFILE=<name>``):
 
 Property tests of the core ask for ``core_strategies.examples(n)``, which
 scales ``n`` with the loaded profile.
+
+The suite runs on every core (pytest-xdist, ``-n auto`` in ``pyproject.toml``, at
+most :data:`MAX_WORKERS` workers, a file per worker at a time); ``-n 0`` runs it in
+one process (for ``pdb``, or a single test).
 """
 
 from __future__ import annotations
