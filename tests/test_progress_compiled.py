@@ -201,3 +201,94 @@ def test_under_acceleration_limits_the_stall_stage_is_alike_on_both_paths() -> N
         prev, q = q, res.q
     assert statuses[:20] == [OPTIMAL] * 20
     assert OFF_DIRECTION in statuses
+
+
+def test_a_basis_that_rounding_leaves_singular_is_an_outcome_not_an_exception() -> None:
+    """mode="progress" on a step of the quality suite's step inputs (Panda at 1 kHz): the
+    fresh factorisation of the optimal basis met a zero pivot, which raised
+    ZeroDivisionError inside the controller; it is the outcome SINGULAR_BASIS now, and the
+    controller keeps its exact step."""
+    J = np.array(
+        [
+            [
+                -1.3143638636184078e-12,
+                0.15370673962638348,
+                -0.004769836806137089,
+                0.14007043434569635,
+                -0.0049114746748585335,
+                0.21034108231788845,
+                1.2924697071141057e-26,
+            ],
+            [
+                0.3320207604320559,
+                0.007343302324053748,
+                0.35228195740330903,
+                -0.006799471076570725,
+                0.20749409246612338,
+                0.004978864177584071,
+                1.2209233884805083e-17,
+            ],
+            [
+                0.0,
+                -0.3316425011600586,
+                0.010291550077081185,
+                0.47428151270562074,
+                -5.85596991904691e-11,
+                0.08800000000477541,
+                -3.4372454417062225e-27,
+            ],
+            [
+                0.0,
+                -0.047720330172335367,
+                -0.6488092811553344,
+                0.022999435507700262,
+                0.999233351181962,
+                0.023663803007650096,
+                2.9367145582142254e-11,
+            ],
+            [
+                0.0,
+                0.9988607360829853,
+                -0.03099670654492103,
+                -0.9995123281040101,
+                0.023652284450356473,
+                -0.9997199730060489,
+                -2.8152834768399644e-10,
+            ],
+            [
+                1.0,
+                6.123233995736766e-17,
+                0.7603194860517953,
+                -0.02112183548909764,
+                -0.031197424989013012,
+                2.821443858040535e-10,
+                -1.0,
+            ],
+        ]
+    )
+    dw = np.array(
+        [
+            0.024869593666092187,
+            6.660418156625645e-09,
+            7.164866434276509e-07,
+            1.7607829435449322e-07,
+            5.801372042342249e-09,
+            5.6017981807222276e-08,
+        ]
+    )
+    lower = np.array([-0.002175, -0.002175, -0.002175, -0.002175, -0.00261, -0.00261, -0.00261])
+    dq1 = np.array(
+        [
+            3.304449170628667e-05,
+            0.002175,
+            -6.704120959256602e-05,
+            0.0013735285048351955,
+            9.733754427412238e-06,
+            0.0008021961839339691,
+            -4.7244924345695563e-05,
+        ]
+    )
+    dq = np.empty(7)
+    code = fast.further_progress(J, dw, lower, -lower, np.zeros((0, 7)), np.zeros(0), dq1, dq)
+    assert code in (fast.SOLVED, fast.SINGULAR_BASIS)
+    assert np.all(dq >= lower) and np.all(dq <= -lower)

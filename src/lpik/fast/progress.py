@@ -20,8 +20,9 @@ collision recovery with its distance rows)::
 - ``dq`` (n,): receives the optimal step.
 
 It returns :data:`SOLVED`, :data:`INFEASIBLE` (no ``dq`` within the bounds
-holds the rows; ``dq`` is then ``0`` clipped to the bounds) or
-:data:`ITERATION_LIMIT`. The objective of a step is :func:`least_error_value`.
+holds the rows; ``dq`` is then ``0`` clipped to the bounds),
+:data:`ITERATION_LIMIT` or :data:`SINGULAR_BASIS` (rounding left the basis
+singular; ``dq`` as for :data:`INFEASIBLE`). The objective of a step is :func:`least_error_value`.
 ``MOTION_WEIGHT`` (:mod:`lpik.methods.progress`) picks, among the steps of
 least error, one of least motion, so that the joints do not jitter between
 vertices; the simplex's tolerances are :data:`lpik.tolerances.SIMPLEX_PIVOT_TOL`
@@ -54,6 +55,9 @@ from lpik.tolerances import FEASIBILITY_TOL, SIMPLEX_COST_TOL, SIMPLEX_PIVOT_TOL
 
 #: :func:`least_error_step`'s outcomes.
 SOLVED, INFEASIBLE, ITERATION_LIMIT = 0, 1, 2
+#: :func:`least_error_step`'s outcome when rounding left the basis singular (a pivot of
+#: 0 in its fresh factorisation): no answer, the caller keeps its own step.
+SINGULAR_BASIS = 3
 #: Degenerate pivots in a row after which the simplex prices by Bland's rule.
 _BLAND_AFTER = 30
 #: Fresh factorisations of the optimal basis before the answer stands.
@@ -227,7 +231,11 @@ def _pivots(T, cost, x, lo, up, basis, row_of, limit):
 
 @njit(cache=True)
 def _refresh(A, b, x, lo, up, basis, row_of, T):
-    """``T = B^-1 A`` and the basic values afresh from the basis (Gauss-Jordan, partial pivots)."""
+    """``T = B^-1 A`` and the basic values afresh from the basis (Gauss-Jordan, partial pivots).
+
+    Returns False (``T`` and ``x`` then unusable) where the basis is singular: a pivot
+    of at most :data:`~lpik.tolerances.SIMPLEX_PIVOT_TOL` after the partial pivoting.
+    """
     rows, cols = A.shape
     W = np.empty((rows, cols + 1))
     for i in range(rows):
@@ -248,6 +256,8 @@ def _refresh(A, b, x, lo, up, basis, row_of, T):
             for c in range(cols + 1):
                 W[p, c], W[piv, c] = W[piv, c], W[p, c]
         pivot = W[p, j]
+        if abs(pivot) <= SIMPLEX_PIVOT_TOL:
+            return False
         for c in range(cols + 1):
             W[p, c] /= pivot
         for i in range(rows):
@@ -261,6 +271,7 @@ def _refresh(A, b, x, lo, up, basis, row_of, T):
         x[j] = min(max(W[p, cols], lo[j]), up[j])
         for c in range(cols):
             T[p, c] = W[p, c]
+    return True
 
 
 @njit(cache=True)
@@ -271,7 +282,8 @@ def _solve(A, b, lo, up, cost, x, basis, row_of, T):
         limit = _pivots(T, cost, x, lo, up, basis, row_of, limit)
         if limit < 0:
             return ITERATION_LIMIT
-        _refresh(A, b, x, lo, up, basis, row_of, T)
+        if not _refresh(A, b, x, lo, up, basis, row_of, T):
+            return SINGULAR_BASIS
         if _entering(T, cost, x, lo, up, basis, row_of, False)[0] < 0:
             return SOLVED
     return ITERATION_LIMIT
@@ -289,7 +301,8 @@ def least_error_step(J, target, lower, upper, G, g, dq):
     for i in range(n):
         dq[i] = min(max(0.0, lower[i]), upper[i])
     need = _start(A, b, lo, x, basis, row_of, m, r)
-    _refresh(A, b, x, lo, up, basis, row_of, T)
+    if not _refresh(A, b, x, lo, up, basis, row_of, T):
+        return SINGULAR_BASIS
     if need:  # phase 1: the artificial variables down to 0
         phase1 = np.zeros(cols)
         phase1[cols - r :] = 1.0
@@ -432,6 +445,7 @@ def least_error(
 __all__ = [
     "INFEASIBLE",
     "ITERATION_LIMIT",
+    "SINGULAR_BASIS",
     "SOLVED",
     "further_in_state",
     "further_progress",
