@@ -59,7 +59,13 @@ from lpik.fast.step import BAD_INPUT
 from lpik.labels import step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
-from lpik.methods.progress import STALLS, is_stall, l1_error, progress_result
+from lpik.methods.progress import (
+    STALLS,
+    is_stall,
+    l1_error,
+    progress_result,
+    stall_candidate,
+)
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result
 from lpik.robots.base import TaskModel
@@ -605,7 +611,8 @@ class Lp2Controller:
         """
         watch, n, m = self.stepper.stall_watch, self._n, self._m
         further = self._further and result.status == OPTIMAL and result.p < 1.0
-        may_stall = watch.after is not None and result.p <= STALL_P and result.status in STALLS
+        may_stall = (watch.after is not None and result.status in STALLS
+                     and stall_candidate(result.p, result.binding))  # fmt: skip
         if not (may_stall or further):
             if count:
                 watch.clear()

@@ -97,31 +97,39 @@ def l1_error(J: FloatArray, dw: FloatArray, dq: FloatArray) -> float:
 STALLS = (OPTIMAL, INFEASIBLE)
 
 
+def stall_candidate(p: float, binding: object = None) -> bool:
+    """Whether a step may stall (:func:`is_stall`), from its ``p`` and binding limit alone.
+
+    ``p <= STALL_P``, and not a step with ``p > 0`` (above
+    :data:`~lpik.tolerances.NO_CHANGE_P`) held by an acceleration limit
+    (``binding.kind == "acceleration"``): that step has its direction and takes it
+    as fast as the arm can change its motion (a start from rest), and ``p`` grows as
+    the arm speeds up. Only a candidate needs the progress step's LP.
+    """
+    if p > STALL_P:
+        return False
+    return p <= NO_CHANGE_P or getattr(binding, "kind", None) != "acceleration"
+
+
 def is_stall(p: float, exact_gain: float, progress_gain: float, binding: object = None) -> bool:
     """Whether a step stalls: no step along the command, or one that time does not free.
 
     ``exact_gain`` and ``progress_gain`` are how much the exact step and the
     progress step reduce the L1 task error, ``sum |dw| - sum |J dq - dw|``;
-    ``binding`` is the exact step's binding limit. A step stalls where
+    ``binding`` is the exact step's binding limit. A step stalls where it is a
+    :func:`stall_candidate` and
 
-    - no step along the command exists (``p`` at most
+    - no step along the command exists at all (``p`` at most
       :data:`~lpik.tolerances.NO_CHANGE_P`: the step is the safe step, or the
       controlled stop of a moving arm, which keep no direction either), or
-    - ``p <= STALL_P``, the limit that holds it is not an acceleration limit, and
-      it gains less than :data:`~lpik.tolerances.STALL_SHARE` of what the
-      progress step gains within the same limits.
+    - it reduces the error by less than :data:`~lpik.tolerances.STALL_SHARE` of
+      what the progress step achieves within the same limits.
 
-    A step held by an acceleration limit with ``p > 0`` (a start from rest) has
-    its direction and takes it as fast as the arm can change its motion: ``p``
-    grows as the arm speeds up, so it is not a stall; nor is a step where no
-    motion brings the target nearer (both gains 0).
+    A step where no motion brings the target nearer (both gains 0) does not stall.
     """
-    if p > STALL_P:
+    if not stall_candidate(p, binding):
         return False
-    if p <= NO_CHANGE_P:
-        return True
-    held = getattr(binding, "kind", None) == "acceleration"
-    return not held and exact_gain < STALL_SHARE * progress_gain
+    return p <= NO_CHANGE_P or exact_gain < STALL_SHARE * progress_gain
 
 
 def progress_step(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
@@ -273,7 +281,8 @@ class StallWatch:
         ``problem_of()`` builds the step's :class:`~lpik.problem.Problem` (only when
         needed: a step with ``p <= STALL_P`` under a watch).
         """
-        if self.after is None or result.p > STALL_P or result.status not in STALLS:
+        if (self.after is None or result.status not in STALLS
+                or not stall_candidate(result.p, result.binding)):  # fmt: skip
             self.run = 0
             return result
         problem = problem_of()
