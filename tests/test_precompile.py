@@ -14,6 +14,7 @@ from lpik.cli.main import main  # noqa: E402
 NAMES = [
     "fused step (a serial chain's, or a backend's kinematics)",
     "fused step with distance rows (AvoidingLp2Controller)",
+    'the stall stage\'s progress step (on_stall, mode="progress")',
     "fused step batch, serial chain",
     "the automatic multiplier bound's rule, after a step on the HiGHS path",
     'LP2 ratio test (lp2, path="compiled")',

@@ -61,7 +61,7 @@ def compile_kernels() -> list[KernelLoad]:
     import numpy as np
 
     from lpik.control.controller import Lp2Controller
-    from lpik.fast import lp2_kernel, saturation, step
+    from lpik.fast import lp2_kernel, progress, saturation, step
     from lpik.fast.autobound import bound_in_state
     from lpik.fast.avoiding_step import avoiding_kernel, loaded_avoiding_kernel
     from lpik.fast.batch import lp2_batch
@@ -95,7 +95,10 @@ def compile_kernels() -> list[KernelLoad]:
     panda = load_robot("panda", task="pose")
     q = home_configuration("panda")
     pose = panda.pose(q)
-    controller = Lp2Controller(panda, dt=1e-3, qdd_max=10.0)
+    controller = Lp2Controller(panda, dt=1e-3, qdd_max=10.0, on_stall=None)
+    ready("the stall stage's progress step (on_stall, mode=\"progress\")",
+          partial(Lp2Controller, panda, dt=1e-3, qdd_max=10.0, mode="progress"),
+          progress.progress_in_state)  # fmt: skip
     problem = Problem(J=panda.jacobian(q), dw=np.full(6, 1e-4), q0=q,
                       q_min=panda.q_min, q_max=panda.q_max)  # fmt: skip
     ready(

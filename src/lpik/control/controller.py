@@ -294,6 +294,21 @@ class Lp2Controller:
         self._last_code: int | None = None  # step_into's last kernel outcome (-1: see _last)
         # a Result for step_into: the automatic bound over a backend's kinematics (its probe)
         self._python_bound = self.automatic_bound is not None and not fuses_kinematics(model)
+        if self._watch_stall or self._further:
+            self._ready_progress()
+
+    def _ready_progress(self) -> None:
+        """Compile (or load) the stall stage's LP now, not in the middle of a control loop.
+
+        One progress step on the template state (at rest at the middle of the end-stops,
+        no command): it writes nothing into the state.
+        """
+        n = self._n
+        q = np.ascontiguousarray(np.clip(np.zeros(n), self.model.q_min, self.model.q_max))
+        dq = np.empty(n)
+        progress_in_state(self._state, q, q, dq)
+        if self._further:
+            further_in_state(self._state, q, q, np.zeros(n), dq)
 
     @property
     def limits(self) -> tuple[Limit, ...]:
