@@ -180,9 +180,10 @@ def test_the_stall_stage_is_alike_on_every_path(robot: str, mode: str) -> None:
 
 
 def test_under_acceleration_limits_the_stall_stage_is_alike_on_both_paths() -> None:
-    """A far pose under acceleration limits, the command unclamped: the start from rest keeps
-    its direction (held by the acceleration limits, not a stall); later the exact direction
-    is lost and the progress step, measured from the arm's motion, takes over. The numpy
+    """A far pose under acceleration limits, the command unclamped: the step from rest keeps
+    its direction (held by the acceleration limits, not a stall); once the arm moves, the
+    progress step, measured from the arm's motion, takes over where the direction costs
+    most of the progress. The numpy
     stepper (HiGHS) and the compiled controller agree step by step, within every limit."""
     model = load_robot("panda")
     goal = model.pose(np.array([-2.1772, 0.5837, -0.583, -2.5534, 0.744, 3.1688, -1.3574]))
@@ -199,7 +200,7 @@ def test_under_acceleration_limits_the_stall_stage_is_alike_on_both_paths() -> N
         assert np.all(res.q <= model.q_max + 1e-12) and np.all(res.q >= model.q_min - 1e-12)
         statuses.append(res.status)
         prev, q = q, res.q
-    assert statuses[:20] == [OPTIMAL] * 20
+    assert statuses[0] == OPTIMAL  # from rest: held by the acceleration limits, not a stall
     assert OFF_DIRECTION in statuses
 
 

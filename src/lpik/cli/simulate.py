@@ -240,10 +240,10 @@ def _add_loop_arguments(parser: argparse.ArgumentParser) -> None:
         "--on-stall",
         type=_stall_value,
         metavar="N",
-        help="after N stalled steps in a row (no step along the command, or p near 0 held by "
-        "a limit that time does not free), take the step of least task error within every "
-        "limit (status off_direction, p = 0) while the arm stays stalled; none: never, the "
-        "paper's strict steps (default "
+        help="after N stalled steps in a row (no step along the command, or p near 0 and far "
+        "less progress than leaving the direction), take the step of least task error within "
+        "every limit (status off_direction, p = 0) while the arm stays stalled; none: never, "
+        "the paper's strict steps (default "
         f"{'none' if DEFAULT_ON_STALL is None else DEFAULT_ON_STALL})",
     )
     parser.add_argument(

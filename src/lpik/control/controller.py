@@ -55,7 +55,7 @@ from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.outcome import compiled_result
 from lpik.fast.progress import SOLVED, further_in_state, least_error, progress_in_state
-from lpik.fast.step import BAD_INPUT
+from lpik.fast.step import BAD_INPUT, continues
 from lpik.labels import step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
@@ -626,8 +626,11 @@ class Lp2Controller:
         """
         watch, n, m = self.stepper.stall_watch, self._n, self._m
         further = self._further and result.status == OPTIMAL and result.p < 1.0
-        may_stall = (watch.after is not None and result.status in STALLS
-                     and stall_candidate(result.p, result.binding))  # fmt: skip
+        may_stall = watch.after is not None and result.status in STALLS and result.p <= STALL_P
+        q = np.ascontiguousarray(q0, dtype=np.float64)
+        prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
+        moving = may_stall and continues(self._state, q, prev)  # as the stepper's last motion
+        may_stall = may_stall and stall_candidate(result.p, result.binding, moving)
         if not (may_stall or further):
             if count:
                 watch.clear()
@@ -635,14 +638,12 @@ class Lp2Controller:
         J = layout.matrix_at(self._state, layout.JACOBIAN, m, n)
         dw = self._out[self._dw]
         start, dq = perf_counter(), np.empty(n)
-        q = np.ascontiguousarray(q0, dtype=np.float64)
-        prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
         stalled = False
         if may_stall:
             code, before, after = progress_in_state(self._state, q, prev, dq)
             exact_gain = before - l1_error(J, dw, result.dq)
             stall = code == SOLVED and is_stall(
-                result.p, exact_gain, before - after, result.binding
+                result.p, exact_gain, before - after, result.binding, moving
             )
             stalled = watch.count(stall) if count else watch.after == 1 and stall
             if not (stalled or further):

@@ -97,22 +97,26 @@ def l1_error(J: FloatArray, dw: FloatArray, dq: FloatArray) -> float:
 STALLS = (OPTIMAL, INFEASIBLE)
 
 
-def stall_candidate(p: float, binding: object = None) -> bool:
-    """Whether a step may stall (:func:`is_stall`), from its ``p`` and binding limit alone.
+def stall_candidate(p: float, binding: object = None, moving: bool = True) -> bool:
+    """Whether a step may stall (:func:`is_stall`), from its ``p``, binding limit and motion.
 
-    ``p <= STALL_P``, and not a step with ``p > 0`` (above
-    :data:`~lpik.tolerances.NO_CHANGE_P`) held by an acceleration limit
-    (``binding.kind == "acceleration"``): that step has its direction and takes it
-    as fast as the arm can change its motion (a start from rest), and ``p`` grows as
-    the arm speeds up. Only a candidate needs the progress step's LP.
+    ``p <= STALL_P``, and not a start from rest: a step of an arm at rest
+    (``moving`` False) with ``p > 0`` (above :data:`~lpik.tolerances.NO_CHANGE_P`)
+    held by an acceleration limit (``binding.kind == "acceleration"``) has its
+    direction and takes it as fast as the arm can speed up, and ``p`` grows as it
+    does. Only a candidate needs the progress step's LP.
     """
     if p > STALL_P:
         return False
-    return p <= NO_CHANGE_P or getattr(binding, "kind", None) != "acceleration"
+    if p <= NO_CHANGE_P or moving:
+        return True
+    return getattr(binding, "kind", None) != "acceleration"
 
 
-def is_stall(p: float, exact_gain: float, progress_gain: float, binding: object = None) -> bool:
-    """Whether a step stalls: no step along the command, or one that time does not free.
+def is_stall(
+    p: float, exact_gain: float, progress_gain: float, binding: object = None, moving: bool = True
+) -> bool:
+    """Whether a step stalls: no step along the command, or one far worse than leaving it.
 
     ``exact_gain`` and ``progress_gain`` are how much the exact step and the
     progress step reduce the L1 task error, ``sum |dw| - sum |J dq - dw|``;
@@ -127,7 +131,7 @@ def is_stall(p: float, exact_gain: float, progress_gain: float, binding: object 
 
     A step where no motion brings the target nearer (both gains 0) does not stall.
     """
-    if not stall_candidate(p, binding):
+    if not stall_candidate(p, binding, moving):
         return False
     return p <= NO_CHANGE_P or exact_gain < STALL_SHARE * progress_gain
 
@@ -281,16 +285,20 @@ class StallWatch:
         ``problem_of()`` builds the step's :class:`~lpik.problem.Problem` (only when
         needed: a step with ``p <= STALL_P`` under a watch).
         """
-        if (self.after is None or result.status not in STALLS
-                or not stall_candidate(result.p, result.binding)):  # fmt: skip
+        if self.after is None or result.status not in STALLS or result.p > STALL_P:
             self.run = 0
             return result
         problem = problem_of()
+        moving = problem.last is not None  # under acceleration limits, q_prev != q0
+        if not stall_candidate(result.p, result.binding, moving):
+            self.run = 0
+            return result
         progress = progress_step(problem)
         before = float(np.abs(problem.dw).sum())
         gains = (before - l1_error(problem.J, problem.dw, result.dq),
                  before - l1_error(problem.J, problem.dw, progress.dq))  # fmt: skip
-        stall = progress.status == OFF_DIRECTION and is_stall(result.p, *gains, result.binding)
+        stall = progress.status == OFF_DIRECTION and is_stall(result.p, *gains, result.binding,
+                                                              moving)  # fmt: skip
         if not self.count(stall):
             return result
         return dataclasses.replace(progress, binding=result.binding)  # what stopped the direction
