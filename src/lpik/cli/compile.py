@@ -49,6 +49,14 @@ def _counts(dispatcher: Any) -> tuple[int, int]:
     return sum(stats.cache_misses.values()), sum(stats.cache_hits.values())
 
 
+def _source(dispatcher: Any, misses: int, hits: int) -> str:
+    """Where a kernel came from, by its cache misses and hits since ``misses, hits``."""
+    now_misses, now_hits = _counts(dispatcher)
+    if now_misses > misses:
+        return "compiled"
+    return "disk cache" if now_hits > hits else "in memory"
+
+
 def compile_kernels() -> list[KernelLoad]:
     """Ready every kernel: the fused step, its batch, LP2 alone and batched.
 
@@ -78,13 +86,7 @@ def compile_kernels() -> list[KernelLoad]:
         returned = call()
         seconds = time.perf_counter() - start
         kernel = returned if kernel is None else kernel
-        now_misses, now_hits = _counts(kernel)
-        if now_misses > misses:
-            source = "compiled"
-        elif now_hits > hits:
-            source = "disk cache"
-        else:
-            source = "in memory"
+        source = _source(kernel, misses, hits)
         loads.append(KernelLoad(name, seconds, source, str(kernel.stats.cache_path)))
 
     # The step kernel compiles (or loads) when step_kernel first asks for it.
