@@ -129,7 +129,8 @@ def is_stall(
     - it reduces the error by less than :data:`~lpik.tolerances.STALL_SHARE` of
       what the progress step achieves within the same limits.
 
-    A step where no motion brings the target nearer (both gains 0) does not stall.
+    Where no motion brings the target nearer the stall stage keeps the step all the
+    same: the progress step gains nothing (:func:`progress_result`, ``no progress``).
     """
     if not stall_candidate(p, binding, moving):
         return False
