@@ -627,10 +627,11 @@ class Lp2Controller:
         watch, n, m = self.stepper.stall_watch, self._n, self._m
         further = self._further and result.status == OPTIMAL and result.p < 1.0
         may_stall = watch.after is not None and result.status in STALLS and result.p <= STALL_P
-        q = np.ascontiguousarray(q0, dtype=np.float64)
-        prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
-        moving = may_stall and continues(self._state, q, prev)  # as the stepper's last motion
-        may_stall = may_stall and stall_candidate(result.p, result.binding, moving)
+        if may_stall or further:  # else (nearly every step) nothing more to do
+            q = np.ascontiguousarray(q0, dtype=np.float64)
+            prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
+            moving = may_stall and continues(self._state, q, prev)  # the stepper's last motion
+            may_stall = may_stall and stall_candidate(result.p, result.binding, moving)
         if not (may_stall or further):
             if count:
                 watch.clear()
