@@ -120,6 +120,26 @@ def test_a_row_that_repeats_an_end_stop_is_named_alike_on_every_path() -> None:
     np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-15)
 
 
+def test_two_joints_that_tie_are_both_saturated_on_every_path() -> None:
+    """Joints 2 and 4 have the same Jacobian column and reach their velocity limits at
+    the same p (0.3136): the pass that saturates the second gains nothing but rounding.
+    Whether the passes went on (to p = 0.3387, joint 5 saturated too) was left to the
+    last bits of p, and the two paths parted (a hypothesis find). A tie goes on."""
+    J = [[0.4516054941670442, 0.4516054941670442, 0.6334649795321805, 0.4516054941670442,
+          0.24123774796507008, 0.0308700017630959],
+         [0.9464097056972777, -0.05359029430272233, 0.029639073006706096,
+          -0.05359029430272233, 0.0814852821643125, 0.21656085863134744]]  # fmt: skip
+    q0 = [0.0, 2.0, -np.pi, -1.0, 0.0, 2.0]
+    P = Problem(J=J, dw=[0.42375, 0.0], q0=q0, q_min=q0, q_max=[0.0, np.inf, -np.pi, 0.0, 1.0, 3.0],
+                dq_min=np.full(6, -0.125), dq_max=np.full(6, 0.125),
+                q_ref=[0.0, 2.0, -np.pi, -0.5, 0.5, 2.5])  # fmt: skip
+    a, b = lp2s(P), lp2s(P, path="compiled")
+    assert a.p == pytest.approx(0.3386759626565122, abs=1e-12) and b.p == pytest.approx(a.p)
+    assert str(a.binding) == str(b.binding) == "joint 5 upper velocity limit"
+    np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(a.dq[[1, 3, 4]], 0.125, rtol=0, atol=1e-15)
+
+
 @settings(max_examples=examples(250), deadline=None)
 @given(case=cases(well_posed=True))
 def test_lp2s_is_exact_never_below_lp2_and_keeps_every_limit(case: Case) -> None:

@@ -27,6 +27,7 @@ from lpik.fast.lp2_kernel import (
 from lpik.fast.workspace import PULL_SCALE, vector
 from lpik.tolerances import (
     FULL_P,
+    INTERVAL_TOL,
     MAX_SCHUR_CONDITION,
     SATURATION_MAX_CONDITION,
     SATURATION_MAX_PRICE,
@@ -70,7 +71,7 @@ def _worth_it(best, dq, p_before, p_after):
     for i in range(dq.shape[0]):
         added += (dq[i] - best[i]) ** 2
         before += best[i] ** 2
-    gain = p_after - p_before
+    gain = max(p_after - p_before, INTERVAL_TOL)  # a tie goes on
     return math.sqrt(added) <= SATURATION_MAX_PRICE * gain * math.sqrt(before) / p_before
 
 
@@ -130,7 +131,8 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
         if code2 == INFEASIBLE and stuck:  # saturate the next conflict
             binding = binding2
             continue
-        if code2 != OK or (not stuck and p2 < p):  # keep the best pass (SINGULAR: no redundancy)
+        # keep the best pass (SINGULAR: no redundancy); a pass within INTERVAL_TOL ties
+        if code2 != OK or (not stuck and p2 < p - INTERVAL_TOL):
             _restore(dq, lam, best)
             pull[0] = best_pull
             break

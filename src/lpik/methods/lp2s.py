@@ -38,7 +38,12 @@ from lpik.methods.kkt import affine_solution
 from lpik.methods.lp2 import lp2, pulled
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, Result, safe_step
-from lpik.tolerances import FULL_P, SATURATION_MAX_CONDITION, SATURATION_MAX_PRICE
+from lpik.tolerances import (
+    FULL_P,
+    INTERVAL_TOL,
+    SATURATION_MAX_CONDITION,
+    SATURATION_MAX_PRICE,
+)
 
 
 def joint_bound_index(problem: Problem) -> dict[str, tuple[int, int]]:
@@ -124,7 +129,7 @@ def saturation_passes(
         current_result = lp2(current, path=path, solver=solver, name_outside=False)
         if current_result.status == INFEASIBLE and stuck:
             continue  # saturate the next conflict
-        if not (current_result.moved and (stuck or current_result.p >= best.p)):
+        if not (current_result.moved and (stuck or current_result.p >= best.p - INTERVAL_TOL)):
             break
         if not stuck and not worth_it(best, current_result):
             break
@@ -138,10 +143,14 @@ def worth_it(before: Result, after: Result) -> bool:
     The joint motion it adds per unit of ``p`` gained must be at most
     :data:`~lpik.tolerances.SATURATION_MAX_PRICE` times that of the step before it
     (a nearly singular free-joint system swings the joints for a sliver of ``p``).
+    A pass that ties (another joint reached its bound at the same ``p``, within
+    :data:`~lpik.tolerances.INTERVAL_TOL`) counts as gaining ``INTERVAL_TOL``: it
+    saturates that joint too at the motion's rounding, and the next pass goes on
+    (whether two tied passes went on had been left to the last bits of ``p``).
     """
     if before.p <= 0.0:  # from a standstill any motion the pass finds is worth it
         return True
-    gain = after.p - before.p
+    gain = max(after.p - before.p, INTERVAL_TOL)
     added = float(np.linalg.norm(after.dq - before.dq))
     return added <= SATURATION_MAX_PRICE * gain * float(np.linalg.norm(before.dq)) / before.p
 
