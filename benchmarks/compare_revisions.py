@@ -39,8 +39,12 @@ WORKLOADS = (
     ("Panda step +acc", "panda", {"qdd_max": 10.0, "on_stall": None}, "step"),
     # the step through dq = 0, as before the continuation form (issue 23): the pipeline
     # like against like; an old revision without the keyword takes that step anyway
-    ("Panda step +acc, continuation off", "panda",
-     {"qdd_max": 10.0, "on_stall": None, "continuation": False}, "step"),
+    (
+        "Panda step +acc, continuation off",
+        "panda",
+        {"qdd_max": 10.0, "on_stall": None, "continuation": False},
+        "step",
+    ),
     ("Panda step", "panda", {"on_stall": None}, "step"),
     ("Panda step_into +acc", "panda", {"qdd_max": 10.0, "on_stall": None}, "step_into"),
     ("planar 4-link step", "planar", {"on_stall": None}, "step"),
