@@ -21,7 +21,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from lpik.control.controller import Lp2Controller
+os.environ.setdefault("LPIK_COMPILE", "now")  # time the compiled step from the first one
+
+from lpik.control.controller import Lp2Controller  # noqa: E402
 from lpik.robots.registry import ROBOTS, home_configuration, load_chain, urdf_path
 from lpik.robots.tasks import PoseTask
 

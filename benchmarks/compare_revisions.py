@@ -109,7 +109,7 @@ def _worktree(rev: str) -> Path:
 
 
 def _run(tree: Path, steps: int) -> dict[str, list[float]]:
-    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "0"}
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "0", "LPIK_COMPILE": "now"}
     done = subprocess.run(
         [sys.executable, "-c", WORKER, str(tree), json.dumps(WORKLOADS), str(steps)],
         capture_output=True, text=True, check=True, env=env, cwd=tree,

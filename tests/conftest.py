@@ -34,6 +34,10 @@ settings.register_profile("thorough", deadline=None, max_examples=1000, print_bl
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+# Every controller compiles when it is built (lpik.control.warmup): the tests of the
+# compiled step must run it, not the numpy engine that steps while a child compiles.
+# tests/test_warmup.py builds its background controllers with compile="background".
+os.environ["LPIK_COMPILE"] = "now"
 
 #: At most this many pytest-xdist workers for ``-n auto``: each compiles what its tests
 #: use on an empty numba cache (a GiB or so of memory at its peak).

@@ -22,3 +22,14 @@ DEFAULT_ON_STALL: int | None = 1
 #: that most reduces the task error left (:func:`lpik.methods.progress.further_step`).
 MODES = ("exact", "progress")
 DEFAULT_MODE = "exact"
+
+#: When a controller compiles its kernels (:mod:`lpik.control.warmup`): ``"background"``
+#: loads them from numba's disk cache when it has them, and otherwise takes its steps on
+#: the numpy engine (the same answers) while a child process compiles them, moving to
+#: the compiled step when they are ready; ``"now"`` compiles them when the controller is
+#: built (about a minute on an empty cache), so that every step is compiled.
+COMPILE_MODES = ("background", "now")
+DEFAULT_COMPILE = "background"
+#: The environment variable that sets the default of ``compile`` for a whole process
+#: (the test suite sets ``now``, so that every controller's steps are the compiled ones).
+COMPILE_ENV = "LPIK_COMPILE"

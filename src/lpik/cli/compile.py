@@ -97,9 +97,9 @@ def compile_kernels() -> list[KernelLoad]:
     panda = load_robot("panda", task="pose")
     q = home_configuration("panda")
     pose = panda.pose(q)
-    controller = Lp2Controller(panda, dt=1e-3, qdd_max=10.0, on_stall=None)
+    controller = Lp2Controller(panda, dt=1e-3, qdd_max=10.0, on_stall=None, compile="now")
     ready("the stall stage's progress step (on_stall, mode=\"progress\")",
-          partial(Lp2Controller, panda, dt=1e-3, qdd_max=10.0, mode="progress"),
+          partial(Lp2Controller, panda, dt=1e-3, qdd_max=10.0, mode="progress", compile="now"),
           progress.progress_in_state)  # fmt: skip
     problem = Problem(J=panda.jacobian(q), dw=np.full(6, 1e-4), q0=q,
                       q_min=panda.q_min, q_max=panda.q_max)  # fmt: skip

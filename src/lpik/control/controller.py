@@ -21,6 +21,7 @@ written from coal before it (:class:`SceneRows`).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import partial
@@ -47,6 +48,7 @@ from lpik.control.inputs import (
     task_value,
 )
 from lpik.control.stepper import Stepper
+from lpik.control.warmup import Warmup, cached, compile_mode, compile_now, warmup
 from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL
 from lpik.fast import layout
 from lpik.fast.autobound import bound_in_state, settings
@@ -222,6 +224,14 @@ class Lp2Controller:
             pairs are dropped; None: none dropped.
         compiled_distances: With the damper alone, compute the distances and rows
             inside the compiled step (``False``: through coal in Python, as with the field).
+        compile: When the kernels compile (:mod:`lpik.control.warmup`): ``"background"``
+            (the default, :data:`lpik.defaults.DEFAULT_COMPILE`, or ``LPIK_COMPILE``
+            in the environment): loaded from numba's disk cache when it has them,
+            else the steps run on the numpy engine (the same answers; each step
+            some hundred microseconds) while a child process compiles them, and
+            compiled from the first step after it is done; ``"now"``: compiled
+            when the controller is built (about a minute on an empty cache). With
+            a ``scene`` they always compile when it is built.
 
     Raises:
         ValueError: For a model the compiled path does not support, or bad limits/weights.
@@ -253,6 +263,7 @@ class Lp2Controller:
         scene: Any = None,
         home: ArrayLike | None = None,
         compiled_distances: bool = True,
+        compile: str | None = None,
     ) -> None:
         if not isinstance(saturate, bool | np.bool_):
             raise ValueError(f"saturate: must be True or False, got {saturate!r}")
@@ -277,8 +288,21 @@ class Lp2Controller:
         self._state = self._packed(bool(saturate))
         # compiled (or loaded) for the target the task takes; another kind when first given
         self._target_axes = (2,) if (np.asarray(s.task_rows) >= 3).any() else (1,)
-        self._kernel, self._batch = step_functions(self.model, self._state, self._target_axes)
         self._read_out_blocks()
+        self._watch_stall = s.stall_watch.after is not None
+        self._further = s.mode == "progress"  # mode="progress"'s second stage after each step
+        #: The stall stage's kernels beside the fused step (:data:`lpik.control.warmup.STAGES`).
+        self._stages = (("progress",) if self._watch_stall or self._further else ()) + (
+            ("further",) if self._further else ()
+        )
+        self._warmup: Warmup | None = None  # the child compiling the kernels, if one is
+        self._warmup_failed = False  # it failed: the numpy engine for good (warned once)
+        self._numpy_inputs: tuple[Any, Any, Any] | None = None  # the numpy engine's last step
+        background = compile_mode(compile) == "background" and scene_rows is None
+        if background and not cached(self._target_axes, self._stages):
+            self._warmup = warmup(self._target_axes, self._stages)
+        else:  # before the scene's rows: a compiled scene step replaces the kernel
+            self._load_kernels()
         #: The scene's rows in the state (:class:`SceneRows`), or None without a scene.
         self.scene_rows = scene_rows
         #: Each pair's distance, witness points and normal after the last step (P, 10).
@@ -288,27 +312,61 @@ class Lp2Controller:
             if scene_rows.avoidance.mechanism == "rows" and bool(compiled_distances):
                 self._compile_distances(scene_rows.avoidance)
         self._coal_rows = scene_rows is not None and self.found is None  # rows written first
-        self._watch_stall = s.stall_watch.after is not None
-        self._further = s.mode == "progress"  # mode="progress"'s second stage after each step
         self._last: Result | None = None  # step_into's last outcome when not optimal
         self._last_code: int | None = None  # step_into's last kernel outcome (-1: see _last)
         # a Result for step_into: the automatic bound over a backend's kinematics (its probe)
         self._python_bound = self.automatic_bound is not None and not fuses_kinematics(model)
-        if self._watch_stall or self._further:
-            self._ready_progress()
 
-    def _ready_progress(self) -> None:
-        """Compile (or load) the stall stage's LP now, not in the middle of a control loop.
+    def _load_kernels(self) -> None:
+        """Compile (or load) the fused step and the stall stage's kernels: not inside a loop."""
+        compile_now(self._target_axes, self._stages)
+        self._kernel, self._batch = step_functions(self.model, self._state, self._target_axes)
 
-        One progress step on the template state (at rest at the middle of the end-stops,
-        no command): it writes nothing into the state.
+    @property
+    def engine(self) -> str:
+        """The engine the next step runs on: ``"compiled"`` or ``"numpy"``.
+
+        ``"numpy"`` while the kernels compile in the background
+        (:mod:`lpik.control.warmup`), or where that compile failed.
         """
-        n = self._n
-        q = np.ascontiguousarray(np.clip(np.zeros(n), self.model.q_min, self.model.q_max))
-        dq = np.empty(n)
-        progress_in_state(self._state, q, q, dq)
-        if self._further:
-            further_in_state(self._state, q, q, np.zeros(n), dq)
+        return "compiled" if self._warmup is None and not self._warmup_failed else "numpy"
+
+    def _on_numpy(self) -> bool:
+        """Whether this step goes to the numpy engine; moves to the compiled one when ready.
+
+        Checked before each step while a child compiles: once it has exited and the
+        kernels load from the disk cache, they are loaded, the last numpy step is
+        taken again by the fused step (so its memory of the target's motion is the
+        stepper's), and every later step is compiled. A child that failed leaves the
+        controller on the numpy engine, with a warning.
+        """
+        if self._warmup_failed:
+            return True
+        if self._warmup is None:
+            return False
+        if not self._warmup.finished():
+            return True
+        if cached(self._target_axes, self._stages):
+            self._warmup = None
+            self._load_kernels()
+            if self._numpy_inputs is not None:
+                self._run(*self._numpy_inputs)
+            return False
+        failure = self._warmup.failure()
+        if failure is None:  # done, but not with every kernel now wanted (a new target kind)
+            self._warmup = warmup(self._target_axes, self._stages)
+            return True
+        self._warmup, self._warmup_failed = None, True
+        warnings.warn(f"{failure}; the controller goes on with the numpy engine",
+                      RuntimeWarning, stacklevel=3)  # fmt: skip
+        return True
+
+    def _numpy_step(self, q0: Any, target: Any, q_prev: Any) -> Result:
+        """The numpy engine's step (:meth:`lpik.control.stepper.Stepper.step`), remembered."""
+        result = self.stepper.step(q0, target, q_prev)
+        q, goal, prev = self._converted(q0, target, q_prev)  # copies: the caller may reuse them
+        self._numpy_inputs = (q.copy(), goal.copy(), prev.copy())
+        return result
 
     @property
     def limits(self) -> tuple[Limit, ...]:
@@ -425,6 +483,9 @@ class Lp2Controller:
                 non-finite values.
         """
         start = perf_counter()
+        if self._warmup is not None or self._warmup_failed:  # the kernels are not ready yet
+            if self._on_numpy():
+                return self._numpy_step(q0, target, q_prev)
         if self._coal_rows:
             code = self._run(q0, target, q_prev)
         else:  # the kernel straight away: its fast path
@@ -502,6 +563,8 @@ class Lp2Controller:
         if target_axes in self._target_axes:
             return
         self._target_axes = (*self._target_axes, target_axes)
+        if self._warmup is not None or self._warmup_failed:  # the switch readies them all
+            return
         if self.found is not None:  # the step with the scene's distances inside
             from lpik.fast.avoiding_step import avoiding_kernel
 
@@ -546,7 +609,8 @@ class Lp2Controller:
 
     def _step_into(self, q0: Any, target: Any, q_prev: Any, out: FloatArray) -> float:
         """:meth:`step_into` but for the recovery stage."""
-        if self._further or self._python_bound:  # a Result
+        pending = self._warmup is not None or self._warmup_failed  # the numpy engine, maybe
+        if self._further or self._python_bound or pending:  # a Result
             self._last, self._last_code = self.step(q0, target, q_prev), -1
             out[...] = self._last.q
             return self._last.p
@@ -733,14 +797,16 @@ class Lp2Controller:
         task_value(self.model, T[0])  # every row has the same shape: it must fit the task
         self._ready_for(T.ndim - 1)
         outs, codes = np.empty((B, self._out.shape[0])), np.empty(B, dtype=np.int64)
-        if self.scene_rows is None:
+        numpy_engine = (self._warmup is not None or self._warmup_failed) and self._on_numpy()
+        if self.scene_rows is None and not numpy_engine:
             self._batch(self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads())
             if (codes == BAD_INPUT).any():  # every row was checked: a bug if it happens
                 raise ValueError(f"row {int(np.argmax(codes == BAD_INPUT))}: rejected by the step")
             again = self._rows_again(outs, codes)
         else:
             outs[:], codes[:], again = -1.0, BAD_INPUT, np.ones(B, dtype=bool)
-        return self._batch_result(outs, codes, again, Q0, T, None if q_prev is None else Qp)
+        return self._batch_result(outs, codes, again, Q0, T, None if q_prev is None else Qp,
+                                  numpy_engine)  # fmt: skip
 
     def _rows_again(self, outs: FloatArray, codes: Any) -> Any:
         """The rows to step one by one: those the kernel does not answer itself."""
@@ -756,8 +822,9 @@ class Lp2Controller:
         return again
 
     def _batch_result(
-        self, outs: FloatArray, codes: Any, again: Any, Q0: Any, T: Any, Qp: Any
-    ) -> BatchResult:
+        self, outs: FloatArray, codes: Any, again: Any, Q0: Any, T: Any, Qp: Any,
+        numpy_engine: bool = False,
+    ) -> BatchResult:  # fmt: skip
         q, dq = outs[:, self._q].copy(), outs[:, self._dq].copy()
         lam, p = outs[:, self._lam].copy(), outs[:, self._p].copy()
         residual = outs[:, self._residual].copy()
@@ -769,13 +836,18 @@ class Lp2Controller:
         for b in np.nonzero(again)[0].tolist():
             prev = None if Qp is None else Qp[b]
             self.reset()  # rows are independent: no target motion between them
-            res = self.step(Q0[b], T[b], prev, watch=False)
-            if self._watch_stall or self._further:  # the stall stage, row by row
+            if numpy_engine:  # the stepper's own stall stage: one stalled step counted
+                res = self._numpy_step(Q0[b], T[b], prev)
+            else:
+                res = self.step(Q0[b], T[b], prev, watch=False)
+            if (self._watch_stall or self._further) and not numpy_engine:  # row by row
                 res = self._stalled(res, Q0[b], prev, count=False)
             fallback[b] = res
             q[b], dq[b], p[b], residual[b] = res.q, res.dq, res.p, res.residual
             pull_scale[b] = res.pull_scale
             lam[b] = np.nan if res.lam is None else res.lam
+        if numpy_engine:  # as after the kernel's rows: nothing counted, nothing remembered
+            self.reset()
         table = self._labels
         return BatchResult(
             q=q, dq=dq, p=p, lam=lam, codes=codes,
@@ -793,6 +865,7 @@ class Lp2Controller:
         self._state[int(self._state[layout.MEMORY])] = 0.0
         self.stepper.target_motion = TargetMotion()
         self.stepper.stall_watch.clear()
+        self._numpy_inputs = None
 
     # -- inputs and the problem -----------------------------------------------------------
 

@@ -43,3 +43,42 @@ def typed_kernel(name: str, function: Callable[..., Any], signatures: Iterable[A
 def loaded_kernel(name: str) -> Any:
     """The dispatcher :func:`typed_kernel` made for ``name`` in this process, or None."""
     return _KERNELS.get(name)
+
+
+def load_cached(dispatcher: Any, signature: tuple[Any, ...]) -> bool:
+    """Whether ``dispatcher`` has ``signature``, loading it from numba's disk cache; never compiles.
+
+    numba offers no public "load, but do not compile": this does what
+    ``Dispatcher.compile`` does before it compiles (its cache's
+    ``load_overload``, under numba's compiler lock). Any failure there (another
+    numba, an unreadable cache) counts as not cached, and the caller compiles
+    as it would have.
+    """
+    args = tuple(signature)
+    if args in dispatcher.overloads:
+        return True
+    try:
+        from numba.core.compiler_lock import global_compiler_lock
+
+        with global_compiler_lock:
+            compiled = dispatcher._cache.load_overload(args, dispatcher.targetctx)
+            if compiled is None:
+                return False
+            dispatcher.targetctx.insert_user_function(
+                compiled.entry_point, compiled.fndesc, [compiled.library]
+            )
+            dispatcher.add_overload(compiled)
+    except Exception:  # any failure: not cached, compile as before
+        return False
+    return True
+
+
+def cached_kernel(name: str, function: Callable[..., Any], signatures: Iterable[Any]) -> Any:
+    """:func:`typed_kernel`'s dispatcher if every signature loads without compiling, else None."""
+    dispatcher = _KERNELS.get(name)
+    if dispatcher is None:
+        dispatcher = _KERNELS[name] = njit(cache=True)(function)
+    if not all(load_cached(dispatcher, tuple(signature)) for signature in signatures):
+        return None
+    dispatcher.disable_compile(True)
+    return dispatcher

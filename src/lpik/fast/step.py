@@ -46,7 +46,7 @@ from lpik.fast.command_law import (
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
 from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core, pull_scale_of
 from lpik.fast.saturation import lp2s_core
-from lpik.fast.signatures import loaded_kernel, typed_kernel
+from lpik.fast.signatures import cached_kernel, loaded_kernel, typed_kernel
 from lpik.fast.twins import compiled_twin, inlined_twin, rebound
 from lpik.tolerances import FULL_P, MAX_SCHUR_CONDITION, NO_CHANGE_P
 
@@ -445,6 +445,14 @@ def step_kernel(target_axes: tuple[int, ...] = TARGET_AXES) -> Any:
     ``TypeError`` instead of compiling in the middle of a loop.
     """
     return typed_kernel("chain_step", _chain_step, (STEP_SIGNATURES[a] for a in target_axes))
+
+
+def cached_step_kernel(target_axes: tuple[int, ...] = TARGET_AXES) -> Any:
+    """:func:`step_kernel` if numba's disk cache has each signature it needs, else None.
+
+    Compiles nothing (:func:`lpik.fast.signatures.load_cached`).
+    """
+    return cached_kernel("chain_step", _chain_step, (STEP_SIGNATURES[a] for a in target_axes))
 
 
 def loaded_step_kernel() -> Any:
