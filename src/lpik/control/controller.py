@@ -292,8 +292,10 @@ class Lp2Controller:
         self._watch_stall = s.stall_watch.after is not None
         self._further = s.mode == "progress"  # mode="progress"'s second stage after each step
         #: The stall stage's kernels beside the fused step (:data:`lpik.control.warmup.STAGES`).
-        self._stages = (("progress",) if self._watch_stall or self._further else ()) + (
-            ("further",) if self._further else ()
+        self._stages = (
+            (("progress",) if self._watch_stall or self._further else ())
+            + (("further",) if self._further else ())
+            + (("recovery",) if scene_rows is not None else ())
         )
         self._warmup: Warmup | None = None  # the child compiling the kernels, if one is
         self._warmup_failed = False  # it failed: the numpy engine for good (warned once)

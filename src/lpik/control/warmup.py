@@ -38,15 +38,17 @@ from typing import Any
 from numba import types
 
 from lpik.defaults import COMPILE_ENV, COMPILE_MODES, DEFAULT_COMPILE
-from lpik.fast.progress import further_in_state, progress_in_state
+from lpik.fast.progress import further_in_state, least_error_step, progress_in_state
 from lpik.fast.signatures import load_cached
 from lpik.fast.step import cached_step_kernel, step_kernel
 
-_VECTOR = types.float64[::1]
+_VECTOR, _MATRIX = types.float64[::1], types.float64[:, ::1]
 #: Each stage's kernel beside the fused step, and the one signature a controller calls it with.
 STAGES = {
     "progress": (progress_in_state, (_VECTOR,) * 4),  # on_stall (the stall stage)
     "further": (further_in_state, (_VECTOR,) * 5),  # mode="progress"'s second stage
+    # a scene's recovery stage (lpik.fast.progress.least_error, over the distance rows)
+    "recovery": (least_error_step, (_MATRIX, *(_VECTOR,) * 3, _MATRIX, _VECTOR, _VECTOR)),
 }
 
 
