@@ -22,11 +22,9 @@ Two uses, one LP (:func:`least_error_lp` here through HiGHS,
   steps): once the step has stalled (:func:`is_stall`) for ``on_stall`` steps in a
   row, :func:`progress_step` replaces it, with the status ``off_direction`` and
   ``p = 0``, so that the operator knows that the tool moved but not along the
-  command. After a progress step, without acceleration limits, the next step is
-  judged within a band (:meth:`StallWatch.keeping`), so that the steps do not flip
-  between the two laws. Its cost, measured on the quality suite
-  (``docs/quality.md``, scenario 2, targets beyond reach without acceleration
-  limits): a joint-velocity jitter of 480 rad/s against the strict step's 446;
+  command. Its cost, measured on the quality suite (``docs/quality.md``): with
+  targets beyond reach and no acceleration limits the progress steps between exact
+  ones add joint jitter (scenario 2);
 - **``mode="progress"``**: after every exact step with ``p < 1``,
   :func:`further_step` spends what the limits leave on the error that remains
   (status ``off_direction``, ``p`` the exact step's).
