@@ -7,12 +7,11 @@ import pytest
 from scipy.optimize import linprog
 
 from lpik.methods import solve
-from lpik.methods.progress import MOTION_WEIGHT, StallWatch, is_stall, progress_step
+from lpik.methods.progress import MOTION_WEIGHT, StallWatch, progress_step
 from lpik.paper.scenarios import PLANAR, get_scenario
 from lpik.paper.setup import PAPER_COMMAND
 from lpik.problem import Problem
 from lpik.result import OFF_DIRECTION, OPTIMAL, STATUSES
-from lpik.tolerances import STALL_KEEP_P, STALL_KEEP_SHARE, STALL_P, STALL_SHARE
 
 
 def blocked() -> Problem:
@@ -71,29 +70,6 @@ def test_the_stall_watch_waits_for_its_steps() -> None:
     statuses = [watch.check(stalled, lambda: P).status for _ in range(4)]
     assert statuses == [OPTIMAL, OPTIMAL, OFF_DIRECTION, OFF_DIRECTION]
     assert StallWatch(None).check(stalled, lambda: P) is stalled
-
-
-def test_once_engaged_the_stall_stage_keeps_the_progress_step_within_a_band() -> None:
-    """Entering the progress step takes p <= STALL_P and an exact step gaining less than
-    STALL_SHARE of it; keeping it, p <= STALL_KEEP_P and less than STALL_KEEP_SHARE (the
-    steps must not flip between the two laws: without acceleration limits every flip is a
-    jump of the velocities)."""
-    assert STALL_P < STALL_KEEP_P and STALL_SHARE < STALL_KEEP_SHARE
-    between_p = (STALL_P + STALL_KEEP_P) / 2
-    assert not is_stall(between_p, 0.0, 1.0) and is_stall(between_p, 0.0, 1.0, keeping=True)
-    share = (STALL_SHARE + STALL_KEEP_SHARE) / 2
-    assert not is_stall(STALL_P / 2, share, 1.0) and is_stall(STALL_P / 2, share, 1.0, keeping=True)
-    assert not is_stall(STALL_KEEP_P * 1.1, 0.0, 1.0, keeping=True)
-    watch = StallWatch(2)
-    assert (watch.engaged, watch.p_limit) == (False, STALL_P)
-    watch.count(True)
-    assert not watch.engaged
-    watch.count(True)
-    assert (watch.engaged, watch.p_limit) == (True, STALL_KEEP_P)
-    # the band holds where a flip is a jump of the velocities, not under acceleration limits
-    assert watch.keeping(moving=False) and not watch.keeping(moving=True)
-    watch.clear()
-    assert not watch.engaged
 
 
 @pytest.mark.parametrize("robot", [PLANAR, "panda"])

@@ -625,7 +625,7 @@ class Lp2Controller:
                 code = self._run(q0, target, q_prev)
         if code == OK and self._out.item(self._outside) < 0:
             p = self._out.item(self._p)
-            if not self._watch_stall or p > self.stepper.stall_watch.p_limit:  # no stall
+            if p > STALL_P or not self._watch_stall:  # no stall: the kernel's step stands
                 self.stepper.stall_watch.clear()
                 self._last_code = code
                 out[...] = self._q_view
@@ -692,14 +692,12 @@ class Lp2Controller:
         """
         watch, n, m = self.stepper.stall_watch, self._n, self._m
         further = self._further and result.status == OPTIMAL and result.p < 1.0
-        limit = watch.p_limit if count else STALL_P
-        may_stall = watch.after is not None and result.status in STALLS and result.p <= limit
+        may_stall = watch.after is not None and result.status in STALLS and result.p <= STALL_P
         if may_stall or further:  # else (nearly every step) nothing more to do
             q = np.ascontiguousarray(q0, dtype=np.float64)
             prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
             moving = may_stall and continues(self._state, q, prev)  # the stepper's last motion
-            keeping = count and watch.keeping(moving)  # after a progress step: the band
-            may_stall = may_stall and stall_candidate(result.p, result.binding, moving, keeping)
+            may_stall = may_stall and stall_candidate(result.p, result.binding, moving)
         if not (may_stall or further):
             if count:
                 watch.clear()
@@ -712,7 +710,7 @@ class Lp2Controller:
             code, before, after = progress_in_state(self._state, q, prev, dq)
             exact_gain = before - l1_error(J, dw, result.dq)
             stall = code == SOLVED and is_stall(
-                result.p, exact_gain, before - after, result.binding, moving, keeping
+                result.p, exact_gain, before - after, result.binding, moving
             )
             stalled = watch.count(stall) if count else watch.after == 1 and stall
             if not (stalled or further):

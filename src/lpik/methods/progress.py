@@ -43,15 +43,7 @@ from lpik.highs import HighsSolver, LinearProgram
 from lpik.methods.assembly import solver_for
 from lpik.problem import Problem
 from lpik.result import CHECK_FAILED, INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result, safe_step
-from lpik.tolerances import (
-    EQUALITY_RTOL,
-    FEASIBILITY_TOL,
-    NO_CHANGE_P,
-    STALL_KEEP_P,
-    STALL_KEEP_SHARE,
-    STALL_P,
-    STALL_SHARE,
-)
+from lpik.tolerances import EQUALITY_RTOL, FEASIBILITY_TOL, NO_CHANGE_P, STALL_P, STALL_SHARE
 from lpik.types import FloatArray
 
 #: Weight of the joint motion ``sum |dq_i|`` against the task error in the progress step
@@ -105,19 +97,16 @@ def l1_error(J: FloatArray, dw: FloatArray, dq: FloatArray) -> float:
 STALLS = (OPTIMAL, INFEASIBLE)
 
 
-def stall_candidate(
-    p: float, binding: object = None, moving: bool = True, keeping: bool = False
-) -> bool:
+def stall_candidate(p: float, binding: object = None, moving: bool = True) -> bool:
     """Whether a step may stall (:func:`is_stall`), from its ``p``, binding limit and motion.
 
     ``p <= STALL_P``, and not a start from rest: a step of an arm at rest
     (``moving`` False) with ``p > 0`` (above :data:`~lpik.tolerances.NO_CHANGE_P`)
     held by an acceleration limit (``binding.kind == "acceleration"``) has its
     direction and takes it as fast as the arm can speed up, and ``p`` grows as it
-    does. Only a candidate needs the progress step's LP. ``keeping`` (the last step
-    was the progress step): ``p`` up to :data:`~lpik.tolerances.STALL_KEEP_P`.
+    does. Only a candidate needs the progress step's LP.
     """
-    if p > (STALL_KEEP_P if keeping else STALL_P):
+    if p > STALL_P:
         return False
     if p <= NO_CHANGE_P or moving:
         return True
@@ -125,9 +114,8 @@ def stall_candidate(
 
 
 def is_stall(
-    p: float, exact_gain: float, progress_gain: float, binding: object = None,
-    moving: bool = True, keeping: bool = False,
-) -> bool:  # fmt: skip
+    p: float, exact_gain: float, progress_gain: float, binding: object = None, moving: bool = True
+) -> bool:
     """Whether a step stalls: no step along the command, or one far worse than leaving it.
 
     ``exact_gain`` and ``progress_gain`` are how much the exact step and the
@@ -139,18 +127,14 @@ def is_stall(
       :data:`~lpik.tolerances.NO_CHANGE_P`: the step is the safe step, or the
       controlled stop of a moving arm, which keep no direction either), or
     - it reduces the error by less than :data:`~lpik.tolerances.STALL_SHARE` of
-      what the progress step achieves within the same limits; ``keeping`` (the
-      last step was the progress step): less than
-      :data:`~lpik.tolerances.STALL_KEEP_SHARE`, a band that keeps the steps from
-      flipping between the two laws.
+      what the progress step achieves within the same limits.
 
     Where no motion brings the target nearer the stall stage keeps the step all the
     same: the progress step gains nothing (:func:`progress_result`, ``no progress``).
     """
-    if not stall_candidate(p, binding, moving, keeping):
+    if not stall_candidate(p, binding, moving):
         return False
-    share = STALL_KEEP_SHARE if keeping else STALL_SHARE
-    return p <= NO_CHANGE_P or exact_gain < share * progress_gain
+    return p <= NO_CHANGE_P or exact_gain < STALL_SHARE * progress_gain
 
 
 def progress_step(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
@@ -296,48 +280,26 @@ class StallWatch:
         """A step that did not stall: the count starts again."""
         self.run = 0
 
-    @property
-    def engaged(self) -> bool:
-        """Whether the last step was the progress step."""
-        return self.after is not None and self.run >= self.after
-
-    def keeping(self, moving: bool) -> bool:
-        """Whether the next step is judged within the band (``keeping`` of :func:`is_stall`).
-
-        After a progress step, where no acceleration limit carries the motion on
-        (``moving`` False): there every flip between the exact and the progress
-        step is a jump of the joint velocities. Under acceleration limits the
-        limits bound that jump, and the band would only hold back exact steps
-        (measured on the quality suite: fewer excursions recovered, more jitter).
-        """
-        return self.engaged and not moving
-
-    @property
-    def p_limit(self) -> float:
-        """The largest ``p`` of a step that may stall now (:func:`stall_candidate`)."""
-        return STALL_KEEP_P if self.after is not None and self.run >= self.after else STALL_P
-
     def check(self, result: Result, problem_of: Callable[[], Problem]) -> Result:
         """``result``, or the progress step (HiGHS) once the step has stalled ``after`` times.
 
         ``problem_of()`` builds the step's :class:`~lpik.problem.Problem` (only when
         needed: a step with ``p <= STALL_P`` under a watch).
         """
-        if self.after is None or result.status not in STALLS or result.p > self.p_limit:
+        if self.after is None or result.status not in STALLS or result.p > STALL_P:
             self.run = 0
             return result
         problem = problem_of()
         moving = problem.last is not None  # under acceleration limits, q_prev != q0
-        if not stall_candidate(result.p, result.binding, moving, self.keeping(moving)):
+        if not stall_candidate(result.p, result.binding, moving):
             self.run = 0
             return result
         progress = progress_step(problem)
         before = float(np.abs(problem.dw).sum())
         gains = (before - l1_error(problem.J, problem.dw, result.dq),
                  before - l1_error(problem.J, problem.dw, progress.dq))  # fmt: skip
-        stall = progress.status == OFF_DIRECTION and is_stall(
-            result.p, *gains, result.binding, moving, self.keeping(moving)
-        )
+        stall = progress.status == OFF_DIRECTION and is_stall(result.p, *gains, result.binding,
+                                                              moving)  # fmt: skip
         if not self.count(stall):
             return result
         return dataclasses.replace(progress, binding=result.binding)  # what stopped the direction
