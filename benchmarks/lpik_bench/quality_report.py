@@ -323,7 +323,21 @@ MISSED_BECAUSE = {
     "(lpik.command.braking_scale); on the large moves with rotation the joints' actual "
     "motion departs from that estimate and the arm overshoots by millimetres before it settles",
     "step_max": "the slowest step is noise of this shared machine",
+    "beyond/jitter": "the stall stage flips between the exact and the progress step (162 "
+    "flips each way, 1,134 of the 1,394 rad/s; the exact steps alone 248, below Drake's): "
+    "a band that kept the progress step once taken cut it to 480 but kept the planar arm "
+    "from coming back from beyond reach, and was reverted",
+    "beyond/frozen": "with joints 2 and 6 at their lower end-stops the progress step's L1 "
+    "error prices the orientation rows the command already meets as dearly as the position "
+    "row it must reduce: the least-squares step (0.35 mm nearer for 2.2 mrad of rotation) "
+    "is a loss in L1, so the L1 optimum is no motion; weighting the rows by their share of "
+    "the error frees it but stretches the arm into joint 4's end-stop, where 3 legs froze",
+    "end-stop/jitter": "when joint 1 reaches its velocity limit, the saturation pass swings "
+    "the free joints within one step (6.9 rad/s summed over the joints at step 418 of leg "
+    "2), a step in the velocities with energy at every frequency; SATURATION_MAX_PRICE at "
+    "1.5 to 5 instead of 10 did not smooth it (28.6 rad/s) and stopped other arms short",
 }
+MISSED_BECAUSE["end-stop/high"] = MISSED_BECAUSE["end-stop/jitter"]
 for _key in ("ori_max",):
     MISSED_BECAUSE[f"steps/{_key}"] = MISSED_BECAUSE["steps/ori_rms"]
 for _key in ("pos_max", "ori_rms", "ori_max"):
