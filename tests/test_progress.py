@@ -7,11 +7,12 @@ import pytest
 from scipy.optimize import linprog
 
 from lpik.methods import solve
-from lpik.methods.progress import MOTION_WEIGHT, StallWatch, progress_step
+from lpik.methods.progress import MOTION_WEIGHT, StallWatch, is_stall, progress_step
 from lpik.paper.scenarios import PLANAR, get_scenario
 from lpik.paper.setup import PAPER_COMMAND
 from lpik.problem import Problem
 from lpik.result import OFF_DIRECTION, OPTIMAL, STATUSES
+from lpik.tolerances import STALL_KEEP_SHARE, STALL_P, STALL_SHARE
 
 
 def blocked() -> Problem:
@@ -70,6 +71,27 @@ def test_the_stall_watch_waits_for_its_steps() -> None:
     statuses = [watch.check(stalled, lambda: P).status for _ in range(4)]
     assert statuses == [OPTIMAL, OPTIMAL, OFF_DIRECTION, OFF_DIRECTION]
     assert StallWatch(None).check(stalled, lambda: P) is stalled
+
+
+def test_once_engaged_the_stall_stage_keeps_the_progress_step_within_a_band() -> None:
+    """Entering the progress step takes an exact step gaining less than STALL_SHARE of it;
+    keeping it, less than STALL_KEEP_SHARE (without acceleration limits every flip between
+    the two laws is a jump of the velocities). The same step asked again is judged as the
+    first time."""
+    assert STALL_SHARE < STALL_KEEP_SHARE
+    share = (STALL_SHARE + STALL_KEEP_SHARE) / 2
+    assert not is_stall(STALL_P / 2, share, 1.0) and is_stall(STALL_P / 2, share, 1.0, keeping=True)
+    assert not is_stall(2 * STALL_P, 0.0, 1.0, keeping=True)  # no band for p
+    watch = StallWatch(2)
+    q = np.zeros(3)
+    watch.count(True)
+    assert not watch.keeping(q, moving=False)
+    watch.count(True)
+    assert watch.engaged and not watch.keeping(q, moving=False)  # q asked again: as before
+    # the band holds where a flip is a jump of the velocities, not under acceleration limits
+    assert watch.keeping(q + 1, moving=False) and not watch.keeping(q + 2, moving=True)
+    watch.clear()
+    assert not watch.engaged
 
 
 @pytest.mark.parametrize("robot", [PLANAR, "panda"])

@@ -85,6 +85,14 @@ STALL_P = 1e-2
 #: reduces the L1 task error by less than this share of what the progress step (the
 #: least error within the same limits) achieves (:func:`lpik.methods.progress.is_stall`).
 STALL_SHARE = 0.5
+#: Once the stall stage has taken the progress step, and where no acceleration limit
+#: bounds the change of the joint velocities, the next step still stalls while the exact
+#: step gains less than this share of the progress step (a band above STALL_SHARE:
+#: without it the steps flip between the two laws, every flip a jump of the joint
+#: velocities; on the quality suite's scenario 2 those flips were 80% of the jitter, and
+#: the band cut it from 1,394 rad/s to 930). A band for ``p`` as well (up to 0.05) cut it
+#: to 480 but held an arm pushed beyond reach back from coming home.
+STALL_KEEP_SHARE = 1.0
 #: The compiled progress LP's simplex: a pivot entry of at most this size is not taken.
 SIMPLEX_PIVOT_TOL = 1e-11
 #: The compiled progress LP's simplex: a reduced cost beyond minus this improves the step

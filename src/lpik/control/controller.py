@@ -697,6 +697,7 @@ class Lp2Controller:
             q = np.ascontiguousarray(q0, dtype=np.float64)
             prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
             moving = may_stall and continues(self._state, q, prev)  # the stepper's last motion
+            keeping = count and may_stall and watch.keeping(q, moving)  # the band
             may_stall = may_stall and stall_candidate(result.p, result.binding, moving)
         if not (may_stall or further):
             if count:
@@ -710,7 +711,7 @@ class Lp2Controller:
             code, before, after = progress_in_state(self._state, q, prev, dq)
             exact_gain = before - l1_error(J, dw, result.dq)
             stall = code == SOLVED and is_stall(
-                result.p, exact_gain, before - after, result.binding, moving
+                result.p, exact_gain, before - after, result.binding, moving, keeping
             )
             stalled = watch.count(stall) if count else watch.after == 1 and stall
             if not (stalled or further):

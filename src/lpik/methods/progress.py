@@ -22,9 +22,12 @@ Two uses, one LP (:func:`least_error_lp` here through HiGHS,
   steps): once the step has stalled (:func:`is_stall`) for ``on_stall`` steps in a
   row, :func:`progress_step` replaces it, with the status ``off_direction`` and
   ``p = 0``, so that the operator knows that the tool moved but not along the
-  command. Its cost, measured on the quality suite (``docs/quality.md``): with
-  targets beyond reach and no acceleration limits the progress steps between exact
-  ones add joint jitter (scenario 2);
+  command. After a progress step, without acceleration limits, the next step is
+  judged within a band (:meth:`StallWatch.keeping`), so that the steps do not flip
+  between the two laws (each flip is a jump of the joint velocities). Its cost,
+  measured on the quality suite (``docs/quality.md``): with targets beyond reach and
+  no acceleration limits the progress steps between exact ones add joint jitter
+  (scenario 2);
 - **``mode="progress"``**: after every exact step with ``p < 1``,
   :func:`further_step` spends what the limits leave on the error that remains
   (status ``off_direction``, ``p`` the exact step's).
@@ -43,7 +46,14 @@ from lpik.highs import HighsSolver, LinearProgram
 from lpik.methods.assembly import solver_for
 from lpik.problem import Problem
 from lpik.result import CHECK_FAILED, INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result, safe_step
-from lpik.tolerances import EQUALITY_RTOL, FEASIBILITY_TOL, NO_CHANGE_P, STALL_P, STALL_SHARE
+from lpik.tolerances import (
+    EQUALITY_RTOL,
+    FEASIBILITY_TOL,
+    NO_CHANGE_P,
+    STALL_KEEP_SHARE,
+    STALL_P,
+    STALL_SHARE,
+)
 from lpik.types import FloatArray
 
 #: Weight of the joint motion ``sum |dq_i|`` against the task error in the progress step
@@ -114,8 +124,9 @@ def stall_candidate(p: float, binding: object = None, moving: bool = True) -> bo
 
 
 def is_stall(
-    p: float, exact_gain: float, progress_gain: float, binding: object = None, moving: bool = True
-) -> bool:
+    p: float, exact_gain: float, progress_gain: float, binding: object = None,
+    moving: bool = True, keeping: bool = False,
+) -> bool:  # fmt: skip
     """Whether a step stalls: no step along the command, or one far worse than leaving it.
 
     ``exact_gain`` and ``progress_gain`` are how much the exact step and the
@@ -127,14 +138,18 @@ def is_stall(
       :data:`~lpik.tolerances.NO_CHANGE_P`: the step is the safe step, or the
       controlled stop of a moving arm, which keep no direction either), or
     - it reduces the error by less than :data:`~lpik.tolerances.STALL_SHARE` of
-      what the progress step achieves within the same limits.
+      what the progress step achieves within the same limits; ``keeping`` (the
+      last step was the progress step): less than
+      :data:`~lpik.tolerances.STALL_KEEP_SHARE`, a band that keeps the steps from
+      flipping between the two laws.
 
     Where no motion brings the target nearer the stall stage keeps the step all the
     same: the progress step gains nothing (:func:`progress_result`, ``no progress``).
     """
     if not stall_candidate(p, binding, moving):
         return False
-    return p <= NO_CHANGE_P or exact_gain < STALL_SHARE * progress_gain
+    share = STALL_KEEP_SHARE if keeping else STALL_SHARE
+    return p <= NO_CHANGE_P or exact_gain < share * progress_gain
 
 
 def progress_step(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
@@ -268,6 +283,8 @@ class StallWatch:
             )
         self.after = None if after is None else int(after)
         self.run = 0
+        self._key: bytes | None = None  # the q0 of the last step judged (keeping)
+        self._keeping = False  # and whether it was judged within the band
 
     def count(self, stall: bool) -> bool:
         """Count one step (``stall``: :func:`is_stall`); True when the progress step is due."""
@@ -280,6 +297,27 @@ class StallWatch:
         """A step that did not stall: the count starts again."""
         self.run = 0
 
+    @property
+    def engaged(self) -> bool:
+        """Whether the last step was the progress step."""
+        return self.after is not None and self.run >= self.after
+
+    def keeping(self, q0: FloatArray, moving: bool) -> bool:
+        """Whether the step from ``q0`` is judged within the band (``keeping`` of :func:`is_stall`).
+
+        After a progress step, where no acceleration limit carries the motion on
+        (``moving`` False): there every flip between the exact and the progress
+        step is a jump of the joint velocities. Under acceleration limits the
+        limits bound that jump, and the band would only hold back exact steps
+        (measured on the quality suite: fewer excursions recovered, more jitter).
+        The same step asked again (the same ``q0``: ``step`` then ``step_into``, or
+        an arm that did not move) is judged as the first time.
+        """
+        key = np.asarray(q0, dtype=np.float64).tobytes()
+        if key != self._key:
+            self._key, self._keeping = key, self.engaged and not moving
+        return self._keeping
+
     def check(self, result: Result, problem_of: Callable[[], Problem]) -> Result:
         """``result``, or the progress step (HiGHS) once the step has stalled ``after`` times.
 
@@ -291,6 +329,7 @@ class StallWatch:
             return result
         problem = problem_of()
         moving = problem.last is not None  # under acceleration limits, q_prev != q0
+        keeping = self.keeping(problem.q0, moving)  # after a progress step: the band
         if not stall_candidate(result.p, result.binding, moving):
             self.run = 0
             return result
@@ -298,8 +337,9 @@ class StallWatch:
         before = float(np.abs(problem.dw).sum())
         gains = (before - l1_error(problem.J, problem.dw, result.dq),
                  before - l1_error(problem.J, problem.dw, progress.dq))  # fmt: skip
-        stall = progress.status == OFF_DIRECTION and is_stall(result.p, *gains, result.binding,
-                                                              moving)  # fmt: skip
+        stall = progress.status == OFF_DIRECTION and is_stall(
+            result.p, *gains, result.binding, moving, keeping
+        )
         if not self.count(stall):
             return result
         return dataclasses.replace(progress, binding=result.binding)  # what stopped the direction
