@@ -323,10 +323,11 @@ MISSED_BECAUSE = {
     "(lpik.command.braking_scale); on the large moves with rotation the joints' actual "
     "motion departs from that estimate and the arm overshoots by millimetres before it settles",
     "step_max": "the slowest step is noise of this shared machine",
-    "beyond/jitter": "the stall stage flips between the exact and the progress step (162 "
-    "flips each way, 1,134 of the 1,394 rad/s; the exact steps alone 248, below Drake's): "
-    "a band that kept the progress step once taken cut it to 480 but kept the planar arm "
-    "from coming back from beyond reach, and was reverted",
+    "beyond/jitter": "the stall stage flips between the exact and the progress step, each "
+    "flip a jump of the joint velocities: without a band the flips (162 each way) were "
+    "1,134 of 1,394 rad/s and the exact steps alone 248, below Drake's; the band after a "
+    "progress step (STALL_KEEP_SHARE) leaves 930, and a band for p as well left 480 but "
+    "held an arm pushed beyond reach back from coming home",
     "beyond/frozen": "with joints 2 and 6 at their lower end-stops the progress step's L1 "
     "error prices the orientation rows the command already meets as dearly as the position "
     "row it must reduce: the least-squares step (0.35 mm nearer for 2.2 mrad of rotation) "
