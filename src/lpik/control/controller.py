@@ -298,11 +298,13 @@ class Lp2Controller:
             + (("recovery",) if scene_rows is not None else ())
         )
         self._warmup: Warmup | None = None  # the child compiling the kernels, if one is
-        self._warmup_failed = False  # it failed: the numpy engine for good (warned once)
+        # the steps go to the numpy engine: while the child compiles, and for good if it failed
+        self._on_numpy_engine = False
         self._numpy_inputs: tuple[Any, Any, Any] | None = None  # the numpy engine's last step
         background = compile_mode(compile) == "background" and scene_rows is None
         if background and not cached(self._target_axes, self._stages):
             self._warmup = warmup(self._target_axes, self._stages)
+            self._on_numpy_engine = True
         else:  # before the scene's rows: a compiled scene step replaces the kernel
             self._load_kernels()
         #: The scene's rows in the state (:class:`SceneRows`), or None without a scene.
@@ -331,7 +333,7 @@ class Lp2Controller:
         ``"numpy"`` while the kernels compile in the background
         (:mod:`lpik.control.warmup`), or where that compile failed.
         """
-        return "compiled" if self._warmup is None and not self._warmup_failed else "numpy"
+        return "numpy" if self._on_numpy_engine else "compiled"
 
     def _on_numpy(self) -> bool:
         """Whether this step goes to the numpy engine; moves to the compiled one when ready.
@@ -342,14 +344,12 @@ class Lp2Controller:
         stepper's), and every later step is compiled. A child that failed leaves the
         controller on the numpy engine, with a warning.
         """
-        if self._warmup_failed:
-            return True
-        if self._warmup is None:
-            return False
+        if self._warmup is None:  # compiled, or for good on numpy (the child failed)
+            return self._on_numpy_engine
         if not self._warmup.finished():
             return True
         if cached(self._target_axes, self._stages):
-            self._warmup = None
+            self._warmup, self._on_numpy_engine = None, False
             self._load_kernels()
             if self._numpy_inputs is not None:
                 self._run(*self._numpy_inputs)
@@ -358,7 +358,7 @@ class Lp2Controller:
         if failure is None:  # done, but not with every kernel now wanted (a new target kind)
             self._warmup = warmup(self._target_axes, self._stages)
             return True
-        self._warmup, self._warmup_failed = None, True
+        self._warmup = None
         warnings.warn(f"{failure}; the controller goes on with the numpy engine",
                       RuntimeWarning, stacklevel=3)  # fmt: skip
         return True
@@ -485,7 +485,7 @@ class Lp2Controller:
                 non-finite values.
         """
         start = perf_counter()
-        if self._warmup is not None or self._warmup_failed:  # the kernels are not ready yet
+        if self._on_numpy_engine:  # the kernels are not ready yet
             if self._on_numpy():
                 return self._numpy_step(q0, target, q_prev)
         if self._coal_rows:
@@ -565,7 +565,7 @@ class Lp2Controller:
         if target_axes in self._target_axes:
             return
         self._target_axes = (*self._target_axes, target_axes)
-        if self._warmup is not None or self._warmup_failed:  # the switch readies them all
+        if self._on_numpy_engine:  # the switch readies them all
             return
         if self.found is not None:  # the step with the scene's distances inside
             from lpik.fast.avoiding_step import avoiding_kernel
@@ -611,8 +611,7 @@ class Lp2Controller:
 
     def _step_into(self, q0: Any, target: Any, q_prev: Any, out: FloatArray) -> float:
         """:meth:`step_into` but for the recovery stage."""
-        pending = self._warmup is not None or self._warmup_failed  # the numpy engine, maybe
-        if self._further or self._python_bound or pending:  # a Result
+        if self._further or self._python_bound or self._on_numpy_engine:  # a Result
             self._last, self._last_code = self.step(q0, target, q_prev), -1
             out[...] = self._last.q
             return self._last.p
@@ -800,7 +799,7 @@ class Lp2Controller:
         task_value(self.model, T[0])  # every row has the same shape: it must fit the task
         self._ready_for(T.ndim - 1)
         outs, codes = np.empty((B, self._out.shape[0])), np.empty(B, dtype=np.int64)
-        numpy_engine = (self._warmup is not None or self._warmup_failed) and self._on_numpy()
+        numpy_engine = self._on_numpy_engine and self._on_numpy()
         if self.scene_rows is None and not numpy_engine:
             self._batch(self._state, Q0, Qp, T, outs, codes, 4 * numba.get_num_threads())
             if (codes == BAD_INPUT).any():  # every row was checked: a bug if it happens

@@ -86,10 +86,9 @@ class Warmup:
     """
 
     def __init__(self, target_axes: Sequence[int], stages: Sequence[str]) -> None:
-        self.key = (tuple(sorted(target_axes)), tuple(sorted(stages)))
         self._log = tempfile.TemporaryFile()
         command = [sys.executable, "-m", "lpik.control.warmup",
-                   ",".join(map(str, self.key[0])), *self.key[1]]  # fmt: skip
+                   ",".join(map(str, target_axes)), *stages]  # fmt: skip
         self.process = subprocess.Popen(command, stdin=subprocess.DEVNULL,
                                         stdout=subprocess.DEVNULL, stderr=self._log,
                                         start_new_session=True)  # fmt: skip

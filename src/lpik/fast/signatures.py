@@ -27,9 +27,7 @@ def typed_kernel(name: str, function: Callable[..., Any], signatures: Iterable[A
     already has cost nothing; a new one is compiled, or loaded from the disk
     cache. Calls with argument types of no readied signature raise ``TypeError``.
     """
-    dispatcher = _KERNELS.get(name)
-    if dispatcher is None:
-        dispatcher = _KERNELS[name] = njit(cache=True)(function)
+    dispatcher = _dispatcher(name, function)
     dispatcher.disable_compile(False)
     try:
         for signature in signatures:
@@ -37,6 +35,14 @@ def typed_kernel(name: str, function: Callable[..., Any], signatures: Iterable[A
     finally:
         if dispatcher.signatures:
             dispatcher.disable_compile(True)
+    return dispatcher
+
+
+def _dispatcher(name: str, function: Callable[..., Any]) -> Any:
+    """The one dispatcher of ``function`` for ``name`` in this process (made lazily)."""
+    dispatcher = _KERNELS.get(name)
+    if dispatcher is None:
+        dispatcher = _KERNELS[name] = njit(cache=True)(function)
     return dispatcher
 
 
@@ -75,9 +81,7 @@ def load_cached(dispatcher: Any, signature: tuple[Any, ...]) -> bool:
 
 def cached_kernel(name: str, function: Callable[..., Any], signatures: Iterable[Any]) -> Any:
     """:func:`typed_kernel`'s dispatcher if every signature loads without compiling, else None."""
-    dispatcher = _KERNELS.get(name)
-    if dispatcher is None:
-        dispatcher = _KERNELS[name] = njit(cache=True)(function)
+    dispatcher = _dispatcher(name, function)
     if not all(load_cached(dispatcher, tuple(signature)) for signature in signatures):
         return None
     dispatcher.disable_compile(True)
