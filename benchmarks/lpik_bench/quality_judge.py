@@ -20,6 +20,10 @@ The decisions it follows:
 A metric is met when the variant is no worse than the best of its reference rows
 by more than :data:`MARGIN` (jitter: better, or within :data:`TIE`; violations: none
 at all). Where no reference row ran (Drake among obstacles) the metric is n/a.
+A peer that did not answer most of its steps (more than :data:`MOST_FAILED` of
+them failed) did not run the scenario: not moving is smooth and quick, so it is
+no reference on the metrics judged against every peer (it stays the like peer on
+tracking, where not moving scores as it should).
 """
 
 from __future__ import annotations
@@ -38,6 +42,8 @@ ERROR_RESOLUTION = 1e-9
 TIE = 0.01
 #: Distances [mm] closer than at the start by at most this are no closer (coal's rounding).
 DISTANCE_RESOLUTION = 1e-6
+#: A peer whose failed steps are more than this share of the scenario's steps did not run it.
+MOST_FAILED = 0.5
 #: The like peer(s) of each of lpik's modes (decision 2), by row name; in an
 #: acceleration-limited scenario their "+acc" rows.
 LIKE_PEERS = {"direction": ("drake",), "progress": ("mink", "pink daqp", "pink quadprog")}
@@ -164,8 +170,14 @@ def reference(
     if metric.key in AGAINST_LIKE:
         names = like_peers(result, variant)
     else:
-        names = [n for n in result.rows if n not in result.lpik]
+        names = [n for n in result.rows if n not in result.lpik and ran(result, n)]
     return best_of(metric, {n: result.rows[n] for n in names})
+
+
+def ran(result: ScenarioResult, name: str) -> bool:
+    """Whether row ``name`` answered most of the scenario's steps (:data:`MOST_FAILED`)."""
+    steps = sum(len(leg.targets) for leg in result.scenario.legs)
+    return result.rows[name].failed <= MOST_FAILED * steps
 
 
 @dataclass(frozen=True)
