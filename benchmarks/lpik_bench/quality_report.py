@@ -346,7 +346,10 @@ MISSED_BECAUSE = {
     "move 2.2 mrad per step at their velocity limits; each step adds 5.2 urad of "
     "orientation error (the curvature of that motion) and takes back only 0.16 % of the "
     "error there is, so it grows until the target comes back; lp2s strict, without the "
-    "progress steps, reaches 0.74 mrad the same way",
+    "progress steps, reaches 0.74 mrad the same way. The second-order term taken off the "
+    "command (lpik.command.second_order_term) is scaled by p with the rest of the command "
+    "(J dq = p (dw - rho)); compensating it whatever p is (J dq = p dw - rho) would make "
+    "dq = 0 infeasible at p = 0, a change to every path of the LP not made yet",
     "end-stop/jitter": "when joint 1 reaches its velocity limit, the saturation pass hands "
     "its motion to the free joints within one step (6.9 rad/s summed over the joints at "
     "step 418 of leg 2), a step in the velocities with energy at every frequency; every "
