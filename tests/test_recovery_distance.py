@@ -188,3 +188,26 @@ def test_the_compiled_controller_recovers_as_the_numpy_loop(depth, compiled_dist
     assert statuses[0] == RECOVERING and bindings[0] == "collision panda_link4 - ball"
     assert assert_recovers(panda, avoid, qs, statuses, bindings, PANDA_DT) >= 1
     assert avoid.closest(qs[-1])[0] >= PANDA_SCENE[0] - 1e-3
+
+
+def test_a_compiled_recovering_step_reads_the_kernels_distances_and_rows() -> None:
+    """The recovery stage after a compiled step asks coal nothing: the step's own distances
+    and rows (in the state) serve it, so a recovering step costs no second distance query."""
+    from lpik.control.avoiding_controller import AvoidingLp2Controller
+
+    panda, q0 = load_robot("panda"), home_configuration("panda")
+    avoid = ball_at_depth(panda, q0, BALL, BALL_RADIUS, -0.0315357527829987, PANDA_SCENE)
+    controller = AvoidingLp2Controller(panda, avoid, dt=PANDA_DT, compiled_distances=True)
+    goal = panda_goal(panda, q0)
+    expected = AvoidingLp2Controller(panda, avoid, dt=PANDA_DT, compiled_distances=False)
+    asked = []
+    at = avoid.proximities.at
+    avoid.proximities.at = lambda q: asked.append(q) or at(q)  # type: ignore[method-assign]
+    try:
+        result = controller.step(q0, goal)
+    finally:
+        avoid.proximities.at = at  # type: ignore[method-assign]
+    assert result.status == RECOVERING and result.binding == "collision panda_link4 - ball"
+    assert asked == []
+    reference = expected.step(q0, goal)  # coal's rows, coal's distances: the same step
+    np.testing.assert_allclose(result.q, reference.q, atol=1e-9)

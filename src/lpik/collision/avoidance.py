@@ -276,8 +276,9 @@ class CollisionAvoidance:
                             self.scene.safety_distance)  # fmt: skip
 
     def recovered(
-        self, problem: Problem, result: Result, dt: float, least_error: recovery.LeastError
-    ) -> Result:
+        self, problem: Problem, result: Result, dt: float, least_error: recovery.LeastError,
+        inside: Mapping[str, float] | None = None,
+    ) -> Result:  # fmt: skip
         """The recovery stage: from inside ``d_s`` the distance grows back.
 
         The rule of :mod:`lpik.collision.recovery`; ``result`` as it is where no pair
@@ -289,8 +290,11 @@ class CollisionAvoidance:
             result: The method's step on it.
             dt: Control period [s].
             least_error: The least-error LP (:data:`lpik.collision.recovery.LeastError`).
+            inside: The pairs inside ``d_s`` at ``problem.q0`` where the caller has them
+                (:meth:`inside`, or a compiled step's distances); None: found here.
         """
-        inside = self.inside(problem.q0)
+        if inside is None:
+            inside = self.inside(problem.q0)
         if not inside:
             return result
         problem = self.with_rows(problem, inside, dt)
@@ -305,6 +309,8 @@ class CollisionAvoidance:
         labels = [str(label) for label in problem.row_labels]
         G, h = problem.G.copy(), problem.h.copy()
         active = np.abs(G).max(axis=1, initial=0.0) > 0.0
+        if all(label in labels and active[labels.index(label)] for label in inside):
+            return problem  # every pair inside has its row already (the rows' mechanism)
         pairs, rows, rhs = DistanceRows(self.proximities, self.approach_speed, True).pair_rows(
             problem.q0, dt)  # fmt: skip
         found = self.proximities.at(problem.q0)

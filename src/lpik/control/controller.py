@@ -527,10 +527,13 @@ class Lp2Controller:
         (:func:`lpik.fast.progress.least_error`); ``result`` where no pair is inside.
         """
         avoidance = self.avoidance
-        if avoidance is None or not self.inside(q0):
+        inside = {} if avoidance is None else self.inside(q0)
+        if not inside:
             return result
-        problem = self.problem(q0, target, q_prev)
-        return avoidance.recovered(problem, result, self.dt, compiled_least_error)
+        # the step has just run at q0: the state's rows are this step's (the kernel's
+        # distances, or coal's written before it), so they are read, not computed again
+        problem = self.stepper.problem(*self._checked(q0, target, q_prev), bound=self._bound)
+        return avoidance.recovered(problem, result, self.dt, compiled_least_error, inside)
 
     def inside(self, q0: ArrayLike) -> dict[str, float]:
         """The pairs inside the safety distance at ``q0``, just stepped from: label -> distance.
