@@ -3,8 +3,10 @@
 - :func:`solve_within_limits`: bounded least squares on the pose error, the
   check that a target pose is reachable with every joint within its end-stops;
 - :func:`reachable_mask`: that check along a target trajectory, sampled, each
-  sample seeded from the one before (continuation): reachable *from where the
-  arm is*, without a jump to another branch of the inverse kinematics;
+  sample seeded from the one before (continuation from the leg's start): the
+  branch of the inverse kinematics it follows is the solver's, which need not
+  be the one a library's arm is on (scenario 2's leg -x: a target reachable on
+  the solver's branch is 93 mm beyond a bounded solve started from lpik's arm);
 - :func:`reach_along`: how far a pose can move along a direction (orientation
   held) and stay reachable, by bisection;
 - :func:`unlimited_path`: the least-norm (pseudo-inverse) tracking of a target
