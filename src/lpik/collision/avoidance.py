@@ -306,18 +306,20 @@ class CollisionAvoidance:
         A pair's row is missing where the problem has none (the field's) or an
         inactive one (``0 q <= INACTIVE_RHS``, a controller's reserved row).
         """
-        labels = [str(label) for label in problem.row_labels]
-        G, h = problem.G.copy(), problem.h.copy()
-        active = np.abs(G).max(axis=1, initial=0.0) > 0.0
-        if all(label in labels and active[labels.index(label)] for label in inside):
+        row_of: dict[str, int] = {}
+        for k, label in enumerate(problem.row_labels):
+            row_of.setdefault(str(label), k)  # the first row of a label, as before
+        active = np.abs(problem.G).max(axis=1, initial=0.0) > 0.0
+        if all(label in row_of and active[row_of[label]] for label in inside):
             return problem  # every pair inside has its row already (the rows' mechanism)
+        G, h = problem.G.copy(), problem.h.copy()
         pairs, rows, rhs = DistanceRows(self.proximities, self.approach_speed, True).pair_rows(
             problem.q0, dt)  # fmt: skip
         found = self.proximities.at(problem.q0)
         extra = []
         for k, row, b in zip(pairs, rows, rhs):
             label = found[k].label
-            at = labels.index(label) if label in labels else -1
+            at = row_of.get(label, -1)
             if at < 0:
                 extra.append((label, row, b))
             elif not active[at]:

@@ -530,10 +530,17 @@ class Lp2Controller:
         inside = {} if avoidance is None else self.inside(q0)
         if not inside:
             return result
-        # the step has just run at q0: the state's rows are this step's (the kernel's
-        # distances, or coal's written before it), so they are read, not computed again
-        problem = self.stepper.problem(*self._checked(q0, target, q_prev), bound=self._bound)
+        problem = self._stepped_problem(q0, target, q_prev, self._bound)
         return avoidance.recovered(problem, result, self.dt, compiled_least_error, inside)
+
+    def _stepped_problem(self, q0: Any, target: Any, q_prev: Any, bound: Any) -> Problem:
+        """The :class:`~lpik.problem.Problem` of the step the kernel has just run at ``q0``.
+
+        Its scene rows are read from the state, where that step left them (the
+        kernel's distances, or coal's written before it), not computed again
+        (:meth:`problem` computes them).
+        """
+        return self.stepper.problem(*self._checked(q0, target, q_prev), bound=bound)
 
     def inside(self, q0: ArrayLike) -> dict[str, float]:
         """The pairs inside the safety distance at ``q0``, just stepped from: label -> distance.
@@ -679,7 +686,7 @@ class Lp2Controller:
         bound = self._bound
         if bound is None and self._out.item(self._bounded_at) > 0:  # the fused step's own bound
             bound = self._out[self._bound_at].copy()
-        problem = self.stepper.problem(*self._checked(q0, target, q_prev), bound=bound)
+        problem = self._stepped_problem(q0, target, q_prev, bound)
         return self.stepper.solve(problem, path=self._fallback_path)
 
     def _stalled(self, result: Result, q0: Any, q_prev: Any, *, count: bool) -> Result:
