@@ -211,3 +211,34 @@ def test_a_compiled_recovering_step_reads_the_kernels_distances_and_rows() -> No
     assert asked == []
     reference = expected.step(q0, goal)  # coal's rows, coal's distances: the same step
     np.testing.assert_allclose(result.q, reference.q, atol=1e-9)
+
+
+@pytest.mark.parametrize("compiled_distances", [True, False])
+def test_the_recovery_rule_on_the_state_rows_is_the_rule_on_the_problem(
+    compiled_distances: bool,
+) -> None:
+    """A recovering step that keeps the direction and the rows is marked from the state's rows
+    (no numpy problem is built): step for step, the same steps, statuses and bindings as the
+    rule on the step's problem (:func:`lpik.collision.recovery.recovered`)."""
+    from lpik.control.avoiding_controller import AvoidingLp2Controller
+
+    panda, q0 = load_robot("panda"), home_configuration("panda")
+    avoid = ball_at_depth(panda, q0, BALL, BALL_RADIUS, -0.0315357527829987, PANDA_SCENE)
+    fast, slow = (AvoidingLp2Controller(panda, avoid, dt=PANDA_DT, v_max=0.2,
+                                        compiled_distances=compiled_distances)
+                  for _ in range(2))  # fmt: skip
+    slow._kept = lambda *args: None  # type: ignore[method-assign]
+    kept = fast._kept
+    hits = []
+    fast._kept = lambda *args: hits.append(kept(*args)) or hits[-1]  # type: ignore[method-assign]
+    goal = panda_goal(panda, q0)
+    q, prev = q0.copy(), q0.copy()
+    for _ in range(60):
+        a, b = fast.step(q, goal, prev), slow.step(q, goal, prev)
+        np.testing.assert_array_equal(a.q, b.q)
+        assert (a.status, a.method, a.p) == (b.status, b.method, b.p)
+        assert (None if a.binding is None else a.binding.as_dict()) == (
+            None if b.binding is None else b.binding.as_dict()
+        )
+        prev, q = q, a.q
+    assert sum(hit is not None for hit in hits) >= 10  # the state's rows served these steps

@@ -40,7 +40,7 @@ import numpy as np
 
 from lpik import check
 from lpik.highs import HighsSolver, LinearProgram
-from lpik.labels import row_label
+from lpik.labels import Binding, row_label
 from lpik.problem import Problem
 from lpik.result import MOVING, OFF_DIRECTION, OPTIMAL, RECOVERING, Result, safe_step
 from lpik.tolerances import FEASIBILITY_TOL, STALL_P
@@ -75,8 +75,34 @@ def inside_rows(problem: Problem, inside: Mapping[str, float]) -> list[int]:
 def keeps_rows(problem: Problem, dq: FloatArray, rows: list[int]) -> bool:
     """Whether ``dq`` keeps the given rows ``G dq <= h - G q0`` (within the check's tolerance)."""
     G = problem.G[rows]
-    rhs = problem.h[rows] - G @ problem.q0
+    return rows_kept(G, problem.h[rows] - G @ problem.q0, dq)
+
+
+def rows_kept(G: FloatArray, rhs: FloatArray, dq: FloatArray) -> bool:
+    """Whether ``G dq <= rhs`` within :data:`~lpik.tolerances.FEASIBILITY_TOL` (relative to ``rhs``)."""
     return bool(np.all(G @ dq - rhs <= FEASIBILITY_TOL * np.maximum(1.0, np.abs(rhs))))
+
+
+def keeps_direction(result: Result) -> bool:
+    """Whether the recovery may keep ``result`` (where it keeps the rows too).
+
+    A step that moves and keeps the commanded direction (``p`` above
+    :data:`~lpik.tolerances.STALL_P`), or the stall stage's progress step
+    (``off_direction``), which is the recovery step's LP on the same rows already.
+    """
+    return result.status in MOVING and (result.p > STALL_P or result.status == OFF_DIRECTION)
+
+
+def marked_recovering(result: Result, binding: Binding) -> Result:
+    """``result`` with status ``recovering`` naming ``binding``, the deepest pair.
+
+    A step already ``recovering`` (from outside another limit, an end-stop) keeps its name.
+    """
+    if result.status == RECOVERING:
+        return result
+    return Result(q=result.q, dq=result.dq, p=result.p, lam=result.lam, status=RECOVERING,
+                  binding=binding, method=result.method, solve_time=result.solve_time,
+                  residual=result.residual, path=result.path)  # fmt: skip
 
 
 def recovered(
@@ -100,13 +126,8 @@ def recovered(
     if not rows or result.method == RECOVERY:
         return result
     binding = row_label(rows[0], problem.row_labels[rows[0]]).outside()
-    keeps = result.status in MOVING and (result.p > STALL_P or result.status == OFF_DIRECTION)
-    if keeps and keeps_rows(problem, result.dq, rows):
-        if result.status == RECOVERING:  # already outside another limit: it keeps its name
-            return result
-        return Result(q=result.q, dq=result.dq, p=result.p, lam=result.lam, status=RECOVERING,
-                      binding=binding, method=result.method, solve_time=result.solve_time,
-                      residual=result.residual, path=result.path)  # fmt: skip
+    if keeps_direction(result) and keeps_rows(problem, result.dq, rows):
+        return marked_recovering(result, binding)
     return recovery_step(problem, rows, binding, least_error)
 
 

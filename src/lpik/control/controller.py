@@ -35,7 +35,13 @@ from numpy.typing import ArrayLike
 from lpik.collision import CollisionAvoidance
 from lpik.collision.avoidance import INACTIVE_RHS
 from lpik.collision.model import as_avoidance
-from lpik.collision.recovery import inside_pairs
+from lpik.collision.recovery import (
+    RECOVERY,
+    inside_pairs,
+    keeps_direction,
+    marked_recovering,
+    rows_kept,
+)
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX, TargetMotion
 from lpik.control.backend_step import fuses_kinematics, step_functions
 from lpik.control.inputs import (
@@ -58,7 +64,7 @@ from lpik.fast.lp2_kernel import OK
 from lpik.fast.outcome import compiled_result
 from lpik.fast.progress import SOLVED, further_in_state, least_error, progress_in_state
 from lpik.fast.step import BAD_INPUT, continues
-from lpik.labels import step_label_table
+from lpik.labels import row_label, step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
 from lpik.methods.progress import (
@@ -530,8 +536,36 @@ class Lp2Controller:
         inside = {} if avoidance is None else self.inside(q0)
         if not inside:
             return result
+        kept = self._kept(q0, result, inside)
+        if kept is not None:
+            return kept
         problem = self._stepped_problem(q0, target, q_prev, self._bound)
         return avoidance.recovered(problem, result, self.dt, compiled_least_error, inside)
+
+    def _kept(self, q0: Any, result: Result, inside: dict[str, float]) -> Result | None:
+        """The recovery rule's first case on the state's rows, without the step's problem.
+
+        Where every pair ``inside`` has an active row in the state (the rows'
+        mechanism) and ``result`` keeps the direction and those rows
+        (:func:`~lpik.collision.recovery.keeps_direction`,
+        :func:`~lpik.collision.recovery.rows_kept`), it is ``result`` marked
+        ``recovering``, naming the deepest pair, as
+        :func:`~lpik.collision.recovery.recovered` would mark it; None where the
+        rule needs the problem (a recovery step, or a pair without its row).
+        """
+        scene = self.scene_rows
+        if scene is None or result.method == RECOVERY or not keeps_direction(result):
+            return None
+        labels = scene.labels
+        rows = sorted((j for j, label in enumerate(labels) if label in inside),
+                      key=lambda j: inside[labels[j]])  # fmt: skip
+        G = scene.G[rows]
+        if len(rows) < len(inside) or not (np.abs(G).max(axis=1) > 0.0).all():
+            return None
+        rhs = scene.h[rows] - G @ np.asarray(q0, dtype=np.float64)
+        if not rows_kept(G, rhs, result.dq):
+            return None
+        return marked_recovering(result, row_label(rows[0], labels[rows[0]]).outside())
 
     def _stepped_problem(self, q0: Any, target: Any, q_prev: Any, bound: Any) -> Problem:
         """The :class:`~lpik.problem.Problem` of the step the kernel has just run at ``q0``.
