@@ -79,7 +79,7 @@ def keeps_rows(problem: Problem, dq: FloatArray, rows: list[int]) -> bool:
 
 
 def rows_kept(G: FloatArray, rhs: FloatArray, dq: FloatArray) -> bool:
-    """Whether ``G dq <= rhs`` within :data:`~lpik.tolerances.FEASIBILITY_TOL` (relative to ``rhs``)."""
+    """Whether ``G dq <= rhs`` within :data:`~lpik.tolerances.FEASIBILITY_TOL` (relative)."""
     return bool(np.all(G @ dq - rhs <= FEASIBILITY_TOL * np.maximum(1.0, np.abs(rhs))))
 
 
