@@ -229,9 +229,9 @@ NOT_DONE = (
     "Not done yet: the tracking targets of the acceleration-limited scenarios are the "
     "commanded ones (jumps, and a circle started at full speed), which no library follows "
     "under the limits; the judge compares with the best library under the same limits "
-    "(drake +acc) instead of with a trajectory those limits allow. Scenario 2 runs without "
-    "acceleration limits only: with them lp2s +acc comes back from 4 of 6 excursions (its "
-    "table), and drake +acc is not run there."
+    "(drake +acc) instead of with a trajectory those limits allow. Scenario 2 is judged "
+    "without acceleration limits only: lp2s +acc's row there (6 of 6 excursions recovered) "
+    "is not judged, and drake +acc is not run there."
 )
 
 

@@ -140,6 +140,37 @@ def rate_band(
     return lo, hi, lo_kind, hi_kind, MET
 
 
+def fading_band(
+    last: float, steps: float, lo: float, hi: float, qdd_min: float, qdd_max: float, dt: float
+) -> tuple:
+    """One joint's band where the arm's motion stops paying in ``steps`` steps: a stop ahead.
+
+    Under acceleration limits a joint cannot stop at once. Where the arm's
+    motion will stop reducing the task error ``steps`` steps ahead
+    (:func:`lpik.continuation.fading_steps`), the joint keeps the room to stop
+    there: the point ``steps * last`` ahead is taken as an end-stop
+    (:func:`braking_room`, decelerating at the limit on the braking side), and
+    the band's edge in the direction of motion is at most the step after which it
+    can still stop there, never below the band's other edge.
+
+    Returns:
+        ``(lo, hi, lo_fades, hi_fades)``: the bounds, and whether the stop ahead
+        sets each (its kind is then the acceleration limit's).
+    """
+    if not steps < math.inf or last == 0.0:
+        return lo, hi, False, False
+    dt2 = dt * dt
+    if last > 0.0:
+        allowed = braking_room(steps * last, -qdd_min * dt2)
+        if hi > allowed:
+            return lo, max(allowed, lo), False, True
+        return lo, hi, False, False
+    allowed = braking_room(-steps * last, qdd_max * dt2)
+    if lo < -allowed:
+        return min(-allowed, hi), hi, True, False
+    return lo, hi, False, False
+
+
 def plausible_step(last: float, vel_lo: float, vel_hi: float) -> tuple:
     """The last step as the limits allow it: ``last`` clipped to ``[vel_lo, vel_hi]``.
 

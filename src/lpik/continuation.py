@@ -43,7 +43,7 @@ import numpy as np
 
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, MOVING, OPTIMAL, RECOVERING, Result, safe_step
-from lpik.tolerances import NO_CHANGE_P
+from lpik.tolerances import MOTION_WEIGHT, NO_CHANGE_P
 from lpik.types import FloatArray
 
 #: Share of the narrowest band a step spends on slowing the null-space motion
@@ -149,3 +149,42 @@ def motion_decay(lower: FloatArray, upper: FloatArray, last: FloatArray) -> floa
     if size == 0.0 or not width < math.inf:
         return 0.0
     return min(1.0, DECAY_SHARE * width / size)
+
+
+def fading_steps(J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatArray) -> float:
+    """In how many steps the arm's motion ``last`` stops paying, where it pays less each step.
+
+    The motion's gain is how much it reduces the L1 task error towards the
+    command, ``sum |dw| - sum |dw - J last|``, against its price in the progress
+    step's terms, ``MOTION_WEIGHT sum |last|`` (:mod:`lpik.methods.progress`:
+    there a joint moves only while each radian buys that much). Where the
+    Jacobian turns along the motion its gain falls: as the arm stretches towards
+    the edge of its workspace, where the task Jacobian is singular and beyond
+    which the same motion takes the task point back. ``before = J(q_prev) last``
+    is the same motion at the last configuration; from its gain there and at
+    ``q0`` the gain is extrapolated linearly to where it meets the price. A step
+    that then takes the motion there only as fast as it can stop
+    (:func:`lpik.bands.fading_band`) does under acceleration limits what the
+    progress step does without them: it stops where moving on buys too little,
+    instead of coasting past the singular configuration into a pose from which
+    no step that reduces the error leads back (benchmarks/quality.py, scenario 2
+    with acceleration limits). Plain loops, compiled as they are by the fused step.
+
+    Returns:
+        The steps until the gain meets the price (> 0), or ``inf`` where the
+        motion does not pay or its gain does not fall.
+    """
+    total, now, then, size = 0.0, 0.0, 0.0, 0.0
+    for k in range(J.shape[0]):
+        s = 0.0
+        for i in range(J.shape[1]):
+            s += J[k, i] * last[i]
+        total += abs(dw[k])
+        now += abs(dw[k] - s)
+        then += abs(dw[k] - before[k])
+    for i in range(last.shape[0]):
+        size += abs(last[i])
+    gain, gain_before, price = total - now, total - then, MOTION_WEIGHT * size
+    if not (gain > price and gain_before > gain):
+        return math.inf
+    return (gain - price) / (gain_before - gain)

@@ -29,6 +29,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from lpik import bands, labels
+from lpik.continuation import fading_steps
 from lpik.problem import Problem
 from lpik.tolerances import MAX_MAGNITUDE
 from lpik.types import FloatArray
@@ -293,6 +294,7 @@ def build_problem(
     dt: float,
     q_prev: Any = None,
     continuation: bool = False,
+    motion_before: Any = None,
     **weights: Any,
 ) -> Problem:
     """Stack the limits' pieces into one validated :class:`~lpik.problem.Problem`.
@@ -307,6 +309,11 @@ def build_problem(
         continuation: Under acceleration limits, with the arm moving, give the
             problem ``last = q0 - q_prev``: LP1 and LP2 then solve the step around
             the current motion (:mod:`lpik.continuation`), as the controllers do.
+        motion_before: ``J(q_prev) (q0 - q_prev)``, the last step's motion in the
+            task at ``q_prev``: with ``continuation``, a motion that stops paying
+            within the joints' braking distance is braked in time
+            (:func:`lpik.continuation.fading_steps`, :func:`lpik.bands.fading_band`),
+            as the controllers do; None: it is not.
         **weights: ``M``, ``f``, ``Lambda``, ``q_ref``, ``k`` of the problem, and
             ``joint_names``, the names binding labels use (default: the names an
             :class:`EndStops` carries, as :func:`standard_limits` gives them, else
@@ -335,6 +342,10 @@ def build_problem(
         _rate_bands(q0, last, (stack.q_min, stack.q_max, stack.dq_min, stack.dq_max,
                                stack.qdd_min, stack.qdd_max), dt,
                     (stack.lo_kind, stack.hi_kind), names, outside)  # fmt: skip
+        if continuation and motion_before is not None and last.any():
+            _fading_bands(np.atleast_2d(np.asarray(J, dtype=np.float64)),
+                          np.asarray(dw, dtype=np.float64), last,
+                          np.asarray(motion_before, dtype=np.float64), stack, dt)  # fmt: skip
     return Problem(
         J=J,
         dw=dw,
@@ -407,6 +418,28 @@ class _Stack:
 def _tighter(pick: Any, current: FloatArray, value: Any, size: int) -> FloatArray:
     """``current`` tightened by ``value`` (broadcast to ``size``) with ``pick``; None: as it is."""
     return current if value is None else pick(current, np.broadcast_to(value, (size,)))
+
+
+def _fading_bands(
+    J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatArray, stack: _Stack, dt: float
+) -> None:
+    """Brake a motion that stops paying ahead (:func:`lpik.bands.fading_band`), in place.
+
+    A bound that the stop ahead sets is labelled as the acceleration limit's.
+    """
+    steps = fading_steps(J, dw, last, before)
+    if not steps < np.inf:
+        return
+    for i in range(last.size):
+        lo, hi, lo_fades, hi_fades = bands.fading_band(
+            float(last[i]), steps, float(stack.dq_min[i]), float(stack.dq_max[i]),
+            float(stack.qdd_min[i]), float(stack.qdd_max[i]), dt,
+        )  # fmt: skip
+        stack.dq_min[i], stack.dq_max[i] = lo, hi
+        if lo_fades:
+            stack.lo_kind[i] = labels.ACCELERATION_LIMIT
+        if hi_fades:
+            stack.hi_kind[i] = labels.ACCELERATION_LIMIT
 
 
 def _rate_bands(

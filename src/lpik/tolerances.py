@@ -93,6 +93,14 @@ STALL_SHARE = 0.5
 #: the band cut it from 1,394 rad/s to 930). A band for ``p`` as well (up to 0.05) cut it
 #: to 480 but held an arm pushed beyond reach back from coming home.
 STALL_KEEP_SHARE = 1.0
+#: Weight of the joint motion ``sum |dq_i|`` against the task error in the progress step
+#: (:mod:`lpik.methods.progress`) and in the fading motion's stop (:mod:`lpik.continuation`)
+#: [m (or rad) of error per rad of motion]: a joint moves only where each radian buys at
+#: least 1 cm (10 mrad) less error. Where the error can hardly shrink (a target beyond
+#: reach) the LP's optimum otherwise jumps between vertices, the joints at their velocity
+#: limits one way and then the other: at 1e-6 the quality suite's scenario 2 with the
+#: stage on had a joint-velocity jitter of 26,440 rad/s, at 1e-2 3,207 (strict: 447).
+MOTION_WEIGHT = 1e-2
 #: The compiled progress LP's simplex: a pivot entry of at most this size is not taken.
 SIMPLEX_PIVOT_TOL = 1e-11
 #: The compiled progress LP's simplex: a reduced cost beyond minus this improves the step

@@ -267,8 +267,11 @@ class Stepper:
         if self.avoidance is not None:
             limits = (*limits, *self.avoidance.limits())
             weights = self.avoidance.weights(weights, q0, self.dt, J)
+        before = None  # the last step's motion at q_prev, for the fading motion's stop
+        if self.continues and q_prev is not None and not np.array_equal(q0, q_prev):
+            before = self.model.jacobian(q_prev) @ (q0 - q_prev)
         P = build_problem(J, dw, q0, limits, dt=self.dt, q_prev=q_prev,
-                          continuation=self.continues, **weights)  # fmt: skip
+                          continuation=self.continues, motion_before=before, **weights)  # fmt: skip
         return P if bound is None else _under_bound(P, bound)
 
     def solve(self, problem: Problem, *, path: str | None = None) -> Result:

@@ -43,12 +43,15 @@ second_order_rows = compiled_twin(command.second_order_rows, command_rows=comman
 def needs_previous(state, q0, q_prev):
     """Whether the step needs the kinematics at ``q_prev`` and the state does not hold them.
 
-    Only where the command takes off the second-order term and the robot moved
-    (``q_prev != q0``); the state holds the kinematics of the last step's
-    ``q0`` (blocks ``prev_*``), which is the next step's ``q_prev`` in a loop.
+    Only where the command takes off the second-order term or the step is solved
+    around the motion (the fading motion's stop needs ``J(q_prev) last``), and
+    the robot moved (``q_prev != q0``); the state holds the kinematics of the
+    last step's ``q0`` (blocks ``prev_*``), which is the next step's ``q_prev``
+    in a loop.
     """
     flags = L.vector(state, L.SECOND_ORDER)
-    if flags[0] == 0.0 or not _moved(q0, q_prev):
+    wanted = flags[0] != 0.0 or L.vector(state, L.CONTINUATION)[0] != 0.0
+    if not wanted or not _moved(q0, q_prev):
         return False
     if flags[1] == 0.0:
         return True
@@ -92,28 +95,51 @@ def _moved(q0, q_prev):
 
 
 @njit(cache=True)
-def take_off_second_order(state, q0, q_prev, rows, J6, dw):
-    """``dw -= rho``, the last step's second-order term; then keep q0's kinematics for the next.
+def last_task_motion(state, q0, q_prev, rows):
+    """``J(q_prev) (q0 - q_prev)`` in the task rows into the ``rho`` block's row 0 (0 at rest).
 
-    The term is :func:`lpik.command.second_order_rows` of the motion
-    from the frame at ``q_prev`` (``prev_frame``) to the frame at ``q0``, with
-    ``J(q_prev) (q0 - q_prev)`` from ``prev_jacobian6``; 0 at rest.
+    From ``prev_jacobian6``, which holds the Jacobian at ``q_prev`` where the
+    robot moved (:func:`needs_previous`). Returns that row.
     """
-    n, m = q0.shape[0], dw.shape[0]
-    T = L.matrix_at(state, L.FRAME, 4, 4)
-    if _moved(q0, q_prev):
-        J6_prev = L.matrix_at(state, L.PREV_JACOBIAN6, 6, n)
-        jdq_rho = L.matrix_at(state, L.RHO, 2, m)
-        for k in range(m):
-            row, s = int(rows[k]), 0.0
+    n, m = q0.shape[0], rows.shape[0]
+    before = L.matrix_at(state, L.RHO, 2, m)[0]
+    moved = _moved(q0, q_prev)
+    J6_prev = L.matrix_at(state, L.PREV_JACOBIAN6, 6, n)
+    for k in range(m):
+        row, s = int(rows[k]), 0.0
+        if moved:
             for i in range(n):
                 s += J6_prev[row, i] * (q0[i] - q_prev[i])
-            jdq_rho[0, k] = s
-        e6 = L.vector(state, L.ERROR6)
-        pose_error(L.matrix_at(state, L.PREV_FRAME, 4, 4), T, e6, L.vector(state, L.LOG_SCRATCH))
-        second_order_rows(e6, rows, jdq_rho[0], jdq_rho[1])
-        for k in range(m):
-            dw[k] -= jdq_rho[1, k]
+        before[k] = s
+    return before
+
+
+@njit(cache=True)
+def take_off_second_order(state, q0, q_prev, rows, dw):
+    """``dw -= rho``, the last step's second-order term (0 at rest).
+
+    The term is :func:`lpik.command.second_order_rows` of the motion from the
+    frame at ``q_prev`` (``prev_frame``) to the frame at ``q0``, with
+    ``J(q_prev) (q0 - q_prev)`` from :func:`last_task_motion` (the ``rho``
+    block's row 0).
+    """
+    m = dw.shape[0]
+    if not _moved(q0, q_prev):
+        return
+    jdq_rho = L.matrix_at(state, L.RHO, 2, m)
+    e6 = L.vector(state, L.ERROR6)
+    T = L.matrix_at(state, L.FRAME, 4, 4)
+    pose_error(L.matrix_at(state, L.PREV_FRAME, 4, 4), T, e6, L.vector(state, L.LOG_SCRATCH))
+    second_order_rows(e6, rows, jdq_rho[0], jdq_rho[1])
+    for k in range(m):
+        dw[k] -= jdq_rho[1, k]
+
+
+@njit(cache=True)
+def hold_kinematics(state, q0, J6):
+    """Keep ``q0``'s frame and Jacobian in the ``prev_*`` blocks: the next step's ``q_prev``'s."""
+    n = q0.shape[0]
+    T = L.matrix_at(state, L.FRAME, 4, 4)
     frame, jac = L.matrix_at(state, L.PREV_FRAME, 4, 4), L.matrix_at(state, L.PREV_JACOBIAN6, 6, n)
     for a in range(4):
         for b in range(4):

@@ -23,7 +23,7 @@ It returns :data:`SOLVED`, :data:`INFEASIBLE` (no ``dq`` within the bounds
 holds the rows; ``dq`` is then ``0`` clipped to the bounds),
 :data:`ITERATION_LIMIT` or :data:`SINGULAR_BASIS` (rounding left the basis
 singular; ``dq`` as for :data:`INFEASIBLE`). The objective of a step is :func:`least_error_value`.
-``MOTION_WEIGHT`` (:mod:`lpik.methods.progress`) picks, among the steps of
+``MOTION_WEIGHT`` (:mod:`lpik.tolerances`) picks, among the steps of
 least error, one of least motion, so that the joints do not jitter between
 vertices; the simplex's tolerances are :data:`lpik.tolerances.SIMPLEX_PIVOT_TOL`
 and :data:`~lpik.tolerances.SIMPLEX_COST_TOL`.
@@ -45,13 +45,14 @@ state buffer (:mod:`lpik.fast.layout`) after the step.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
 from lpik.fast import layout as L
-from lpik.fast.step import continues, step_bounds
-from lpik.methods.progress import MOTION_WEIGHT
-from lpik.tolerances import FEASIBILITY_TOL, SIMPLEX_COST_TOL, SIMPLEX_PIVOT_TOL
+from lpik.fast.step import continues, fading_in_state, step_bounds
+from lpik.tolerances import FEASIBILITY_TOL, MOTION_WEIGHT, SIMPLEX_COST_TOL, SIMPLEX_PIVOT_TOL
 
 #: :func:`least_error_step`'s outcomes.
 SOLVED, INFEASIBLE, ITERATION_LIMIT = 0, 1, 2
@@ -363,7 +364,10 @@ def _state_rows(state, q0, q_prev):
     """The step's ``J``, ``dw``, bounds on ``dq`` and rows ``G dq <= h - G q0`` from ``state``."""
     n, m, r = q0.shape[0], int(state[L.M]), int(state[L.R])
     lower, upper, kinds = np.empty(n), np.empty(n), np.empty((2, n))
-    step_bounds(L.matrix_at(state, L.LIMITS, 6, n), state[L.DT], q0, q_prev, lower, upper, kinds)
+    J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
+    fading = fading_in_state(state, q0, q_prev, J, dw) if continues(state, q0, q_prev) else math.inf
+    step_bounds(L.matrix_at(state, L.LIMITS, 6, n), state[L.DT], q0, q_prev, lower, upper, kinds,
+                fading)  # fmt: skip
     G, h = L.matrix_at(state, L.ROWS_G, r, n), L.vector(state, L.ROWS_H)
     g = np.empty(r)
     for j in range(r):
@@ -371,7 +375,7 @@ def _state_rows(state, q0, q_prev):
         for i in range(n):
             s -= G[j, i] * q0[i]
         g[j] = s
-    return L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW), lower, upper, G, g
+    return J, dw, lower, upper, G, g
 
 
 @njit(cache=True)

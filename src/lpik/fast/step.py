@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit, prange, types
 
 from lpik import bands
+from lpik.continuation import fading_steps as _fading_steps
 from lpik.continuation import motion_decay as _motion_decay
 from lpik.fast import layout as L
 from lpik.fast.autobound import bound_in_state
@@ -38,6 +39,8 @@ from lpik.fast.command_law import (
     add_target_motion,
     braking_share,
     command_rows,
+    hold_kinematics,
+    last_task_motion,
     previous_kinematics,
     take_off_second_order,
     target_fits,
@@ -61,6 +64,8 @@ rate_band = compiled_twin(
     braking_room=njit(cache=True)(bands.braking_room),
 )
 motion_decay = njit(cache=True)(_motion_decay)
+fading_steps = njit(cache=True)(_fading_steps)
+fading_band = compiled_twin(bands.fading_band, braking_room=njit(cache=True)(bands.braking_room))
 stop_band = compiled_twin(
     bands.stop_band,
     yield_to=_yield_to,
@@ -69,15 +74,18 @@ stop_band = compiled_twin(
 
 
 @njit(cache=True)
-def step_bounds(limits, dt, q0, q_prev, lower, upper, kinds):
+def step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading=math.inf):
     """Bounds on ``dq`` from end-stops, velocity and acceleration limits (eqs. 13-14).
 
     The rule of :mod:`lpik.bands`, as :func:`lpik.limits.build_problem` and
     :meth:`lpik.problem.Problem.step_bounds` apply it. ``limits`` is (6, n):
     q_min, q_max, qd_min, qd_max, qdd_min, qdd_max (inf when none); the last
-    step is ``q0 - q_prev`` (``q_prev = q0``: at rest). Writes ``lower`` and
-    ``upper`` (n,) and, in ``kinds`` (2, n), which limit sets each bound (0
-    end-stop, 1 velocity, 2 acceleration).
+    step is ``q0 - q_prev`` (``q_prev = q0``: at rest); ``fading``: in how many
+    steps that motion stops paying (:func:`fading_in_state`; ``inf``: it does
+    not), a stop ahead that the joints keep the room to brake for
+    (:func:`lpik.bands.fading_band`). Writes ``lower`` and ``upper`` (n,) and, in
+    ``kinds`` (2, n), which limit sets each bound (0 end-stop, 1 velocity, 2
+    acceleration).
 
     Returns:
         The label index (:func:`lpik.labels.step_label_table`) of the first limit
@@ -95,6 +103,10 @@ def step_bounds(limits, dt, q0, q_prev, lower, upper, kinds):
         if rate_outside < 0 and verdict != 0:
             side = 1 if verdict > 0 else 0
             rate_outside = 3 * (2 * i + side) + (k_hi if verdict > 0 else k_lo)
+        lo, hi, lo_fades, hi_fades = fading_band(
+            q0[i] - q_prev[i], fading, lo, hi, limits[4, i], limits[5, i], dt
+        )  # fmt: skip
+        k_lo, k_hi = 2 if lo_fades else k_lo, 2 if hi_fades else k_hi
         lo, hi, lo_stop, hi_stop, out = stop_band(q0[i], q_min, q_max, lo, hi)
         lower[i], upper[i] = lo, hi
         kinds[0, i] = 0 if lo_stop else k_lo
@@ -135,6 +147,19 @@ def continues(state, q0, q_prev):
         if q0[i] != q_prev[i]:
             return True
     return False
+
+
+@njit(cache=True)
+def fading_in_state(state, q0, q_prev, J, dw):
+    """:func:`lpik.continuation.fading_steps` of the motion ``q0 - q_prev`` (the ``last`` block).
+
+    ``J(q_prev) last`` is the ``rho`` block's row 0 (:func:`last_task_motion`).
+    """
+    n, m = q0.shape[0], J.shape[0]
+    last = L.vector(state, L.LAST)  # scratch here: continue_motion fills it afterwards
+    for i in range(n):
+        last[i] = q0[i] - q_prev[i]
+    return fading_steps(J, dw, last, L.matrix_at(state, L.RHO, 2, m)[0])
 
 
 @njit(cache=True)
@@ -227,8 +252,9 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     lower, upper = L.vector(state, L.LOWER), L.vector(state, L.UPPER)
     kinds = L.matrix_at(state, L.KINDS, 2, n)
     dq, lam = L.vector(state, L.DQ), L.vector(state, L.LAM)
-    outside = step_bounds(limits, dt, q0, q_prev, lower, upper, kinds)
     moving = continues(state, q0, q_prev)
+    fading = fading_in_state(state, q0, q_prev, J, dw) if moving else math.inf
+    outside = step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading)
     origin = continue_motion(state, q0, q_prev, J, dw, lower, upper) if moving else q0
     G = L.matrix_at(state, L.ROWS_G, r, n)
     c, c_ref, g = L.vector(state, L.C), L.vector(state, L.C_REF), L.vector(state, L.G_RHS)
@@ -396,8 +422,12 @@ def task_step(state, q0, q_prev, target):
     if moved:
         motion = L.vector(state, L.TARGET_MOTION)
         add_target_motion(dw, motion[7 : 7 + m], rows, state[L.V_MAX], state[L.W_MAX], state[L.DT])
-    if L.vector(state, L.SECOND_ORDER)[0] != 0.0:
-        take_off_second_order(state, q0, q_prev, rows, J6, dw)
+    second_order = L.vector(state, L.SECOND_ORDER)[0] != 0.0
+    if second_order or L.vector(state, L.CONTINUATION)[0] != 0.0:
+        last_task_motion(state, q0, q_prev, rows)
+        if second_order:
+            take_off_second_order(state, q0, q_prev, rows, dw)
+        hold_kinematics(state, q0, J6)
     position = L.vector(state, L.POSITION)
     for a in range(3):
         position[a] = T[a, 3]

@@ -49,20 +49,13 @@ from lpik.result import CHECK_FAILED, INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result
 from lpik.tolerances import (
     EQUALITY_RTOL,
     FEASIBILITY_TOL,
+    MOTION_WEIGHT,
     NO_CHANGE_P,
     STALL_KEEP_SHARE,
     STALL_P,
     STALL_SHARE,
 )
 from lpik.types import FloatArray
-
-#: Weight of the joint motion ``sum |dq_i|`` against the task error in the progress step
-#: [m (or rad) of error per rad of motion]: a joint moves only where each radian buys at
-#: least 1 cm (10 mrad) less error. Where the error can hardly shrink (a target beyond
-#: reach) the LP's optimum otherwise jumps between vertices, the joints at their velocity
-#: limits one way and then the other: at 1e-6 the quality suite's scenario 2 with the
-#: stage on had a joint-velocity jitter of 26,440 rad/s, at 1e-2 3,207 (strict: 447).
-MOTION_WEIGHT = 1e-2
 
 
 def least_error_lp(

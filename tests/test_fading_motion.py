@@ -1,0 +1,138 @@
+"""A motion that stops paying is braked in time under acceleration limits (issue 23, item 1).
+
+An arm pushed towards a target beyond its reach stretches towards the edge of its
+workspace, where the task Jacobian is singular; its motion reduces the task error less
+and less. Without acceleration limits the progress step stops where moving on buys less
+than its price. With them the joints cannot stop at once: the motion coasted past the
+stretched pose into joint 4's end-stop, from where no step that reduces the error leads
+back, and the arm stayed 0.3-0.4 m from the home pose it was brought back to. The fading
+motion's stop (:func:`lpik.continuation.fading_steps`, :func:`lpik.bands.fading_band`)
+brakes it in time, on the numpy and the compiled paths alike.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from core_strategies import examples
+from lpik.bands import braking_room, fading_band
+from lpik.continuation import fading_steps
+from lpik.control.controller import Lp2Controller
+from lpik.control.stepper import Stepper
+from lpik.limits import build_problem
+from lpik.robots.registry import home_configuration, load_robot
+from lpik.tolerances import MOTION_WEIGHT
+
+DT, QDD = 1e-3, 10.0
+
+
+def test_the_steps_until_the_motion_stops_paying_are_the_linear_extrapolation() -> None:
+    J = np.eye(2)
+    dw, last = np.array([1.0, 0.0]), np.array([0.01, 0.0])
+    before = np.array([0.012, 0.0])  # the same motion bought 12 mm a step ago, 10 mm now
+    gain, gain_before, price = 0.01, 0.012, MOTION_WEIGHT * 0.01
+    assert fading_steps(J, dw, last, before) == pytest.approx(
+        (gain - price) / (gain_before - gain), rel=1e-12
+    )
+    assert fading_steps(J, dw, last, np.array([0.008, 0.0])) == math.inf  # it pays more
+    assert fading_steps(J, dw, -last, -before) == math.inf  # it does not pay
+    assert fading_steps(J, dw, np.zeros(2), np.zeros(2)) == math.inf  # at rest
+
+
+@settings(max_examples=examples(200), deadline=None)
+@given(
+    last=st.floats(-3e-3, 3e-3).filter(lambda v: abs(v) > 1e-9),
+    steps=st.floats(0.0, 500.0),
+    width=st.floats(1e-5, 1e-3),
+)
+def test_a_joint_keeps_the_room_to_stop_at_the_fading_point(
+    last: float, steps: float, width: float
+) -> None:
+    """Within its acceleration band, braking at the limit from the band's edge stops within
+    ``steps * last`` (or the band's other edge, the least it can move, is taken)."""
+    decel = QDD * DT * DT
+    lo, hi = last - decel, last + decel
+    lo, hi = min(lo, last - width), max(hi, last + width)
+    new_lo, new_hi, lo_fades, hi_fades = fading_band(last, steps, lo, hi, -QDD, QDD, DT)
+    assert lo <= new_lo <= new_hi <= hi
+    room = steps * abs(last)
+    edge = new_hi if last > 0 else -new_lo
+    least = lo if last > 0 else -hi  # the band's other edge, in the direction of motion
+    travelled, speed = 0.0, edge
+    while speed > 0.0:
+        travelled += speed
+        speed -= decel
+    assert travelled <= room + 1e-15 or edge == pytest.approx(least, abs=1e-15)
+    assert edge == pytest.approx(max(min(braking_room(room, decel), edge), least), abs=1e-15)
+    assert (hi_fades if last > 0 else lo_fades) == (edge < (hi if last > 0 else -lo))
+    assert not (lo_fades if last > 0 else hi_fades)
+
+
+def excursion(model, q0, axis, far=0.8, speed=1.0, hold=300, settle=2000):  # type: ignore[no-untyped-def]
+    """Targets from the home pose ``far`` metres along ``axis`` at ``speed`` and back."""
+    start = model.pose(q0)
+    ramp = int(round(far / speed / DT))
+    share = [*np.linspace(0.0, 1.0, ramp), *[1.0] * hold, *np.linspace(1.0, 0.0, ramp)]
+    targets = []
+    for s in [*share, *[0.0] * settle]:
+        target = start.copy()
+        target[:3, 3] += s * far * np.asarray(axis, dtype=float)
+        targets.append(target)
+    return targets
+
+
+@pytest.mark.parametrize("axis", [(1, 0, 0), (0, 0, 1)])
+def test_pushed_beyond_reach_under_acceleration_limits_it_comes_back(axis: tuple) -> None:
+    """The Panda under acceleration limits, the target driven far beyond reach and back
+    (the command unclamped, as the peers get it): joint 4 stops short of its end-stop, and
+    the arm is back on the home pose within every limit. Without the fading motion's stop
+    both directions ended 0.3-0.4 m off, joint 4 on its upper end-stop."""
+    model, q0 = load_robot("panda"), home_configuration("panda")
+    controller = Lp2Controller(model, dt=DT, qdd_max=QDD, v_max=1e6, w_max=1e6)
+    q, prev = q0.copy(), q0.copy()
+    worst_acceleration, closest_to_stop = 0.0, math.inf
+    for target in excursion(model, q0, axis):
+        res = controller.step(q, target, prev)
+        assert np.all(res.q >= model.q_min - 1e-9) and np.all(res.q <= model.q_max + 1e-9)
+        worst_acceleration = max(worst_acceleration, np.abs(res.q - 2 * q + prev).max() / DT**2)
+        closest_to_stop = min(closest_to_stop, model.q_max[3] - res.q[3])
+        prev, q = q, res.q
+    home = model.pose(q0)
+    assert np.linalg.norm(model.pose(q)[:3, 3] - home[:3, 3]) < 1e-5
+    assert worst_acceleration <= QDD * (1 + 1e-9)
+    assert closest_to_stop > 0.05  # it used to rest on joint 4's end-stop
+
+
+def test_the_fading_motion_s_stop_is_alike_on_both_paths() -> None:
+    """Along the stretch towards the edge of the workspace under acceleration limits, the
+    compiled controller and the numpy stepper take the same steps, and the stop ahead
+    narrows the bands on some of them (labelled as the acceleration limit's)."""
+    model, q0 = load_robot("panda"), home_configuration("panda")
+    options = dict(dt=DT, qdd_max=QDD, v_max=1e6, w_max=1e6)
+    controller, stepper = Lp2Controller(model, **options), Stepper(model, **options)
+    q, prev = q0.copy(), q0.copy()
+    narrowed = 0
+    for target in excursion(model, q0, (1, 0, 0), hold=200, settle=0)[:1300]:
+        res, ref = controller.step(q, target, prev), stepper.step(q, target, prev)
+        np.testing.assert_allclose(res.q, ref.q, rtol=0, atol=1e-9)
+        assert (res.status, res.binding) == (ref.status, ref.binding)
+        if not np.array_equal(q, prev):  # the bounds with and without the stop ahead
+            J = model.jacobian(q)
+            dw = stepper.command(q, target, prev, J)  # the same step asked again: the same
+            braked = stepper.limited(q, dw, prev, J).step_bounds()
+            coasting = build_problem(
+                J, dw, q, stepper.limits, dt=DT, q_prev=prev, continuation=True, **stepper.weights
+            ).step_bounds()
+            tighter = (braked[0] > coasting[0]) | (braked[1] < coasting[1])
+            if tighter.any():
+                narrowed += 1
+                for i in np.flatnonzero(tighter):
+                    side = 3 if braked[1][i] < coasting[1][i] else 2
+                    assert braked[side][i].endswith("acceleration limit"), braked[side][i]
+        prev, q = q, res.q
+    assert narrowed > 10
