@@ -396,18 +396,22 @@ def target_fits(has_translation: bool, has_rotation: bool, rows: FloatArray) -> 
     return True
 
 
-def second_order_term(model: TaskModel, q_prev: Any, q0: Any) -> FloatArray:
+def second_order_term(
+    model: TaskModel, q_prev: Any, q0: Any, jdq: FloatArray | None = None
+) -> FloatArray:
     """The second-order term of the task motion from ``q_prev`` to ``q0`` (see the function above).
 
     Zero for a robot at rest (``q_prev == q0``). On a task that is not a pose
     task, the motion is the task's own difference of the two task values.
+    ``jdq``: ``J(q_prev) (q0 - q_prev)`` where the caller has it (None: computed).
     """
     q_prev, q0 = np.asarray(q_prev, dtype=np.float64), np.asarray(q0, dtype=np.float64)
     dq = q0 - q_prev
     rows = task_rows(model)
     if not dq.any():
         return np.zeros(rows.size)
-    jdq = model.jacobian(q_prev) @ dq
+    if jdq is None:
+        jdq = model.jacobian(q_prev) @ dq
     if getattr(model, "KIND", None) != "pose":
         return np.asarray(model.difference(model.pose(q_prev), model.pose(q0)), float) - jdq
     rho = np.empty(rows.size)

@@ -210,14 +210,20 @@ class Stepper:
     # -- the stages ---------------------------------------------------------------------
 
     def command(
-        self, q0: FloatArray, target: Any, q_prev: FloatArray | None, J: FloatArray | None = None
+        self,
+        q0: FloatArray,
+        target: Any,
+        q_prev: FloatArray | None,
+        J: FloatArray | None = None,
+        before: FloatArray | None = None,
     ) -> FloatArray:
         """The step's commanded displacement ``dw`` (eq. 2, :mod:`lpik.command`).
 
         ``target`` is a task value (moved to at ``v_max``, ``w_max``, and under
         acceleration limits slowed down in time to stop on it, given ``J``) or a
         command law (:class:`~lpik.command.CommandLaw`); less the second-order
-        term of the motion ``q_prev -> q0`` where ``second_order`` is on.
+        term of the motion ``q_prev -> q0`` where ``second_order`` is on
+        (``before``: that motion's :meth:`last_task_motion`, where the caller has it).
         """
         model = self.model
         v_max, w_max = self.v_max, self.w_max
@@ -232,8 +238,21 @@ class Stepper:
             dw = commanded_displacement(model, model.pose(q0), value, v_max, w_max, self.dt,
                                         stop, motion)  # fmt: skip
         if self.second_order and q_prev is not None:
-            dw -= second_order_term(model, q_prev, q0)
+            dw -= second_order_term(model, q_prev, q0, before)
         return dw
+
+    def last_task_motion(self, q0: FloatArray, q_prev: FloatArray | None) -> FloatArray | None:
+        """``J(q_prev) (q0 - q_prev)``, the last step's task motion, where a stage needs it.
+
+        The second-order term and the fading motion's stop both read it (once a
+        step, as the fused step's ``rho`` block holds it); None at rest, without
+        ``q_prev`` or where neither is on.
+        """
+        if q_prev is None or not (self.second_order or self.continues):
+            return None
+        if np.array_equal(q0, q_prev):
+            return None
+        return self.model.jacobian(q_prev) @ (q0 - q_prev)
 
     def problem(
         self,
@@ -251,7 +270,9 @@ class Stepper:
         q = np.asarray(q0, dtype=np.float64)
         prev = None if q_prev is None else np.asarray(q_prev, dtype=np.float64)
         J = self.model.jacobian(q)
-        return self.limited(q, self.command(q, target, prev, J), prev, J, bound=bound)
+        before = self.last_task_motion(q, prev)
+        dw = self.command(q, target, prev, J, before)
+        return self.limited(q, dw, prev, J, bound=bound, before=before)
 
     def limited(
         self,
@@ -261,15 +282,19 @@ class Stepper:
         J: FloatArray,
         *,
         bound: FloatArray | None = None,
+        before: FloatArray | None = None,
     ) -> Problem:
-        """The limits stage: ``build_problem`` with the scene's rows and field on top."""
+        """The limits stage: ``build_problem`` with the scene's rows and field on top.
+
+        ``before``: :meth:`last_task_motion` where the caller has it (None: computed
+        where the fading motion's stop needs it).
+        """
         limits, weights = self.limits, self.weights
         if self.avoidance is not None:
             limits = (*limits, *self.avoidance.limits())
             weights = self.avoidance.weights(weights, q0, self.dt, J)
-        before = None  # the last step's motion at q_prev, for the fading motion's stop
-        if self.continues and q_prev is not None and not np.array_equal(q0, q_prev):
-            before = self.model.jacobian(q_prev) @ (q0 - q_prev)
+        if before is None and self.continues:  # the fading motion's stop reads it
+            before = self.last_task_motion(q0, q_prev)
         P = build_problem(J, dw, q0, limits, dt=self.dt, q_prev=q_prev,
                           continuation=self.continues, motion_before=before, **weights)  # fmt: skip
         return P if bound is None else _under_bound(P, bound)
