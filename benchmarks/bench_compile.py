@@ -22,7 +22,6 @@ import argparse
 import json
 import os
 import platform
-import re
 import resource
 import subprocess
 import sys
@@ -32,6 +31,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from compare_revisions import _worktree
+from lpik_bench.markdown import replace_section
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "benchmarks.md"
@@ -202,19 +202,6 @@ def _section(results: dict, sides: dict[str, Path], command: str, loads: tuple[s
     return "\n".join(lines) + "\n\n"
 
 
-def write_section(page: str, section: str) -> str:
-    """``page`` with its section of :data:`HEADING` replaced by ``section`` (or added)."""
-    parts = re.split(r"^(?=## )", page, flags=re.MULTILINE)
-    for i, part in enumerate(parts):
-        if part.startswith(HEADING):
-            parts[i] = section
-            return "".join(parts)
-    for i, part in enumerate(parts):
-        if part.startswith("## How it is measured"):
-            return "".join([*parts[:i], section, *parts[i:]])
-    return page.rstrip("\n") + "\n\n" + section
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--old", help="a revision to measure too")
@@ -226,7 +213,8 @@ def main() -> None:
     before = _load()
     results = _measure(sides)
     section = _section(results, sides, command, (before, _load()), args.top)
-    OUT.write_text(write_section(OUT.read_text(encoding="utf-8"), section), encoding="utf-8")
+    page = OUT.read_text(encoding="utf-8")
+    OUT.write_text(replace_section(page, HEADING, section), encoding="utf-8")
     print(f"wrote the section {HEADING[3:]!r} of {OUT.relative_to(ROOT)}")
 
 

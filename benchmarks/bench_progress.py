@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import re
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -33,6 +32,7 @@ from lpik.fast.progress import least_error_step, progress_in_state
 from lpik.paper.scenarios import get_scenario
 from lpik.robots.registry import load_robot
 from lpik.tolerances import STALL_P
+from lpik_bench.markdown import replace_section
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "benchmarks.md"
@@ -128,19 +128,6 @@ def section(lp: np.ndarray, stage: np.ndarray, command: str) -> str:
     ])  # fmt: skip
 
 
-def write_section(page: str, text: str) -> str:
-    """``page`` with its section :data:`HEADING` replaced by ``text`` (or added before the end)."""
-    parts = re.split(r"^(?=## )", page, flags=re.MULTILINE)
-    for i, part in enumerate(parts):
-        if part.startswith(HEADING):
-            parts[i] = text
-            return "".join(parts)
-    for i, part in enumerate(parts):
-        if part.startswith("## How it is measured"):
-            return "".join([*parts[:i], text, *parts[i:]])
-    return page.rstrip("\n") + "\n\n" + text
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--calls", type=int, default=20000, help="random LP calls")
@@ -153,7 +140,8 @@ def main() -> None:
     command += f" --repeat {args.repeat}" if args.repeat != 20 else ""
     text = section(lp, stage, command)
     print(text)
-    OUT.write_text(write_section(OUT.read_text(encoding="utf-8"), text), encoding="utf-8")
+    page = OUT.read_text(encoding="utf-8")
+    OUT.write_text(replace_section(page, HEADING, text), encoding="utf-8")
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@ brakes it in time, on the numpy and the compiled paths alike.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -27,8 +28,9 @@ from lpik.control.stepper import Stepper
 from lpik.limits import build_problem
 from lpik.robots.registry import home_configuration, load_robot
 from lpik.tolerances import MOTION_WEIGHT
+from lpik_bench.excursions import DT, targets
 
-DT, QDD = 1e-3, 10.0
+QDD = 10.0
 
 
 def test_the_steps_until_the_motion_stops_paying_are_the_linear_extrapolation() -> None:
@@ -73,17 +75,10 @@ def test_a_joint_keeps_the_room_to_stop_at_the_fading_point(
     assert not (lo_fades if last > 0 else hi_fades)
 
 
-def excursion(model, q0, axis, far=0.8, speed=1.0, hold=300, settle=2000):  # type: ignore[no-untyped-def]
-    """Targets from the home pose ``far`` metres along ``axis`` at ``speed`` and back."""
-    start = model.pose(q0)
-    ramp = int(round(far / speed / DT))
-    share = [*np.linspace(0.0, 1.0, ramp), *[1.0] * hold, *np.linspace(1.0, 0.0, ramp)]
-    targets = []
-    for s in [*share, *[0.0] * settle]:
-        target = start.copy()
-        target[:3, 3] += s * far * np.asarray(axis, dtype=float)
-        targets.append(target)
-    return targets
+def excursion(model, q0, axis, steps=None):  # type: ignore[no-untyped-def]
+    """The benchmark's excursion (:mod:`lpik_bench.excursions`) 0.8 m along ``axis``."""
+    unit = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    return list(itertools.islice(targets(model.pose(q0), unit, 0.8), steps))
 
 
 @pytest.mark.parametrize("axis", [(1, 0, 0), (0, 0, 1)])
@@ -117,7 +112,7 @@ def test_the_fading_motion_s_stop_is_alike_on_both_paths() -> None:
     controller, stepper = Lp2Controller(model, **options), Stepper(model, **options)
     q, prev = q0.copy(), q0.copy()
     narrowed = 0
-    for target in excursion(model, q0, (1, 0, 0), hold=200, settle=0)[:1300]:
+    for target in excursion(model, q0, (1, 0, 0), 1300):
         res, ref = controller.step(q, target, prev), stepper.step(q, target, prev)
         np.testing.assert_allclose(res.q, ref.q, rtol=0, atol=1e-9)
         assert (res.status, res.binding) == (ref.status, ref.binding)

@@ -173,6 +173,23 @@ def render(records: list[dict[str, Any]], source: str) -> str:
     return "\n".join(lines)
 
 
+def replace_section(page: str, heading: str, text: str) -> str:
+    """``page`` with its ``heading`` section replaced by ``text``, or ``text`` added.
+
+    A new section goes before "How it is measured" (else at the end): the one
+    way every benchmark that writes a section of ``docs/benchmarks.md`` does it.
+    """
+    parts = re.split(r"^(?=## )", page, flags=re.MULTILINE)
+    for i, part in enumerate(parts):
+        if part.startswith(heading):
+            parts[i] = text
+            return "".join(parts)
+    for i, part in enumerate(parts):
+        if part.startswith("## How it is measured"):
+            return "".join([*parts[:i], text, *parts[i:]])
+    return page.rstrip("\n") + "\n\n" + text
+
+
 def _sections(page: str) -> list[tuple[str, str]]:
     """``(heading, text)`` of every ``## `` section of ``page``, in order."""
     parts = re.split(r"^(?=## )", page, flags=re.MULTILINE)
