@@ -92,6 +92,50 @@ def test_the_compiled_progress_lp_meets_highs_optimum(case) -> None:
         assert not unique_optimum(J, dw, lower, upper, G, g, best, dq - dq_highs)
 
 
+@st.composite
+def share_cases(draw):
+    """Bounds, rows and a demand on some of them (recovery's first LP), from a seed."""
+    n, r = draw(st.integers(1, 7)), draw(st.integers(1, 4))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    lower, upper = -rng.uniform(0, 0.02, n), rng.uniform(0, 0.02, n)
+    braking = rng.random(n) < 0.2  # a joint braking: its band does not hold dq = 0
+    lower[braking] = upper[braking] - rng.uniform(0, 0.01, braking.sum())
+    lower[braking], upper[braking] = lower[braking] + 0.015, upper[braking] + 0.015
+    G = rng.normal(size=(r, n))
+    rhs = rng.uniform(-0.05, 0.01, r)
+    inside = rng.random(r) < 0.6
+    demand = np.where(inside & (rhs < 0), rhs, 0.0)
+    return G, rhs - demand, demand, lower, upper
+
+
+@settings(max_examples=examples(200), deadline=None)
+@given(share_cases())
+def test_the_compiled_largest_share_meets_highs(case) -> None:
+    """Recovery's first LP (the largest share of the distance rows' demand the bounds allow):
+    the compiled simplex against HiGHS (:func:`lpik.collision.recovery.highs_largest_share`)."""
+    from lpik.collision.recovery import highs_largest_share
+
+    G, b, demand, lower, upper = case
+    reference = highs_largest_share(G, b, demand, lower, upper)
+    code, share = fast.largest_share_lp(G, b, demand, lower, upper)
+    if reference is None:  # not even s = 0 holds
+        assert code == fast.INFEASIBLE
+        return
+    assert code == fast.SOLVED
+    assert share == pytest.approx(reference, abs=1e-9)
+
+
+def test_the_largest_share_in_closed_form() -> None:
+    """One joint, ``dq <= 0.01``, a row ``-dq <= -0.04 s`` (the distance must grow by 0.04): the
+    bounds give a quarter of the demand; with ``dq >= 0.02`` (braking) not even none of it."""
+    G, b, demand = np.array([[-1.0]]), np.zeros(1), np.array([-0.04])
+    code, share = fast.largest_share_lp(G, b, demand, np.array([-0.01]), np.array([0.01]))
+    assert code == fast.SOLVED and share == pytest.approx(0.25, abs=1e-15)
+    G, b = np.array([[1.0]]), np.array([0.01])  # dq <= 0.01 with s's column on another row
+    code, _ = fast.largest_share_lp(G, b, np.zeros(1), np.array([0.02]), np.array([0.03]))
+    assert code == fast.INFEASIBLE
+
+
 def test_no_step_holds_infeasible_rows() -> None:
     J, dw = np.eye(2), np.array([0.01, 0.0])
     G, g = np.array([[1.0, 0.0], [-1.0, 0.0]]), np.array([-0.5, -0.5])  # x <= -0.5, x >= 0.5

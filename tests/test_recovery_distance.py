@@ -214,31 +214,39 @@ def test_a_compiled_recovering_step_reads_the_kernels_distances_and_rows() -> No
 
 
 @pytest.mark.parametrize("compiled_distances", [True, False])
+@pytest.mark.parametrize("qdd_max", [None, 10.0])
 def test_the_recovery_rule_on_the_state_rows_is_the_rule_on_the_problem(
-    compiled_distances: bool,
+    compiled_distances: bool, qdd_max: float | None
 ) -> None:
-    """A recovering step that keeps the direction and the rows is marked from the state's rows
-    (no numpy problem is built): step for step, the same steps, statuses and bindings as the
-    rule on the step's problem (:func:`lpik.collision.recovery.recovered`)."""
+    """Recovering steps on the state's rows and LP inputs, no numpy problem built (both cases
+    of the rule: a step that keeps the direction and the rows, marked; the recovery step's
+    LPs): step for step, the same steps, statuses and bindings as the rule on the step's
+    problem (:func:`lpik.collision.recovery.recovered`), with and without acceleration
+    limits."""
     from lpik.control.avoiding_controller import AvoidingLp2Controller
 
     panda, q0 = load_robot("panda"), home_configuration("panda")
     avoid = ball_at_depth(panda, q0, BALL, BALL_RADIUS, -0.0315357527829987, PANDA_SCENE)
     fast, slow = (AvoidingLp2Controller(panda, avoid, dt=PANDA_DT, v_max=0.2,
-                                        compiled_distances=compiled_distances)
+                                        qdd_max=qdd_max, compiled_distances=compiled_distances)
                   for _ in range(2))  # fmt: skip
-    slow._kept = lambda *args: None  # type: ignore[method-assign]
-    kept = fast._kept
+    slow._recovered_in_state = lambda *args: None  # type: ignore[method-assign]
+    in_state = fast._recovered_in_state
     hits = []
-    fast._kept = lambda *args: hits.append(kept(*args)) or hits[-1]  # type: ignore[method-assign]
+    fast._recovered_in_state = (  # type: ignore[method-assign]
+        lambda *args: hits.append(in_state(*args)) or hits[-1]
+    )
     goal = panda_goal(panda, q0)
     q, prev = q0.copy(), q0.copy()
-    for _ in range(60):
+    for _ in range(150):
         a, b = fast.step(q, goal, prev), slow.step(q, goal, prev)
-        np.testing.assert_array_equal(a.q, b.q)
-        assert (a.status, a.method, a.p) == (b.status, b.method, b.p)
+        np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-12)
+        assert (a.status, a.method) == (b.status, b.method)
+        assert a.p == pytest.approx(b.p, abs=1e-12)
         assert (None if a.binding is None else a.binding.as_dict()) == (
             None if b.binding is None else b.binding.as_dict()
         )
         prev, q = q, a.q
-    assert sum(hit is not None for hit in hits) >= 10  # the state's rows served these steps
+    served = [hit for hit in hits if hit is not None]
+    assert sum(hit.method != "recovery" for hit in served) >= 10  # marked, from the state's rows
+    assert sum(hit.method == "recovery" for hit in served) >= 5  # the LPs on the state's arrays

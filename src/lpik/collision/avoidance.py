@@ -278,6 +278,7 @@ class CollisionAvoidance:
     def recovered(
         self, problem: Problem, result: Result, dt: float, least_error: recovery.LeastError,
         inside: Mapping[str, float] | None = None,
+        largest_share: recovery.LargestShare | None = None,
     ) -> Result:  # fmt: skip
         """The recovery stage: from inside ``d_s`` the distance grows back.
 
@@ -292,13 +293,15 @@ class CollisionAvoidance:
             least_error: The least-error LP (:data:`lpik.collision.recovery.LeastError`).
             inside: The pairs inside ``d_s`` at ``problem.q0`` where the caller has them
                 (:meth:`inside`, or a compiled step's distances); None: found here.
+            largest_share: The largest-share LP
+                (:data:`lpik.collision.recovery.LargestShare`; None: HiGHS's).
         """
         if inside is None:
             inside = self.inside(problem.q0)
         if not inside:
             return result
         problem = self.with_rows(problem, inside, dt)
-        return recovery.recovered(problem, result, inside, least_error)
+        return recovery.recovered(problem, result, inside, least_error, largest_share)
 
     def with_rows(self, problem: Problem, inside: Mapping[str, float], dt: float) -> Problem:
         """``problem`` with a damper's row for every pair of ``inside`` without an active one.

@@ -38,7 +38,6 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from lpik import check
 from lpik.highs import HighsSolver, LinearProgram
 from lpik.labels import Binding, row_label
 from lpik.problem import Problem
@@ -53,6 +52,9 @@ RECOVERY = "recovery"
 #: ``|J dq - target|_1 + MOTION_WEIGHT |dq|_1`` with ``lower <= dq <= upper``,
 #: ``G dq <= g``, where the status is ``"optimal"``.
 LeastError = Callable[..., tuple[str, FloatArray]]
+#: The largest-share LP, ``largest_share(G, b, demand, lower, upper) -> s or None``
+#: (:func:`highs_largest_share`; compiled: :func:`lpik.fast.progress.largest_share_lp`).
+LargestShare = Callable[..., "float | None"]
 
 
 def inside_pairs(labels, distances, safety: float) -> dict[str, float]:  # type: ignore[no-untyped-def]
@@ -106,7 +108,11 @@ def marked_recovering(result: Result, binding: Binding) -> Result:
 
 
 def recovered(
-    problem: Problem, result: Result, inside: Mapping[str, float], least_error: LeastError
+    problem: Problem,
+    result: Result,
+    inside: Mapping[str, float],
+    least_error: LeastError,
+    largest_share: LargestShare | None = None,
 ) -> Result:
     """The step from a state with pairs inside the safety distance (the module's rule).
 
@@ -115,6 +121,7 @@ def recovered(
         result: The method's step on ``problem``.
         inside: The pairs inside ``d_s`` (:func:`inside_pairs`).
         least_error: The least-error LP (:data:`LeastError`).
+        largest_share: The largest-share LP (:data:`LargestShare`; None: HiGHS's).
 
     Returns:
         ``result`` unchanged where no row of ``problem`` is inside; else ``result``
@@ -128,72 +135,100 @@ def recovered(
     binding = row_label(rows[0], problem.row_labels[rows[0]]).outside()
     if keeps_direction(result) and keeps_rows(problem, result.dq, rows):
         return marked_recovering(result, binding)
-    return recovery_step(problem, rows, binding, least_error)
+    return recovery_step(problem, rows, binding, least_error, largest_share)
 
 
 def recovery_step(
-    problem: Problem, rows: list[int], binding: str, least_error: LeastError
-) -> Result:
+    problem: Problem, rows: list[int], binding: str, least_error: LeastError,
+    largest_share: LargestShare | None = None,
+) -> Result:  # fmt: skip
     """The least-L1-error step within every bound and row, the ``rows`` demanding their increase.
 
-    Where the bounds cannot give the whole demand of ``rows`` (their ``h - G q0 < 0``),
-    the largest share of it that they can (:func:`demand_share`). Status
+    :func:`recovery_motion` on the problem's bounds (eqs. 13-14) and rows. Status
     ``recovering``, ``p = 0``, ``binding`` the pair; the safe step (``recovering``)
     where no LP answers.
     """
     start = time.perf_counter()
-    dq = least_error_step(problem, least_error)
-    if dq is None:  # the whole demand is beyond the bounds: take the largest share of it
-        share = demand_share(problem, rows)
-        if share is not None:
-            rhs = problem.h - problem.G @ problem.q0
-            h = problem.h.copy()
-            h[rows] -= (1.0 - share) * rhs[rows]
-            problem = problem.replace(h=h)
-            dq = least_error_step(problem, least_error)
+    lower, upper = problem.step_bounds()[:2]
+    G = problem.G
+    dq = recovery_motion(problem.J, problem.dw, lower, upper, G, problem.h - G @ problem.q0, rows,
+                         least_error, largest_share or highs_largest_share)  # fmt: skip
     elapsed = time.perf_counter() - start
     if dq is None:
         return safe_step(problem, RECOVERY, RECOVERING, binding, solve_time=elapsed, path=RECOVERY)
+    return recovery_result(problem.q0, dq, problem.J, binding, elapsed)
+
+
+def recovery_motion(
+    J: FloatArray, dw: FloatArray, lower: FloatArray, upper: FloatArray, G: FloatArray,
+    g: FloatArray, rows: list[int], least_error: LeastError, largest_share: LargestShare,
+) -> FloatArray | None:  # fmt: skip
+    """The recovery step's ``dq`` on the step's arrays, or None where no LP answers.
+
+    The least-L1-error step (``least_error``) within ``lower <= dq <= upper`` and
+    ``G dq <= g``; where the bounds cannot give the whole demand of ``rows``
+    (their ``g < 0``), the largest share ``s`` of it that they can
+    (``largest_share``), and the least-error step with those rows at ``s g``. The
+    one rule for the step's problem (:func:`recovery_step`) and for the arrays a
+    compiled step leaves in its state (:func:`lpik.fast.progress.state_rows`).
+    """
+    dq = least_error_within(J, dw, lower, upper, G, g, least_error)
+    if dq is not None:
+        return dq
+    demand = np.zeros(g.size)
+    demand[rows] = g[rows]
+    share = largest_share(G, g - demand, demand, lower, upper)
+    if share is None:  # not even s = 0 holds (a joint braking under its acceleration limits)
+        return None
+    return least_error_within(J, dw, lower, upper, G, g - (1.0 - share) * demand, least_error)
+
+
+def least_error_within(
+    J: FloatArray, dw: FloatArray, lower: FloatArray, upper: FloatArray, G: FloatArray,
+    g: FloatArray, least_error: LeastError,
+) -> FloatArray | None:  # fmt: skip
+    """``least_error`` on these bounds and rows, or None where it has no step.
+
+    The step is clipped to the bounds and checked (bounds and rows within
+    :data:`~lpik.tolerances.FEASIBILITY_TOL`, relative to ``max(1, |bound|)``, as
+    :func:`lpik.check.worst_violation` checks them).
+    """
+    status, dq = least_error(J, dw, lower, upper, G, g)
+    if status != OPTIMAL:
+        return None
+    dq = np.clip(np.asarray(dq, dtype=np.float64), lower, upper)
+    if not np.isfinite(dq).all() or not rows_kept(G, g, dq):
+        return None
+    with np.errstate(invalid="ignore"):  # an infinite bound: no excess
+        crossed = lower - dq > FEASIBILITY_TOL * np.maximum(1.0, np.abs(lower))
+    return None if crossed.any() else dq  # bounds that cross (lower > upper) hold no step
+
+
+def recovery_result(
+    q0: FloatArray, dq: FloatArray, J: FloatArray, binding: str, solve_time: float
+) -> Result:
+    """A recovery step's Result: ``recovering``, ``p = 0``, naming the pair."""
     return Result(
-        q=problem.q0 + dq, dq=dq, p=0.0, lam=None, status=RECOVERING, binding=binding,
-        method=RECOVERY, solve_time=elapsed, residual=float(np.abs(problem.J @ dq).max()),
+        q=q0 + dq, dq=dq, p=0.0, lam=None, status=RECOVERING, binding=binding,
+        method=RECOVERY, solve_time=solve_time, residual=float(np.abs(J @ dq).max()),
         path=RECOVERY,
     )  # fmt: skip
 
 
-def least_error_step(problem: Problem, least_error: LeastError) -> FloatArray | None:
-    """``least_error`` on the problem's bounds and rows, or None where it has no step.
+def highs_largest_share(
+    G: FloatArray, b: FloatArray, demand: FloatArray, lower: FloatArray, upper: FloatArray
+) -> float | None:
+    """The largest share ``s`` in [0, 1] of ``demand`` that the bounds and rows allow (HiGHS).
 
-    The step is clipped to the bounds and checked (bounds and rows within
-    :data:`~lpik.tolerances.FEASIBILITY_TOL`).
+    An LP over ``(dq, s)``: maximise ``s`` with ``G dq - s demand <= b`` and
+    ``lower <= dq <= upper`` (``demand``: the rows inside, ``h - G q0``, 0 elsewhere;
+    ``b``: the right-hand sides less the demand). None where not even ``s = 0``
+    holds (a joint braking under its acceleration limits).
     """
-    lower, upper = problem.step_bounds()[:2]
-    G = problem.G
-    status, dq = least_error(problem.J, problem.dw, lower, upper, G, problem.h - G @ problem.q0)
-    if status != OPTIMAL:
-        return None
-    dq = check.clip_to_bounds(problem, np.asarray(dq, dtype=np.float64))
-    if not np.isfinite(dq).all() or check.worst_violation(problem, dq).amount > FEASIBILITY_TOL:
-        return None
-    return dq
-
-
-def demand_share(problem: Problem, rows: list[int]) -> float | None:
-    """The largest share ``s`` in [0, 1] of ``rows``' demand that the bounds and rows allow.
-
-    An LP over ``(dq, s)``: maximise ``s`` with ``G_k dq <= s (h - G q0)_k`` for the
-    rows inside and ``G dq <= h - G q0`` for the others. None where not even
-    ``s = 0`` holds (a joint braking under its acceleration limits).
-    """
-    n = problem.n
-    lower, upper = problem.step_bounds()[:2]
-    rhs = problem.h - problem.G @ problem.q0
-    demand = np.zeros(rhs.size)
-    demand[rows] = rhs[rows]
-    b = rhs - demand
+    n = G.shape[1]
     lp = LinearProgram(
         c=np.concatenate([np.zeros(n), [-1.0]]),
-        A=np.hstack([problem.G, -demand[:, None]]),
+        A=np.hstack([G, -demand[:, None]]),
         row_lower=np.full(b.size, -np.inf), row_upper=b,
         col_lower=np.append(lower, 0.0), col_upper=np.append(upper, 1.0),
     )  # fmt: skip

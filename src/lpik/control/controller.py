@@ -40,6 +40,8 @@ from lpik.collision.recovery import (
     inside_pairs,
     keeps_direction,
     marked_recovering,
+    recovery_motion,
+    recovery_result,
     rows_kept,
 )
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX, TargetMotion
@@ -62,7 +64,14 @@ from lpik.fast.batch import BatchResult
 from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.outcome import compiled_result
-from lpik.fast.progress import SOLVED, further_in_state, least_error, progress_in_state
+from lpik.fast.progress import (
+    SOLVED,
+    further_in_state,
+    largest_share_lp,
+    least_error,
+    progress_in_state,
+    state_rows,
+)
 from lpik.fast.step import BAD_INPUT, continues
 from lpik.labels import row_label, step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
@@ -164,6 +173,15 @@ def compiled_least_error(*arrays: Any) -> tuple[str, FloatArray]:
     """
     code, dq = least_error(*arrays)
     return (OPTIMAL if code == SOLVED else INFEASIBLE), dq
+
+
+def compiled_largest_share(*arrays: Any) -> float | None:
+    """:func:`lpik.fast.progress.largest_share_lp` as the recovery takes it: the share or None.
+
+    ``arrays``: ``G, b, demand, lower, upper`` (:data:`lpik.collision.recovery.LargestShare`).
+    """
+    code, share = largest_share_lp(*(np.ascontiguousarray(a, dtype=np.float64) for a in arrays))
+    return float(share) if code == SOLVED else None
 
 
 class Lp2Controller:
@@ -528,44 +546,63 @@ class Lp2Controller:
     def _recovered(self, q0: Any, target: Any, q_prev: Any, result: Result) -> Result:
         """The recovery stage: from inside the scene's safety distance the distance grows back.
 
-        :meth:`lpik.collision.CollisionAvoidance.recovered` (the rule of
-        :mod:`lpik.collision.recovery`) on the step's problem, its LP compiled
-        (:func:`lpik.fast.progress.least_error`); ``result`` where no pair is inside.
+        The rule of :mod:`lpik.collision.recovery` on the rows and LP inputs the
+        compiled step left in the state (:meth:`_recovered_in_state`), its LPs
+        compiled (:mod:`lpik.fast.progress`); on the step's problem
+        (:meth:`lpik.collision.CollisionAvoidance.recovered`) where a pair inside
+        has no row there (the field's) or no LP answers; ``result`` where no pair is inside.
         """
         avoidance = self.avoidance
         inside = {} if avoidance is None else self.inside(q0)
         if not inside:
             return result
-        kept = self._kept(q0, result, inside)
-        if kept is not None:
-            return kept
+        rows = self._inside_rows(inside)
+        if rows is not None and result.method != RECOVERY:
+            stepped = self._recovered_in_state(q0, q_prev, result, rows)
+            if stepped is not None:
+                return stepped
         problem = self._stepped_problem(q0, target, q_prev, self._bound)
-        return avoidance.recovered(problem, result, self.dt, compiled_least_error, inside)
+        return avoidance.recovered(problem, result, self.dt, compiled_least_error, inside,
+                                   compiled_largest_share)  # fmt: skip
 
-    def _kept(self, q0: Any, result: Result, inside: dict[str, float]) -> Result | None:
-        """The recovery rule's first case on the state's rows, without the step's problem.
+    def _inside_rows(self, inside: dict[str, float]) -> list[int] | None:
+        """The state's rows of the pairs ``inside``, deepest first.
 
-        Where every pair ``inside`` has an active row in the state (the rows'
-        mechanism) and ``result`` keeps the direction and those rows
-        (:func:`~lpik.collision.recovery.keeps_direction`,
-        :func:`~lpik.collision.recovery.rows_kept`), it is ``result`` marked
-        ``recovering``, naming the deepest pair, as
-        :func:`~lpik.collision.recovery.recovered` would mark it; None where the
-        rule needs the problem (a recovery step, or a pair without its row).
+        None where one of them has no active row there (the potential field's pairs).
         """
-        scene = self.scene_rows
-        if scene is None or result.method == RECOVERY or not keeps_direction(result):
-            return None
-        labels = scene.labels
+        labels = self.scene_rows.labels
         rows = sorted((j for j, label in enumerate(labels) if label in inside),
                       key=lambda j: inside[labels[j]])  # fmt: skip
-        G = scene.G[rows]
-        if len(rows) < len(inside) or not (np.abs(G).max(axis=1) > 0.0).all():
+        active = np.abs(self.scene_rows.G[rows]).max(axis=1, initial=0.0) > 0.0
+        return rows if len(rows) == len(inside) and active.all() else None
+
+    def _recovered_in_state(
+        self, q0: Any, q_prev: Any, result: Result, rows: list[int]
+    ) -> Result | None:
+        """The recovery rule (:func:`lpik.collision.recovery.recovered`) on the state's arrays.
+
+        ``result`` marked ``recovering`` where it keeps the direction and the rows
+        (:func:`~lpik.collision.recovery.keeps_direction`,
+        :func:`~lpik.collision.recovery.rows_kept`); else the recovery step
+        (:func:`~lpik.collision.recovery.recovery_motion`) on the step's ``J``,
+        ``dw``, bounds and rows as the compiled step left them
+        (:func:`lpik.fast.progress.state_rows`), no numpy problem built. None where
+        no LP answers (the problem's safe step is the answer then).
+        """
+        start = perf_counter()
+        q = np.ascontiguousarray(q0, dtype=np.float64)
+        labels = self.scene_rows.labels
+        binding = row_label(rows[0], labels[rows[0]]).outside()
+        J, dw, lower, upper, G, g = state_rows(
+            self._state, q, q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
+        )
+        if keeps_direction(result) and rows_kept(G[rows], g[rows], result.dq):
+            return marked_recovering(result, binding)
+        dq = recovery_motion(J, dw, lower, upper, G, g, rows, compiled_least_error,
+                             compiled_largest_share)  # fmt: skip
+        if dq is None:
             return None
-        rhs = scene.h[rows] - G @ np.asarray(q0, dtype=np.float64)
-        if not rows_kept(G, rhs, result.dq):
-            return None
-        return marked_recovering(result, row_label(rows[0], labels[rows[0]]).outside())
+        return recovery_result(q, dq, J.copy(), binding, perf_counter() - start)
 
     def _stepped_problem(self, q0: Any, target: Any, q_prev: Any, bound: Any) -> Problem:
         """The :class:`~lpik.problem.Problem` of the step the kernel has just run at ``q0``.

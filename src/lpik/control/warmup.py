@@ -38,17 +38,28 @@ from typing import Any
 from numba import types
 
 from lpik.defaults import COMPILE_ENV, COMPILE_MODES, DEFAULT_COMPILE
-from lpik.fast.progress import further_in_state, least_error_step, progress_in_state
+from lpik.fast.progress import (
+    further_in_state,
+    largest_share_lp,
+    least_error_step,
+    progress_in_state,
+    state_rows,
+)
 from lpik.fast.signatures import load_cached
 from lpik.fast.step import cached_step_kernel, step_kernel
 
 _VECTOR, _MATRIX = types.float64[::1], types.float64[:, ::1]
-#: Each stage's kernel beside the fused step, and the one signature a controller calls it with.
+#: Each stage's kernels beside the fused step, each with the one signature a controller
+#: calls it with.
 STAGES = {
-    "progress": (progress_in_state, (_VECTOR,) * 4),  # on_stall (the stall stage)
-    "further": (further_in_state, (_VECTOR,) * 5),  # mode="progress"'s second stage
-    # a scene's recovery stage (lpik.fast.progress.least_error, over the distance rows)
-    "recovery": (least_error_step, (_MATRIX, *(_VECTOR,) * 3, _MATRIX, _VECTOR, _VECTOR)),
+    "progress": ((progress_in_state, (_VECTOR,) * 4),),  # on_stall (the stall stage)
+    "further": ((further_in_state, (_VECTOR,) * 5),),  # mode="progress"'s second stage
+    # a scene's recovery stage (lpik.collision.recovery.recovery_motion on the state's arrays)
+    "recovery": (
+        (least_error_step, (_MATRIX, *(_VECTOR,) * 3, _MATRIX, _VECTOR, _VECTOR)),
+        (largest_share_lp, (_MATRIX, *(_VECTOR,) * 4)),
+        (state_rows, (_VECTOR,) * 3),
+    ),
 }
 
 
@@ -65,15 +76,15 @@ def cached(target_axes: Sequence[int], stages: Sequence[str]) -> bool:
     """Whether every kernel is in this process or loads from the disk cache (compiles nothing)."""
     if cached_step_kernel(tuple(target_axes)) is None:
         return False
-    return all(load_cached(*STAGES[stage]) for stage in stages)
+    return all(load_cached(*kernel) for stage in stages for kernel in STAGES[stage])
 
 
 def compile_now(target_axes: Sequence[int], stages: Sequence[str]) -> None:
     """Compile (or load) the fused step for ``target_axes`` and each of ``stages``."""
     step_kernel(tuple(target_axes))
     for stage in stages:
-        kernel, signature = STAGES[stage]
-        kernel.compile(signature)
+        for kernel, signature in STAGES[stage]:
+            kernel.compile(signature)
 
 
 class Warmup:

@@ -39,8 +39,11 @@ not the pivots' rounding. Sizes: ``m + r`` rows (a handful), ``2 n + 2 m +
 2 r`` columns.
 
 :func:`further_progress` is ``mode="progress"``'s second stage on the same
-LP; :func:`progress_in_state` and :func:`further_in_state` read a fused step's
-state buffer (:mod:`lpik.fast.layout`) after the step.
+LP; :func:`largest_share_lp` is collision recovery's first LP (the largest share
+of the distance rows' demand the bounds allow) on the same simplex.
+:func:`state_rows` reads a fused step's LP inputs from its state buffer
+(:mod:`lpik.fast.layout`) after the step; :func:`progress_in_state` and
+:func:`further_in_state` solve on them.
 """
 
 from __future__ import annotations
@@ -212,7 +215,7 @@ def _pivots(T, cost, x, lo, up, basis, row_of, limit):
     """Simplex iterations until no column improves.
 
     Returns the iterations left, or -1 when ``limit`` ran out or the LP is unbounded
-    (not an LP of this module: every cost is >= 0).
+    (not an LP of this module: every column with a negative cost is bounded above).
     """
     degenerate = 0
     while True:
@@ -291,17 +294,16 @@ def _solve(A, b, lo, up, cost, x, basis, row_of, T):
 
 
 @njit(cache=True)
-def least_error_step(J, target, lower, upper, G, g, dq):
-    """The progress LP of the module docstring: writes ``dq``, returns the outcome."""
-    m, n = J.shape
-    r = G.shape[0]
-    A, b, lo, up, cost = _columns(J, target, lower, upper, G, g)
+def _two_phases(A, b, lo, up, cost, r, g, x):
+    """Phase 1 where the start needs it, then phase 2 on ``cost``: the outcome; ``x`` the vertex.
+
+    Phase 1 drives the ``r`` artificial columns (the last ones) to 0; its
+    tolerance is relative to ``g``, the extra rows' right-hand sides.
+    """
     rows, cols = A.shape
-    x, basis, row_of = np.empty(cols), np.empty(rows, np.int64), np.empty(cols, np.int64)
+    basis, row_of = np.empty(rows, np.int64), np.empty(cols, np.int64)
     T = np.empty((rows, cols))
-    for i in range(n):
-        dq[i] = min(max(0.0, lower[i]), upper[i])
-    need = _start(A, b, lo, x, basis, row_of, m, r)
+    need = _start(A, b, lo, x, basis, row_of, rows - r, r)
     if not _refresh(A, b, x, lo, up, basis, row_of, T):
         return SINGULAR_BASIS
     if need:  # phase 1: the artificial variables down to 0
@@ -316,11 +318,45 @@ def least_error_step(J, target, lower, upper, G, g, dq):
     up[cols - r :] = 0.0  # phase 2: the artificial variables stay at 0
     for j in range(cols - r, cols):
         x[j] = 0.0
-    code = _solve(A, b, lo, up, cost, x, basis, row_of, T)
+    return _solve(A, b, lo, up, cost, x, basis, row_of, T)
+
+
+@njit(cache=True)
+def least_error_step(J, target, lower, upper, G, g, dq):
+    """The progress LP of the module docstring: writes ``dq``, returns the outcome."""
+    n = J.shape[1]
+    A, b, lo, up, cost = _columns(J, target, lower, upper, G, g)
+    for i in range(n):
+        dq[i] = min(max(0.0, lower[i]), upper[i])
+    x = np.empty(A.shape[1])
+    code = _two_phases(A, b, lo, up, cost, G.shape[0], g, x)
     if code == SOLVED:
         for i in range(n):
             dq[i] = min(max(x[i] - x[n + i], lower[i]), upper[i])
     return code
+
+
+@njit(cache=True)
+def largest_share_lp(G, b, demand, lower, upper):
+    """The largest share ``s`` in [0, 1] of ``demand`` that the rows and bounds allow.
+
+    Maximise ``s`` with ``G dq - s demand <= b`` and ``lower <= dq <= upper``
+    (:func:`lpik.collision.recovery.highs_largest_share`'s LP, by this module's
+    simplex: the share is one more column, priced -1). Returns ``(outcome, s)``.
+    """
+    r, n = G.shape
+    rows = np.empty((r, n + 1))
+    for j in range(r):
+        for i in range(n):
+            rows[j, i] = G[j, i]
+        rows[j, n] = -demand[j]
+    lo, hi = np.append(lower, 0.0), np.append(upper, 1.0)
+    A, bb, col_lo, col_up, cost = _columns(np.empty((0, n + 1)), np.empty(0), lo, hi, rows, b)
+    cost[:] = 0.0
+    cost[n] = -1.0  # the share's column (its negative part is fixed at 0)
+    x = np.empty(A.shape[1])
+    code = _two_phases(A, bb, col_lo, col_up, cost, r, b, x)
+    return code, min(max(x[n] - x[2 * n + 1], 0.0), 1.0) if code == SOLVED else 0.0
 
 
 @njit(cache=True)
@@ -360,7 +396,7 @@ def further_progress(J, dw, lower, upper, G, g, dq1, dq):
 
 
 @njit(cache=True)
-def _state_rows(state, q0, q_prev):
+def state_rows(state, q0, q_prev):
     """The step's ``J``, ``dw``, bounds on ``dq`` and rows ``G dq <= h - G q0`` from ``state``."""
     n, m, r = q0.shape[0], int(state[L.M]), int(state[L.R])
     lower, upper, kinds = np.empty(n), np.empty(n), np.empty((2, n))
@@ -387,7 +423,7 @@ def progress_in_state(state, q0, q_prev, dq):
     are the state's. Returns ``(outcome, error before, error after)``: the L1
     task errors ``sum |dw|`` and ``sum |J dq - dw|``.
     """
-    J, dw, lower, upper, G, g = _state_rows(state, q0, q_prev)
+    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev)
     n, m, r = q0.shape[0], J.shape[0], G.shape[0]
     # the motion term from the arm's motion under acceleration limits (progress_center)
     center = np.zeros(n)
@@ -415,7 +451,7 @@ def further_in_state(state, q0, q_prev, dq1, dq):
     ``dq`` receives the step; returns ``(outcome, error before, error after)``, the
     L1 task errors of the exact step and of ``dq``.
     """
-    J, dw, lower, upper, G, g = _state_rows(state, q0, q_prev)
+    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev)
     code = further_progress(J, dw, lower, upper, G, g, dq1, dq)
     before = least_error_value(J, dw, dq1) - _motion(dq1)
     return code, before, least_error_value(J, dw, dq) - _motion(dq)
@@ -453,8 +489,10 @@ __all__ = [
     "SOLVED",
     "further_in_state",
     "further_progress",
+    "largest_share_lp",
     "least_error",
     "least_error_step",
     "least_error_value",
     "progress_in_state",
+    "state_rows",
 ]
