@@ -343,6 +343,29 @@ def test_a_peer_that_failed_every_step_is_no_reference_against_every_peer() -> N
     assert judged["jitter"].reference == (["drake"], 0.0) and not judged["jitter"].met
 
 
+def test_with_acceleration_limits_a_peer_that_takes_them_is_a_reference_only_with_them() -> None:
+    """Decision 3: in an acceleration-limited scenario drake runs as drake +acc there; its run
+    without the limits is shown but judges nothing. A peer that takes no acceleration limits
+    (mink) stays a reference on jitter."""
+    from lpik_bench.quality_judge import verdicts
+
+    rows = {"lp2s +acc": 30.0, "drake": 40.0, "drake +acc": 50.0, "mink": 60.0}
+    result = _judged_result(rows, acceleration=True)
+    result.rows["lp2s +acc"].jitter, result.rows["drake"].jitter = 20.0, 5.0
+    result.rows["drake +acc"].jitter, result.rows["mink"].jitter = 25.0, 30.0
+    judged = {v.metric.key: v for v in verdicts(result, "lp2s +acc")}
+    assert judged["jitter"].reference == (["drake +acc"], 25.0) and judged["jitter"].met
+    result.rows["mink"].jitter = 15.0
+    judged = {v.metric.key: v for v in verdicts(result, "lp2s +acc")}
+    assert judged["jitter"].reference == (["mink"], 15.0) and not judged["jitter"].met
+    plain = _judged_result(rows)  # without acceleration limits drake's plain run judges
+    plain.rows["lp2s +acc"].jitter, plain.rows["drake"].jitter = 20.0, 5.0
+    assert {v.metric.key: v for v in verdicts(plain, "lp2s +acc")}["jitter"].reference == (
+        ["drake"],
+        5.0,
+    )
+
+
 def test_never_is_never_met() -> None:
     from lpik_bench.quality_judge import METRICS, meets
 

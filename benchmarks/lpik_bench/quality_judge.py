@@ -15,7 +15,9 @@ The decisions it follows:
 3. *Acceleration limits.* In an acceleration-limited scenario the libraries that take
    acceleration limits run with them; lpik's variants with them (+acc) are the ones
    judged, and their like peer is the peer's run with the same limits (drake +acc).
-   Elsewhere the variants without acceleration limits are judged.
+   Such a library's run without the limits (drake) is shown but is no reference there:
+   it is not configured as the scenario demands. Elsewhere the variants without
+   acceleration limits are judged.
 
 A metric is met when the variant is no worse than the best of its reference rows
 by more than :data:`MARGIN` (jitter: better, or within :data:`TIE`; violations: none
@@ -170,6 +172,8 @@ def reference(
         names = like_peers(result, variant)
     else:
         names = [n for n in result.rows if n not in result.lpik and ran(result, n)]
+        if result.scenario.acceleration_checked:  # decision 3: with the limits, where it takes them
+            names = [n for n in names if f"{n} +acc" not in result.rows]
     return best_of(metric, {n: result.rows[n] for n in names})
 
 

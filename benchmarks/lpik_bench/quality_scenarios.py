@@ -11,6 +11,7 @@ order of the report, so a new scenario is one builder and one entry.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -173,8 +174,13 @@ def circle(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     return Scenario("circle", "1. Smooth reachable path", what, (leg,))
 
 
+@functools.lru_cache(maxsize=2)
 def beyond_reach(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
-    """Six legs: the target driven beyond reach along +-x, +-y, +-z, held, and brought back."""
+    """Six legs: the target driven beyond reach along +-x, +-y, +-z, held, and brought back.
+
+    Built once per model, period and length (the reach is found by bisection, some
+    seconds per direction): scenario 10 runs the same legs under acceleration limits.
+    """
     q0 = home_configuration("panda")
     start = model.pose(q0)
     legs = []
@@ -502,6 +508,19 @@ def obstacle(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
                     tuple(legs))  # fmt: skip
 
 
+def beyond_reach_limited(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
+    """Scenario 2's legs under acceleration limits: every library's accelerations checked,
+    the libraries that take acceleration limits run with them (decision 4)."""
+    plain = beyond_reach(model, dt, max_steps)
+    what = (
+        "Scenario 2's targets (beyond reach along +-x, +-y, +-z and back) under acceleration "
+        "limits: the libraries that take them run with them, and every library's "
+        "accelerations are checked."
+    )
+    return Scenario("beyond-acc", "10. Targets beyond the workspace and back under "
+                    "acceleration limits", what, plain.legs, acceleration_checked=True)  # fmt: skip
+
+
 #: Scenario builders, in the order of the report: ``builder(model, dt, max_steps) -> Scenario``.
 SCENARIOS: dict[str, Callable[[PoseTask, float, int | None], Scenario]] = {
     "circle": circle,
@@ -513,4 +532,5 @@ SCENARIOS: dict[str, Callable[[PoseTask, float, int | None], Scenario]] = {
     "step": point_step,
     "point": point_to_point,
     "obstacle": obstacle,
+    "beyond-acc": beyond_reach_limited,
 }
