@@ -7,7 +7,12 @@ than its price. With them the joints cannot stop at once: the motion coasted pas
 stretched pose into joint 4's end-stop, from where no step that reduces the error leads
 back, and the arm stayed 0.3-0.4 m from the home pose it was brought back to. The fading
 motion's stop (:func:`lpik.continuation.fading_steps`, :func:`lpik.bands.fading_band`)
-brakes it in time, on the numpy and the compiled paths alike.
+brakes it in time, on the numpy and the compiled paths alike. Where the command is small
+(the law has shrunk it near the stretched pose) the motion stops paying before the stop
+can act, and the exact step sped joint 4 up towards the stretched pose at its acceleration
+limit; the stop before a singular configuration (:func:`lpik.methods.autobound.singular_steps`,
+in the step solved again under the automatic multiplier bound) brakes it before the bound's
+floor.
 """
 
 from __future__ import annotations
@@ -25,7 +30,10 @@ from lpik.bands import braking_room, fading_band
 from lpik.continuation import fading_steps
 from lpik.control.controller import Lp2Controller
 from lpik.control.stepper import Stepper
+from lpik.fast import layout
+from lpik.fast.autobound import singular_steps as compiled_singular_steps
 from lpik.limits import build_problem
+from lpik.methods.autobound import singular_steps
 from lpik.robots.registry import home_configuration, load_robot
 from lpik.tolerances import MOTION_WEIGHT
 from lpik_bench.excursions import DT, targets
@@ -131,3 +139,77 @@ def test_the_fading_motion_s_stop_is_alike_on_both_paths() -> None:
                     assert braked[side][i].endswith("acceleration limit"), braked[side][i]
         prev, q = q, res.q
     assert narrowed > 10
+
+
+def test_the_steps_to_the_singular_floor_are_the_linear_extrapolation() -> None:
+    """``sigma_min`` 0.011 a step ago, 0.010 now (``sigma_max`` 1): 9 steps to the floor
+    0.001; none far from singular, where ``sigma_min`` grows, or without the rule."""
+    J, before = np.diag([1.0, 0.010]), np.diag([1.0, 0.011])
+    assert singular_steps(J, before, 0.05, 1e-3) == pytest.approx(9.0, rel=1e-12)
+    assert singular_steps(before, J, 0.05, 1e-3) == math.inf  # it leaves the singularity
+    assert singular_steps(np.diag([1.0, 0.1]), np.diag([1.0, 0.2]), 0.05, 1e-3) == math.inf
+    assert singular_steps(J, before, 0.0, 1e-3) == math.inf  # no automatic bound
+    assert singular_steps(np.diag([1.0, 5e-4]), np.diag([1.0, 6e-4]), 0.05, 1e-3) == 0.0
+
+
+@settings(max_examples=examples(100), deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(-6, -1), st.floats(-0.2, 0.2))
+def test_the_singular_floor_is_alike_compiled(seed: int, exponent: float, change: float) -> None:
+    """The fused step's twin (one-sided Jacobi SVD) gives the numpy rule's steps."""
+    rng = np.random.default_rng(seed)
+    U, _ = np.linalg.qr(rng.normal(size=(6, 6)))
+    V, _ = np.linalg.qr(rng.normal(size=(7, 7)))
+    values = np.sort(rng.uniform(0.2, 1.5, 6))[::-1]
+    values[-1] = 10.0**exponent
+    J = U @ np.diag(values) @ V[:6]
+    values[-1] *= 1.0 + change
+    before = U @ np.diag(values) @ V[:6]
+    expected = singular_steps(J, before, 0.05, 1e-3)
+    found = compiled_singular_steps(J, before, 0.05, 1e-3)
+    assert found == expected or found == pytest.approx(expected, rel=1e-6, abs=1e-9)
+
+
+@pytest.mark.parametrize("axis", [(1, 0, 0), (0, 0, 1), (-1, 1, 1)])
+def test_pushed_a_metre_beyond_reach_it_stops_before_the_stretched_pose(axis: tuple) -> None:
+    """1 m beyond reach the law shrinks the command near the stretched pose, the motion
+    stops paying, and the exact step sped joint 4 past the pose of greatest reach into its
+    end-stop (the arm then ended 0.3-0.4 m off home); the stop before the singular
+    configuration holds it short of there, and the arm comes home within every limit."""
+    model, q0 = load_robot("panda"), home_configuration("panda")
+    controller = Lp2Controller(model, dt=DT, qdd_max=QDD, v_max=1e6, w_max=1e6)
+    unit = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    q, prev = q0.copy(), q0.copy()
+    worst_acceleration, closest_to_stop = 0.0, math.inf
+    for target in targets(model.pose(q0), unit, 1.0):
+        res = controller.step(q, target, prev)
+        assert np.all(res.q >= model.q_min - 1e-9) and np.all(res.q <= model.q_max + 1e-9)
+        worst_acceleration = max(worst_acceleration, np.abs(res.q - 2 * q + prev).max() / DT**2)
+        closest_to_stop = min(closest_to_stop, model.q_max[3] - res.q[3])
+        prev, q = q, res.q
+    assert np.linalg.norm(model.pose(q)[:3, 3] - model.pose(q0)[:3, 3]) < 1e-5
+    assert worst_acceleration <= QDD * (1 + 1e-9)
+    assert closest_to_stop > 0.2  # the pose of greatest reach is about 0.4 rad short of it
+
+
+def test_the_singular_stop_is_alike_on_both_paths() -> None:
+    """Through the steps where the stop before the singular configuration acts (the step
+    solved again under the automatic bound, the stop nearer than the fading motion's), the
+    compiled controller and the numpy stepper take the same steps."""
+    model, q0 = load_robot("panda"), home_configuration("panda")
+    options = dict(dt=DT, qdd_max=QDD, v_max=1e6, w_max=1e6)
+    controller, stepper = Lp2Controller(model, **options), Stepper(model, **options)
+    state = controller._state
+    q, prev = q0.copy(), q0.copy()
+    acted = 0
+    for k, target in enumerate(targets(model.pose(q0), np.array([1.0, 0.0, 0.0]), 1.0)):
+        if k >= 1400:
+            break
+        res = controller.step(q, target, prev)
+        if k >= 1000:  # the approach to the stretched pose
+            ref = stepper.step(q, target, prev)
+            np.testing.assert_allclose(res.q, ref.q, rtol=0, atol=1e-9)
+            assert (res.status, res.binding) == (ref.status, ref.binding)
+            bounded = state[int(state[layout.BOUNDED])] > 0
+            acted += bool(bounded and layout.vector(state, layout.SINGULAR)[0] < math.inf)
+        prev, q = q, res.q
+    assert acted > 10

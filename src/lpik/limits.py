@@ -295,6 +295,7 @@ def build_problem(
     q_prev: Any = None,
     continuation: bool = False,
     motion_before: Any = None,
+    singular_steps: float = math.inf,
     **weights: Any,
 ) -> Problem:
     """Stack the limits' pieces into one validated :class:`~lpik.problem.Problem`.
@@ -314,6 +315,10 @@ def build_problem(
             within the joints' braking distance is braked in time
             (:func:`lpik.continuation.fading_steps`, :func:`lpik.bands.fading_band`),
             as the controllers do; None: it is not.
+        singular_steps: With ``motion_before``, in how many steps the motion reaches
+            the automatic multiplier bound's floor near a singular configuration
+            (:func:`lpik.methods.autobound.singular_steps`), a stop ahead the
+            joints keep the room to stop at, as the controllers do; ``inf``: none.
         **weights: ``M``, ``f``, ``Lambda``, ``q_ref``, ``k`` of the problem, and
             ``joint_names``, the names binding labels use (default: the names an
             :class:`EndStops` carries, as :func:`standard_limits` gives them, else
@@ -345,7 +350,8 @@ def build_problem(
         if continuation and motion_before is not None and last.any():
             _fading_bands(np.atleast_2d(np.asarray(J, dtype=np.float64)),
                           np.asarray(dw, dtype=np.float64), last,
-                          np.asarray(motion_before, dtype=np.float64), stack, dt)  # fmt: skip
+                          np.asarray(motion_before, dtype=np.float64), stack, dt,
+                          singular_steps)  # fmt: skip
     return Problem(
         J=J,
         dw=dw,
@@ -421,13 +427,15 @@ def _tighter(pick: Any, current: FloatArray, value: Any, size: int) -> FloatArra
 
 
 def _fading_bands(
-    J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatArray, stack: _Stack, dt: float
-) -> None:
-    """Brake a motion that stops paying ahead (:func:`lpik.bands.fading_band`), in place.
+    J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatArray, stack: _Stack, dt: float,
+    singular_steps: float,
+) -> None:  # fmt: skip
+    """Brake a motion that stops paying ahead, or nears a singularity (the nearer), in place.
 
-    A bound that the stop ahead sets is labelled as the acceleration limit's.
+    :func:`lpik.bands.fading_band`; a bound that the stop ahead sets is labelled
+    as the acceleration limit's.
     """
-    steps = fading_steps(J, dw, last, before)
+    steps = min(fading_steps(J, dw, last, before), singular_steps)
     if not steps < np.inf:
         return
     for i in range(last.size):

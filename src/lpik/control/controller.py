@@ -835,7 +835,7 @@ class Lp2Controller:
         on = int(self._state[layout.AUTO_BOUND])
         saved, saved_on = block.copy(), self._state[on]
         block[0], block[1] = np.maximum(saved[0], -bound), np.minimum(saved[1], bound)
-        self._state[on], self._bound = 0.0, bound
+        self._state[on], self._bound = -1.0, bound  # -1: solved under a bound given to it
         try:
             return self.step(q0, target, q_prev, watch=False)
         finally:

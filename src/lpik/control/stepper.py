@@ -25,6 +25,7 @@ runs name the paper's settings explicitly.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
@@ -59,7 +60,7 @@ from lpik.limits import (
     Limit,
     build_problem,
 )
-from lpik.methods.autobound import bound_for_step
+from lpik.methods.autobound import bound_for_step, singular_steps
 from lpik.methods.progress import StallWatch, further_step, least_error_lp
 from lpik.methods.registry import DEFAULT_METHOD, MethodSpec, get_method
 from lpik.problem import Problem
@@ -223,7 +224,7 @@ class Stepper:
         acceleration limits slowed down in time to stop on it, given ``J``) or a
         command law (:class:`~lpik.command.CommandLaw`); less the second-order
         term of the motion ``q_prev -> q0`` where ``second_order`` is on
-        (``before``: that motion's :meth:`last_task_motion`, where the caller has it).
+        (``before``: that motion, ``J(q_prev) (q0 - q_prev)``, where the caller has it).
         """
         model = self.model
         v_max, w_max = self.v_max, self.w_max
@@ -241,18 +242,32 @@ class Stepper:
             dw -= second_order_term(model, q_prev, q0, before)
         return dw
 
-    def last_task_motion(self, q0: FloatArray, q_prev: FloatArray | None) -> FloatArray | None:
-        """``J(q_prev) (q0 - q_prev)``, the last step's task motion, where a stage needs it.
+    def previous_jacobian(self, q0: FloatArray, q_prev: FloatArray | None) -> FloatArray | None:
+        """``J(q_prev)``, where a stage reads the last step's motion ``q_prev -> q0``.
 
-        The second-order term and the fading motion's stop both read it (once a
-        step, as the fused step's ``rho`` block holds it); None at rest, without
-        ``q_prev`` or where neither is on.
+        The second-order term, the fading motion's stop and the stop before a
+        singular configuration read it (once a step, as the fused step's
+        ``prev_jacobian6`` block holds it); None at rest, without ``q_prev`` or where
+        none of them is on.
         """
         if q_prev is None or not (self.second_order or self.continues):
             return None
         if np.array_equal(q0, q_prev):
             return None
-        return self.model.jacobian(q_prev) @ (q0 - q_prev)
+        return np.asarray(self.model.jacobian(q_prev), dtype=np.float64)
+
+    def singular_steps(
+        self, J: FloatArray, J_before: FloatArray | None, bound: FloatArray | None
+    ) -> float:
+        """The stop before a singular configuration (:func:`lpik.methods.autobound.singular_steps`).
+
+        In the step solved again under the automatic multiplier bound (``bound``
+        given), solved around the motion; ``inf`` otherwise.
+        """
+        limit = self.automatic_bound
+        if limit is None or bound is None or J_before is None or not self.continues:
+            return math.inf
+        return float(singular_steps(np.atleast_2d(J), J_before, limit.activation, limit.floor))
 
     def problem(
         self,
@@ -270,9 +285,10 @@ class Stepper:
         q = np.asarray(q0, dtype=np.float64)
         prev = None if q_prev is None else np.asarray(q_prev, dtype=np.float64)
         J = self.model.jacobian(q)
-        before = self.last_task_motion(q, prev)
+        J_before = self.previous_jacobian(q, prev)
+        before = None if J_before is None else J_before @ (q - prev)
         dw = self.command(q, target, prev, J, before)
-        return self.limited(q, dw, prev, J, bound=bound, before=before)
+        return self.limited(q, dw, prev, J, bound=bound, jacobian_before=J_before)
 
     def limited(
         self,
@@ -282,37 +298,50 @@ class Stepper:
         J: FloatArray,
         *,
         bound: FloatArray | None = None,
-        before: FloatArray | None = None,
+        jacobian_before: FloatArray | None = None,
     ) -> Problem:
         """The limits stage: ``build_problem`` with the scene's rows and field on top.
 
-        ``before``: :meth:`last_task_motion` where the caller has it (None: computed
-        where the fading motion's stop needs it).
+        ``jacobian_before``: :meth:`previous_jacobian` where the caller has it (None:
+        computed where the stops ahead need it).
         """
         limits, weights = self.limits, self.weights
         if self.avoidance is not None:
             limits = (*limits, *self.avoidance.limits())
             weights = self.avoidance.weights(weights, q0, self.dt, J)
-        if before is None and self.continues:  # the fading motion's stop reads it
-            before = self.last_task_motion(q0, q_prev)
+        if jacobian_before is None and self.continues:  # the stops ahead read it
+            jacobian_before = self.previous_jacobian(q0, q_prev)
+        before = None if jacobian_before is None else jacobian_before @ (q0 - q_prev)
         P = build_problem(J, dw, q0, limits, dt=self.dt, q_prev=q_prev,
-                          continuation=self.continues, motion_before=before, **weights)  # fmt: skip
+                          continuation=self.continues, motion_before=before,
+                          singular_steps=self.singular_steps(J, jacobian_before, bound),
+                          **weights)  # fmt: skip
         return P if bound is None else _under_bound(P, bound)
 
     def solve(self, problem: Problem, *, path: str | None = None) -> Result:
         """The method stage: the method on the problem (``path``: LP2's path, if it has one)."""
         return self._method(path)(problem)
 
-    def bounded(self, problem: Problem, result: Result, *, path: str | None = None) -> Result:
+    def bounded(
+        self, problem: Problem, result: Result, q_prev: FloatArray | None = None,
+        *, path: str | None = None,
+    ) -> tuple[Problem, Result]:  # fmt: skip
         """The bound policy: the step again under the automatic multiplier bound where it applies.
 
         The rule is :func:`lpik.methods.autobound.bound_for_step` (sec. 3.2 chosen
         per step: bounded only where the unbounded step races towards a singularity).
+        The problem solved again is the limits stage's under that bound (:meth:`limited`:
+        with the stop before the singular configuration under acceleration limits).
+
+        Returns:
+            The step's problem and result: ``problem`` and ``result`` where the step
+            stays unbounded.
         """
         bound = self.bound_of(problem.q0, problem.J, result)
         if bound is None:
-            return result
-        return self.solve(_under_bound(problem, bound), path=path)
+            return problem, result
+        problem = self.limited(problem.q0, problem.dw, q_prev, problem.J, bound=bound)
+        return problem, self.solve(problem, path=path)
 
     def bound_of(self, q0: FloatArray, J: FloatArray, result: Result) -> FloatArray | None:
         """The automatic bound's ``B`` for this step, or None where the step stays unbounded."""
@@ -374,7 +403,7 @@ class Stepper:
         prev = None if q_prev is None else self._joints("q_prev", q_prev)
         problem = self.problem(q, target, prev)
         start = time.perf_counter()
-        result = self.bounded(problem, self.solve(problem))
+        problem, result = self.bounded(problem, self.solve(problem), prev)
         result = self.recovered(problem, self.stalled(result, lambda: problem))
         self.solve_time = time.perf_counter() - start
         return self.applied(problem, result)

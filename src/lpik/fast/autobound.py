@@ -1,6 +1,7 @@
 """The automatic multiplier bound (sec. 3.2), compiled for the fused step.
 
 :func:`lpik.methods.autobound.automatic_bound` is the rule; :data:`automatic_bound`
+(and :data:`singular_steps`, the floor as a stop ahead under acceleration limits)
 is that very function compiled (:func:`lpik.fast.twins.compiled_twin`), with
 the one-sided Jacobi SVD of :mod:`lpik.fast.jacobi` for its singular values
 and the chain's kinematics from the state buffer (:func:`state_jacobian`) for
@@ -21,7 +22,7 @@ from lpik.fast.twins import compiled_twin, inlined_twin
 from lpik.limits import AutomaticMultiplierBounds
 from lpik.methods import autobound
 
-__all__ = ["automatic_bound", "bound_in_state", "settings", "state_jacobian"]
+__all__ = ["automatic_bound", "bound_in_state", "settings", "singular_steps", "state_jacobian"]
 
 
 @njit(cache=True)
@@ -45,6 +46,14 @@ automatic_bound = compiled_twin(
     autobound.automatic_bound,
     _singular_values=singular_values,
     _task_jacobian=state_jacobian,
+    clearly_regular=inlined_twin(autobound.clearly_regular),
+)
+
+
+#: :func:`lpik.methods.autobound.singular_steps`, compiled as it is.
+singular_steps = compiled_twin(
+    autobound.singular_steps,
+    _singular_values=singular_values,
     clearly_regular=inlined_twin(autobound.clearly_regular),
 )
 

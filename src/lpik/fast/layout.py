@@ -53,8 +53,10 @@ STOP, STOP_SCRATCH, LAST, ORIGIN, SAFE = range(51, 56)
 PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(56, 60)
 # the last step's q0 and goal, and the target's motion since (fed forward under acc. limits)
 MEMORY, MEMORY_Q, MEMORY_GOAL, TARGET_MOTION = range(60, 64)
+# the stop before a singular configuration ahead of the motion (under acceleration limits)
+SINGULAR = 64
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 64
+END = 65
 #: Length of the header.
 HEADER = END + 1
 
@@ -93,7 +95,7 @@ BLOCKS = (
     Block(LAM_BOUNDS, "lam_bounds", (2, "m"), "lower and upper multiplier bounds"),
     Block(ROWS_G, "G", ("r", "n"), "extra rows G q <= h"),
     Block(ROWS_H, "h", ("r",), "their right-hand side"),
-    Block(AUTO_BOUND, "auto_bound", (5,), "1: the step applies the auto bound, its parameters"),
+    Block(AUTO_BOUND, "auto_bound", (5,), "1: the step applies the auto bound (-1: its caller)"),
     Block(
         SECOND_ORDER,
         "second_order",
@@ -147,6 +149,7 @@ BLOCKS = (
     Block(MEMORY_Q, "memory_q", ("n",), "the last step's q0"),
     Block(MEMORY_GOAL, "memory_goal", (4, 4), "the last step's goal"),
     Block(TARGET_MOTION, "target_motion", (13,), "1: the target moved; [dp; log]; its task rows"),
+    Block(SINGULAR, "singular", (1,), "steps to the stop before a singular configuration"),
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.
 OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "bound", "bounded",

@@ -34,7 +34,7 @@ from lpik import bands
 from lpik.continuation import fading_steps as _fading_steps
 from lpik.continuation import motion_decay as _motion_decay
 from lpik.fast import layout as L
-from lpik.fast.autobound import bound_in_state
+from lpik.fast.autobound import bound_in_state, singular_steps
 from lpik.fast.command_law import (
     add_target_motion,
     braking_share,
@@ -151,15 +151,45 @@ def continues(state, q0, q_prev):
 
 @njit(cache=True)
 def fading_in_state(state, q0, q_prev, J, dw):
-    """:func:`lpik.continuation.fading_steps` of the motion ``q0 - q_prev`` (the ``last`` block).
+    """In how many steps the motion ``q0 - q_prev`` is to stop: the stops ahead of the step.
 
-    ``J(q_prev) last`` is the ``rho`` block's row 0 (:func:`last_task_motion`).
+    :func:`lpik.continuation.fading_steps` (``J(q_prev) last`` is the ``rho``
+    block's row 0, :func:`last_task_motion`); in the step solved again under the
+    automatic multiplier bound (the ``bounded`` block is 1, or the ``auto_bound``
+    block's first entry -1: a bound its caller applied), the nearer of it and
+    the stop before a singular configuration (the ``singular`` block,
+    :func:`singular_ahead`).
     """
     n, m = q0.shape[0], J.shape[0]
     last = L.vector(state, L.LAST)  # scratch here: continue_motion fills it afterwards
     for i in range(n):
         last[i] = q0[i] - q_prev[i]
-    return fading_steps(J, dw, last, L.matrix_at(state, L.RHO, 2, m)[0])
+    steps = fading_steps(J, dw, last, L.matrix_at(state, L.RHO, 2, m)[0])
+    if state[int(state[L.BOUNDED])] > 0.0 or state[int(state[L.AUTO_BOUND])] < 0.0:
+        steps = min(steps, L.vector(state, L.SINGULAR)[0])
+    return steps
+
+
+@njit(cache=True)
+def singular_ahead(state, q0, q_prev, J, rows):
+    """:func:`lpik.methods.autobound.singular_steps` into the ``singular`` block (inf: none).
+
+    With the automatic multiplier bound (its activation and floor, the
+    ``auto_bound`` block) and the arm moving; ``J(q_prev)`` is the task rows of
+    ``prev_jacobian6``, read before :func:`hold_kinematics` moves ``q0``'s there.
+    """
+    ahead = L.vector(state, L.SINGULAR)
+    ahead[0] = math.inf
+    settings = L.vector(state, L.AUTO_BOUND)  # (on, approach time, activation, floor, probe)
+    if not (settings[2] > 0.0 and continues(state, q0, q_prev)):
+        return
+    n, m = q0.shape[0], J.shape[0]
+    J6 = L.matrix_at(state, L.PREV_JACOBIAN6, 6, n)
+    before = np.empty((m, n))
+    for k in range(m):
+        for i in range(n):
+            before[k, i] = J6[int(rows[k]), i]
+    ahead[0] = singular_steps(J, before, settings[2], settings[3])
 
 
 @njit(cache=True)
@@ -423,10 +453,12 @@ def task_step(state, q0, q_prev, target):
         motion = L.vector(state, L.TARGET_MOTION)
         add_target_motion(dw, motion[7 : 7 + m], rows, state[L.V_MAX], state[L.W_MAX], state[L.DT])
     second_order = L.vector(state, L.SECOND_ORDER)[0] != 0.0
+    L.vector(state, L.SINGULAR)[0] = math.inf
     if second_order or L.vector(state, L.CONTINUATION)[0] != 0.0:
         last_task_motion(state, q0, q_prev, rows)
         if second_order:
             take_off_second_order(state, q0, q_prev, rows, dw)
+        singular_ahead(state, q0, q_prev, J, rows)
         hold_kinematics(state, q0, J6)
     position = L.vector(state, L.POSITION)
     for a in range(3):
@@ -440,7 +472,7 @@ def task_step(state, q0, q_prev, target):
         if again:
             restore_bounds(state, m, saved)
             break
-        if code != OK or state[int(state[L.AUTO_BOUND])] == 0.0:
+        if code != OK or state[int(state[L.AUTO_BOUND])] <= 0.0:
             break
         if not tighten_bounds(state, q0, m, saved):
             break

@@ -47,7 +47,7 @@ from lpik.result import Result
 from lpik.tolerances import FULL_P
 from lpik.types import FloatArray
 
-__all__ = ["PARAMETERS", "automatic_bound", "bound_for_step", "parameters"]
+__all__ = ["PARAMETERS", "automatic_bound", "bound_for_step", "parameters", "singular_steps"]
 
 #: The parameters of :class:`~lpik.limits.AutomaticMultiplierBounds` in the order
 #: :func:`automatic_bound` reads them (and the fused step's state holds them).
@@ -170,6 +170,48 @@ def automatic_bound(
     for k in range(m):
         bound[k] = dt / (approach_time * (lever if rows[k] < 3 else 1.0)) * shrink
     return True
+
+
+def singular_steps(J, J_before, activation, floor):  # type: ignore[no-untyped-def]
+    """In how many steps the arm's motion reaches the bound's floor near a singularity.
+
+    Under acceleration limits the step is solved around the arm's motion
+    (:mod:`lpik.continuation`), and a joint on its acceleration band is held by
+    the band, not by the multipliers: with a small command the multipliers stay
+    under the bound of step 3 while the joints speed up towards a singular
+    configuration at their acceleration limits, and the arm reaches the floor
+    too fast to stop there (a stretched arm then folds past its pose of
+    greatest reach into an end-stop, a pose from which no step that brings the
+    tool nearer its target leads home). So the floor is a stop ahead, as for a
+    motion that stops paying (:func:`lpik.continuation.fading_steps`):
+    ``sigma_min`` of ``J`` at ``q_prev`` and at ``q0``, extrapolated linearly
+    along the motion to ``floor sigma_max`` (near a singular configuration
+    ``sigma_min`` changes about linearly with the joint motion), gives the steps
+    left, and every moving joint keeps the room to stop there
+    (:func:`lpik.bands.fading_band`). Plain loops; the fused step compiles this
+    very function (:mod:`lpik.fast.autobound`).
+
+    Args:
+        J: The task Jacobian at ``q0``, (m, n).
+        J_before: The task Jacobian at ``q_prev``, (m, n).
+        activation: Below this ``sigma_min / sigma_max`` the rule acts (the bound's).
+        floor: The stop is at ``sigma_min = floor sigma_max`` (the bound's).
+
+    Returns:
+        The steps to the floor (0 at or past it), or ``inf`` where ``J`` is far
+        from singular or ``sigma_min`` does not fall.
+    """
+    if J.shape[0] == 0 or not activation > 0.0 or clearly_regular(J, activation):
+        return math.inf
+    s = _singular_values(J)
+    s_max, s_min = s[0], s[s.size - 1]
+    if s_min > activation * s_max:
+        return math.inf
+    s_before = _singular_values(J_before)
+    before = s_before[s_before.size - 1]
+    if not before > s_min:
+        return math.inf
+    return max(s_min - floor * s_max, 0.0) / (before - s_min)
 
 
 def bound_for_step(
