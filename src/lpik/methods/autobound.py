@@ -172,7 +172,7 @@ def automatic_bound(
     return True
 
 
-def singular_steps(J, J_before, activation, floor):  # type: ignore[no-untyped-def]
+def singular_steps(J: FloatArray, J_before: FloatArray, activation: float, floor: float) -> float:
     """In how many steps the arm's motion reaches the bound's floor near a singularity.
 
     Under acceleration limits the step is solved around the arm's motion
@@ -198,8 +198,8 @@ def singular_steps(J, J_before, activation, floor):  # type: ignore[no-untyped-d
         floor: The stop is at ``sigma_min = floor sigma_max`` (the bound's).
 
     Returns:
-        The steps to the floor (0 at or past it), or ``inf`` where ``J`` is far
-        from singular or ``sigma_min`` does not fall.
+        The steps to the floor (0 at or past it); ``inf`` where ``J`` is far from
+        singular or ``sigma_min`` does not fall.
     """
     if J.shape[0] == 0 or not activation > 0.0 or clearly_regular(J, activation):
         return math.inf
