@@ -358,6 +358,10 @@ MISSED_BECAUSE = {
     "and 52 in the legs +y and -y), 79 on the way out while it is still reachable, 71 on "
     "the way back and 86 in the final hold; drake +acc takes the braking step on its failed "
     "steps, most of them while the target is out of reach, and recovers none of the six",
+    "beyond-acc/step_p99": "as in scenario 2, the slowest 1 % are the stall stage's "
+    "steps (the progress LP, and the exact steps it weighed against it before keeping "
+    "them); the same rows run alone (python -m lpik_bench.quality --peers --variants "
+    "'lp2s +acc', at 1447a5b) gave 79-80 us",
     "beyond-acc/frozen": "all in leg -x: scenario 2's local minimum (joints 2 and 6 on their "
     "lower end-stops, the target reachable on another branch of the inverse kinematics "
     "only; LP1's p is 0 on each), where the arm waits until the target comes back to it; "
