@@ -602,7 +602,7 @@ class Lp2Controller:
                              compiled_largest_share)  # fmt: skip
         if dq is None:
             return None
-        return recovery_result(q, dq, J.copy(), binding, perf_counter() - start)
+        return recovery_result(q, dq, J, binding, perf_counter() - start)
 
     def _stepped_problem(self, q0: Any, target: Any, q_prev: Any, bound: Any) -> Problem:
         """The :class:`~lpik.problem.Problem` of the step the kernel has just run at ``q0``.

@@ -330,8 +330,10 @@ class Stepper:
 
         The rule is :func:`lpik.methods.autobound.bound_for_step` (sec. 3.2 chosen
         per step: bounded only where the unbounded step races towards a singularity).
-        The problem solved again is the limits stage's under that bound (:meth:`limited`:
-        with the stop before the singular configuration under acceleration limits).
+        Under acceleration limits, where the stop before the singular configuration
+        (:meth:`singular_steps`) lies ahead, the problem solved again is the limits
+        stage's under that bound (:meth:`limited`, which narrows the bands for it);
+        elsewhere it is ``problem`` with the bound added.
 
         Returns:
             The step's problem and result: ``problem`` and ``result`` where the step
@@ -340,7 +342,12 @@ class Stepper:
         bound = self.bound_of(problem.q0, problem.J, result)
         if bound is None:
             return problem, result
-        problem = self.limited(problem.q0, problem.dw, q_prev, problem.J, bound=bound)
+        J_before = None if q_prev is None else self.previous_jacobian(problem.q0, q_prev)
+        if self.singular_steps(problem.J, J_before, bound) < math.inf:
+            problem = self.limited(problem.q0, problem.dw, q_prev, problem.J, bound=bound,
+                                   jacobian_before=J_before)  # fmt: skip
+        else:
+            problem = _under_bound(problem, bound)
         return problem, self.solve(problem, path=path)
 
     def bound_of(self, q0: FloatArray, J: FloatArray, result: Result) -> FloatArray | None:

@@ -153,30 +153,28 @@ def continues(state, q0, q_prev):
 def fading_in_state(state, q0, q_prev, J, dw):
     """In how many steps the motion ``q0 - q_prev`` is to stop: the stops ahead of the step.
 
-    :func:`lpik.continuation.fading_steps` (``J(q_prev) last`` is the ``rho``
-    block's row 0, :func:`last_task_motion`); in the step solved again under the
-    automatic multiplier bound (the ``bounded`` block is 1, or the ``auto_bound``
-    block's first entry -1: a bound its caller applied), the nearer of it and
-    the stop before a singular configuration (the ``singular`` block,
-    :func:`singular_ahead`).
+    The nearer of :func:`lpik.continuation.fading_steps` (``J(q_prev) last`` is the
+    ``rho`` block's row 0, :func:`last_task_motion`) and the stop before a
+    singular configuration (the ``singular`` block: :func:`singular_ahead`, finite
+    only in a step solved under the automatic multiplier bound).
     """
     n, m = q0.shape[0], J.shape[0]
     last = L.vector(state, L.LAST)  # scratch here: continue_motion fills it afterwards
     for i in range(n):
         last[i] = q0[i] - q_prev[i]
     steps = fading_steps(J, dw, last, L.matrix_at(state, L.RHO, 2, m)[0])
-    if state[int(state[L.BOUNDED])] > 0.0 or state[int(state[L.AUTO_BOUND])] < 0.0:
-        steps = min(steps, L.vector(state, L.SINGULAR)[0])
-    return steps
+    return min(steps, L.vector(state, L.SINGULAR)[0])
 
 
 @njit(cache=True)
 def singular_ahead(state, q0, q_prev, J, rows):
     """:func:`lpik.methods.autobound.singular_steps` into the ``singular`` block (inf: none).
 
-    With the automatic multiplier bound (its activation and floor, the
-    ``auto_bound`` block) and the arm moving; ``J(q_prev)`` is the task rows of
-    ``prev_jacobian6``, read before :func:`hold_kinematics` moves ``q0``'s there.
+    For the step solved again under the automatic multiplier bound (after
+    :func:`tighten_bounds`, or where the caller applied it: the ``auto_bound``
+    block's first entry -1), with the arm moving; its activation and floor are
+    the ``auto_bound`` block's. ``J(q_prev)`` is the task rows of
+    ``prev_jacobian6``, which :func:`task_step` moves ``q0``'s into only after the solve.
     """
     ahead = L.vector(state, L.SINGULAR)
     ahead[0] = math.inf
@@ -453,16 +451,17 @@ def task_step(state, q0, q_prev, target):
         motion = L.vector(state, L.TARGET_MOTION)
         add_target_motion(dw, motion[7 : 7 + m], rows, state[L.V_MAX], state[L.W_MAX], state[L.DT])
     second_order = L.vector(state, L.SECOND_ORDER)[0] != 0.0
-    L.vector(state, L.SINGULAR)[0] = math.inf
-    if second_order or L.vector(state, L.CONTINUATION)[0] != 0.0:
+    previous = second_order or L.vector(state, L.CONTINUATION)[0] != 0.0
+    if previous:
         last_task_motion(state, q0, q_prev, rows)
         if second_order:
             take_off_second_order(state, q0, q_prev, rows, dw)
-        singular_ahead(state, q0, q_prev, J, rows)
-        hold_kinematics(state, q0, J6)
     position = L.vector(state, L.POSITION)
     for a in range(3):
         position[a] = T[a, 3]
+    L.vector(state, L.SINGULAR)[0] = math.inf  # the stop ahead: only under the bound
+    if state[int(state[L.AUTO_BOUND])] < 0.0:  # solved under the bound its caller applied
+        singular_ahead(state, q0, q_prev, J, rows)
     # The step, then (sec. 3.2) where the automatic bound applies the step once more under
     # it: one call site, so that the solve is compiled (inlined) once.
     saved = np.empty((2, m))
@@ -476,6 +475,9 @@ def task_step(state, q0, q_prev, target):
             break
         if not tighten_bounds(state, q0, m, saved):
             break
+        singular_ahead(state, q0, q_prev, J, rows)
+    if previous:  # q0's kinematics kept for the next step, after the stop ahead read q_prev's
+        hold_kinematics(state, q0, J6)
     return code
 
 
