@@ -46,13 +46,15 @@ from lpik.fast.progress import (
     state_rows,
 )
 from lpik.fast.signatures import load_cached
-from lpik.fast.step import cached_step_kernel, step_kernel
+from lpik.fast.step import cached_step_kernel, continues, step_kernel
 
 _VECTOR, _MATRIX = types.float64[::1], types.float64[:, ::1]
 #: Each stage's kernels beside the fused step, each with the one signature a controller
 #: calls it with.
 STAGES = {
-    "progress": ((progress_in_state, (_VECTOR,) * 4),),  # on_stall (the stall stage)
+    # on_stall (the stall stage; it asks `continues` whether the step was solved around
+    # the motion: loaded lazily, its first call took 4 ms)
+    "progress": ((progress_in_state, (_VECTOR,) * 4), (continues, (_VECTOR,) * 3)),
     "further": ((further_in_state, (_VECTOR,) * 5),),  # mode="progress"'s second stage
     # a scene's recovery stage (lpik.collision.recovery.recovery_motion on the state's arrays)
     "recovery": (
