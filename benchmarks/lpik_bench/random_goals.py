@@ -1,0 +1,206 @@
+"""Reachable goals drawn at random: how often the default controller gets there, and why not.
+
+For each bundled arm (Panda, UR5e, iiwa 14) a seeded draw of goal
+configurations, each joint uniform within the middle 90 % of its end-stops;
+the goal is the tool pose there, so every goal is reachable with every joint
+within its limits. The default ``Lp2Controller`` (1 kHz, its default command
+law) starts at rest on the home pose and runs ``STEPS`` steps toward the goal,
+with and without acceleration limits. A goal is *reached* when the tool ends
+within ``REACHED`` of it (position and orientation). For every miss the page
+gives where it ended and why: the last step's binding limit, and
+``sigma_min / sigma_max`` of the task Jacobian at the goal configuration (a goal
+next to a singular configuration). Under acceleration limits it also counts
+*reversals*: steps on which a joint's acceleration changes sign at more than
+half its limit both times (chatter). Run it from the repository root with lpik
+installed (``benchmarks/random_goals.py`` runs :func:`main`)::
+
+    .venv/bin/python benchmarks/random_goals.py [--goals 30] [--qdd-max 10]
+
+It writes the section "Reachable goals drawn at random" of ``docs/benchmarks.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from lpik_bench.markdown import replace_section
+
+#: The page whose section :func:`main` writes.
+OUT = Path(__file__).resolve().parents[2] / "docs" / "benchmarks.md"
+HEADING = "## Reachable goals drawn at random"
+
+DT = 1e-3
+#: Steps per goal (10 s at 1 kHz).
+STEPS = 10_000
+#: Reached: the tool within this of the goal, position [m] and orientation [rad].
+REACHED = (1e-5, 1e-4)
+#: The share of each joint's range the goal configurations are drawn from (the middle).
+MIDDLE = 0.9
+#: A reversal: a joint's acceleration changes sign at more than this share of its limit.
+REVERSAL_SHARE = 0.5
+
+
+@dataclass
+class GoalRun:
+    """One goal's closed loop: where it ended and how it moved."""
+
+    goal: int
+    position_error: float
+    orientation_error: float
+    reached_at: int | None
+    status: str
+    binding: str
+    goal_ratio: float
+    reversals: int
+
+    @property
+    def reached(self) -> bool:
+        """Whether the tool ended within :data:`REACHED` of the goal."""
+        return self.position_error <= REACHED[0] and self.orientation_error <= REACHED[1]
+
+
+def goal_configurations(model, count: int, seed: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """``count`` goal configurations, each joint uniform in the middle of its range."""
+    rng = np.random.default_rng(seed)
+    low, high = np.asarray(model.q_min, float), np.asarray(model.q_max, float)
+    margin = 0.5 * (1.0 - MIDDLE)
+    return low + (high - low) * (margin + MIDDLE * rng.random((count, low.size)))
+
+
+def errors(model, q: np.ndarray, target: np.ndarray) -> tuple[float, float]:  # type: ignore[no-untyped-def]
+    """The tool's distance from ``target`` at ``q``: position [m], orientation [rad]."""
+    from lpik.robots.rotations import log_so3
+
+    pose = model.pose(q)
+    turn = log_so3(pose[:3, :3].T @ target[:3, :3])
+    return float(np.linalg.norm(pose[:3, 3] - target[:3, 3])), float(np.linalg.norm(turn))
+
+
+def reverses(acceleration: np.ndarray, before: np.ndarray, threshold: float) -> bool:
+    """Whether some joint's acceleration changed sign, above ``threshold`` both times."""
+    big = (np.abs(acceleration) > threshold) & (np.abs(before) > threshold)
+    return bool(np.any(big & (np.sign(acceleration) != np.sign(before))))
+
+
+def run_goal(robot: str, index: int, goal: np.ndarray, qdd_max: float | None,
+             steps: int = STEPS) -> GoalRun:  # fmt: skip
+    """The default controller from rest on ``robot``'s home pose toward the pose at ``goal``."""
+    from lpik.control.controller import Lp2Controller
+    from lpik.robots.registry import home_configuration, load_robot
+
+    model = load_robot(robot)
+    controller = Lp2Controller(model, dt=DT, qdd_max=qdd_max)
+    target = model.pose(goal)
+    singular = np.linalg.svd(model.jacobian(goal), compute_uv=False)
+    q = home_configuration(robot).copy()
+    prev = q.copy()
+    velocity = np.zeros(q.size)
+    acceleration = np.zeros(q.size)
+    threshold = None if qdd_max is None else REVERSAL_SHARE * qdd_max * DT * DT  # per step
+    reversals, reached_at = 0, None
+    result = None
+    for k in range(steps):
+        result = controller.step(q, target, prev)
+        new_velocity = result.q - q
+        new_acceleration = new_velocity - velocity
+        if threshold is not None:
+            reversals += int(reverses(new_acceleration, acceleration, threshold))
+        velocity, acceleration = new_velocity, new_acceleration
+        prev, q = q, result.q
+        position, orientation = errors(model, q, target)
+        near = position <= REACHED[0] and orientation <= REACHED[1]
+        reached_at = (k if reached_at is None else reached_at) if near else None
+    position, orientation = errors(model, q, target)
+    return GoalRun(
+        goal=index,
+        position_error=position,
+        orientation_error=orientation,
+        reached_at=reached_at,
+        status=result.status if result is not None else "",
+        binding=str(result.binding) if result is not None and result.binding is not None else "-",
+        goal_ratio=float(singular[-1] / singular[0]),
+        reversals=reversals,
+    )
+
+
+def miss_text(run: GoalRun) -> str:
+    """One miss, as the page lists it."""
+    return (f"goal {run.goal}: {run.position_error * 1e3:.3g} mm, "
+            f"{run.orientation_error * 1e3:.3g} mrad off, {run.binding} "
+            f"(sigma ratio at the goal {run.goal_ratio:.1e})")  # fmt: skip
+
+
+def summary(runs: list[GoalRun]) -> tuple[str, str, str]:
+    """``(reached, time to reach median / max [s], reversals)`` of one arm and setting."""
+    times = [r.reached_at * DT for r in runs if r.reached_at is not None and r.reached]
+    reached = f"{sum(r.reached for r in runs)} of {len(runs)}"
+    timing = f"{np.median(times):.2f} / {max(times):.2f}" if times else "-"
+    return reached, timing, f"{sum(r.reversals for r in runs):,}"
+
+
+def section(rows: list[tuple[str, ...]], misses: list[str], goals: int, seed: int,
+            qdd: float, command: str) -> str:  # fmt: skip
+    """The page's section: the setup, one row per arm, then every miss."""
+    load = "/".join(f"{v:.1f}" for v in os.getloadavg())
+    return "\n".join([
+        HEADING, "",
+        "<!-- Generated by benchmarks/random_goals.py; do not edit by hand. -->", "",
+        f"- **Command:** `{command}`",
+        f"- **Date:** {datetime.now(timezone.utc).isoformat(timespec='seconds')}",
+        f"- **Machine:** {platform.machine()}, {os.cpu_count()} cores, load average "
+        f"(1 / 5 / 15 min) {load}",
+        f"- Each arm's default `Lp2Controller` at 1 kHz with its default command law, from rest "
+        f"on the home pose, {STEPS * DT:g} s toward each of {goals} goals (seed {seed}): the "
+        f"tool pose of a configuration drawn uniformly from the middle {MIDDLE:.0%} of every "
+        f"joint's range, so that each goal is reachable within the end-stops. *Reached*: within "
+        f"{REACHED[0] * 1e3:g} mm and {REACHED[1] * 1e3:g} mrad at the end. *Reversals* (with "
+        f"`qdd_max={qdd:g}` rad/s^2): steps on which a joint's acceleration changes sign at more "
+        f"than {REVERSAL_SHARE:.0%} of its limit both times.", "",
+        "| arm | reached | time to reach, median / max [s] | reached with acceleration "
+        "limits | time to reach [s] | reversals |",
+        "|---|---:|---:|---:|---:|---:|",
+        *(f"| {' | '.join(row)} |" for row in rows),
+        "", "Misses (the last step's binding limit, and how near the goal configuration is to a "
+        "singular one):", "",
+        *(misses or ["- none"]),
+        "", "",
+    ])  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--goals", type=int, default=30, help="goals per arm")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--qdd-max", type=float, default=10.0, help="rad/s^2")
+    parser.add_argument("--robots", nargs="+", default=["panda", "ur5e", "iiwa14"])
+    parser.add_argument("--out", type=Path, default=OUT, help="the page whose section is written")
+    given = sys.argv[1:] if argv is None else argv
+    args = parser.parse_args(given)
+    os.environ.setdefault("LPIK_COMPILE", "now")
+    from lpik.robots.registry import load_robot
+
+    rows, misses = [], []
+    for robot in args.robots:
+        goals = goal_configurations(load_robot(robot), args.goals, args.seed)
+        free = [run_goal(robot, i, g, None) for i, g in enumerate(goals)]
+        held = [run_goal(robot, i, g, args.qdd_max) for i, g in enumerate(goals)]
+        (free_reached, free_time, _), (held_reached, held_time, reversals) = (
+            summary(free), summary(held))  # fmt: skip
+        rows.append((robot, free_reached, free_time, held_reached, held_time, reversals))
+        for setting, runs in (("without acceleration limits", free), ("with them", held)):
+            misses += [f"- {robot}, {setting}: {miss_text(r)}" for r in runs if not r.reached]
+        print(rows[-1], flush=True)
+    command = " ".join(["python benchmarks/random_goals.py", *given])
+    text = section(rows, misses, args.goals, args.seed, args.qdd_max, command)
+    print(text)
+    args.out.write_text(replace_section(args.out.read_text(encoding="utf-8"), HEADING, text),
+                        encoding="utf-8")  # fmt: skip
+    return 0

@@ -1,0 +1,56 @@
+"""benchmarks/random_goals.py: the draw, one goal's run and the page's section.
+
+No timing and no count of goals reached is asserted: those are the benchmark's
+findings (docs/benchmarks.md), not properties of the code.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+from lpik.robots.registry import home_configuration, load_robot  # noqa: E402
+from lpik_bench import random_goals as R  # noqa: E402
+
+
+def test_the_goal_configurations_lie_in_the_middle_of_every_joint_s_range() -> None:
+    model = load_robot("panda")
+    goals = R.goal_configurations(model, 200, seed=3)
+    margin = 0.5 * (1.0 - R.MIDDLE) * (model.q_max - model.q_min)
+    assert goals.shape == (200, model.n_joints)
+    assert np.all(goals >= model.q_min + margin) and np.all(goals <= model.q_max - margin)
+    assert np.array_equal(goals, R.goal_configurations(model, 200, seed=3))  # seeded
+
+
+def test_a_goal_near_home_is_reached_and_counted_so() -> None:
+    """A goal 0.05 rad from home on two joints: the run reaches it, and a run too short to
+    get there is a miss whose text names how far off it ended."""
+    home = home_configuration("panda")
+    goal = home + np.array([0.05, -0.05, 0, 0, 0, 0, 0])
+    run = R.run_goal("panda", 0, goal, qdd_max=10.0, steps=1500)
+    assert run.reached and run.reached_at is not None and run.reached_at < 1500
+    assert run.goal_ratio > 0.0 and run.reversals >= 0
+    short = R.run_goal("panda", 1, goal, qdd_max=None, steps=3)
+    assert not short.reached and short.reached_at is None
+    assert short.position_error > R.REACHED[0]
+    assert R.miss_text(short).startswith("goal 1: ")
+
+
+def test_reversals_count_a_joint_whose_acceleration_flips_at_more_than_half_its_limit() -> None:
+    """Two joints' accelerations per step (in rad per step squared), limit 1."""
+    threshold = R.REVERSAL_SHARE * 1.0
+    steps = np.array([[0.9, 0.0], [-0.9, 0.0], [0.9, 0.2], [0.1, -0.2], [-0.1, 0.6], [0.0, -0.6]])
+    flips = [R.reverses(now, before, threshold) for before, now in zip(steps[:-1], steps[1:])]
+    assert flips == [True, True, False, False, True]
+
+
+def test_the_section_lists_every_row_and_every_miss(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    rows = [("panda", "29 of 30", "2.50 / 4.00", "28 of 30", "2.60 / 4.80", "1,920")]
+    misses = ["- panda, with them: goal 5: 0.09 mm, 0 mrad off, x (sigma ratio at the goal 4e-04)"]
+    text = R.section(rows, misses, 30, 0, 10.0, "python benchmarks/random_goals.py")
+    assert text.startswith(R.HEADING)
+    assert "| panda | 29 of 30 | 2.50 / 4.00 | 28 of 30 | 2.60 / 4.80 | 1,920 |" in text
+    assert misses[0] in text
+    assert "- none" in R.section(rows, [], 30, 0, 10.0, "c")
