@@ -153,7 +153,9 @@ def _to_segment(x, a, b) -> float:  # type: ignore[no-untyped-def]
     """Distance from the point ``x`` to the segment from ``a`` to ``b``."""
     ab = b - a
     length_squared = float(np.dot(ab, ab))  # 0 also where a tiny axis underflows
-    t = 0.0 if length_squared == 0.0 else float(np.clip(np.dot(x - a, ab) / length_squared, 0.0, 1.0))
+    if length_squared == 0.0:
+        return float(np.linalg.norm(a - x))
+    t = float(np.clip(np.dot(x - a, ab) / length_squared, 0.0, 1.0))
     return float(np.linalg.norm(a + t * ab - x))
 
 
