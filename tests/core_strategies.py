@@ -64,6 +64,12 @@ def offsets(size: float) -> st.SearchStrategy[float]:
     return st.one_of(st.just(0.0), floats(1e-3, size), floats(-size, -1e-3))
 
 
+def joint_angles() -> st.SearchStrategy[float]:
+    """0, or an angle at least 1e-3 rad from 0 and from +-pi (a link folded back on the
+    one before it is aligned with it as much as a straight one)."""
+    return st.one_of(st.just(0.0), floats(1e-3, np.pi - 1e-3), floats(-np.pi + 1e-3, -1e-3))
+
+
 #: Distance of an end-stop from q0: on it, near, far, or none.
 MARGINS = st.one_of(st.just(0.0), floats(1e-3, 1.0), st.just(np.inf))
 #: One step's velocity bound (velocity times dt): small, large or none.
@@ -89,7 +95,7 @@ def cases(
     """A random planar arm, configuration, displacement and limits that q0 satisfies.
 
     ``well_posed=True`` bounds every joint's step (as a velocity limit does) and
-    keeps every joint angle either exactly 0 or at least 1e-3 rad from it, so
+    keeps every joint angle either exactly 0 or at least 1e-3 rad from 0 and +-pi, so
     that the programs have a bounded feasible set and no link is aligned to
     within the solvers' tolerances: then two LP solvers may be compared to
     1e-7. Otherwise some joints may move freely and links may be aligned to
@@ -101,7 +107,7 @@ def cases(
     n = draw(st.integers(m, max(m, max_links)))
     lengths = draw(vectors(n, floats(0.2, 2.0)))
     arm = planar_arm(lengths.tolist(), task=task)
-    q0 = draw(vectors(n, offsets(np.pi) if well_posed else floats(-np.pi, np.pi)))
+    q0 = draw(vectors(n, joint_angles() if well_posed else floats(-np.pi, np.pi)))
     J = arm.jacobian(q0)
     dw = draw(directions(m)) * draw(dw_sizes) * float(lengths.sum())
     fields: dict[str, object] = {
