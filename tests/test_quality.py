@@ -187,7 +187,7 @@ def test_docs_quality_is_generated_by_the_suite() -> None:
 
 
 def test_point_to_point_legs_are_held_targets_and_lpik_settles_the_5_cm_step(suite) -> None:
-    for key in ("step", "point"):
+    for key in ("step", "point", "goals"):
         point = next(r for r in suite.scenarios if r.scenario.key == key)
         assert point.scenario.acceleration_checked
         for leg in point.scenario.legs:

@@ -352,12 +352,14 @@ MISSED_BECAUSE = {
     "command (lpik.command.second_order_term) is scaled by p with the rest of the command "
     "(J dq = p (dw - rho)); compensating it whatever p is (J dq = p dw - rho) would make "
     "dq = 0 infeasible at p = 0, a change to every path of the LP not made yet",
-    "beyond-acc/jitter": "lp2s +acc follows the target out and back (see the tracking and "
-    "the recoveries above) and turns its joints within the acceleration limits on the way: "
-    "measured at 2ccca3d, 148 of its 384 rad/s come while the target is out of reach (54 "
-    "and 52 in the legs +y and -y), 79 on the way out while it is still reachable, 71 on "
-    "the way back and 86 in the final hold; drake +acc takes the braking step on its failed "
-    "steps, most of them while the target is out of reach, and recovers none of the six",
+    "beyond-acc/jitter": "the stall stage flips between the exact and the progress step: "
+    "measured at d0ae98b, the 2,912 flips (nearly all in the legs +y and -y while the target "
+    "is out of reach) carry 127 of the 384 rad/s and most of the changes of acceleration; on "
+    "them the exact step reduces the error by 97-99.5 % of what the progress step does, a "
+    "near tie; keeping the progress step until the exact step gains as much gave 283 rad/s "
+    "but left two Panda excursions of benchmarks/excursions.py off (58 of 60), and is not "
+    "kept (docs/concepts.md); drake +acc takes the braking step on its failed steps, most of "
+    "them while the target is out of reach, and recovers none of the six",
     "beyond-acc/step_p99": "as in scenario 2, the slowest 1 % are the stall stage's "
     "steps (the progress LP, and the exact steps it weighed against it before keeping "
     "them); the same rows run alone (python -m lpik_bench.quality --peers --variants "
@@ -367,6 +369,22 @@ MISSED_BECAUSE = {
     "only; LP1's p is 0 on each), where the arm waits until the target comes back to it; "
     "the rows without frozen steps (pink quadprog, rtb) take no acceleration limits, break "
     "them on most steps and chatter, and drake +acc freezes too",
+    "goals/jitter": "mink's 595 comes with 38,591 failed steps (held still) and steps "
+    "above the acceleration limit, which it does not take; drake +acc, under the same "
+    "limits, 637",
+    "goals/settle_ms": "lp2s +acc ends on 3 of the 10 goals off: goal 5 0.087 mm off, its "
+    "configuration's sigma_min / sigma_max (3.8e-4) below the automatic multiplier bound's "
+    "floor (1e-3), where the bound stops the arm (benchmarks/random_goals.py: with "
+    "lambda_bound=None and the default command it is reached); goals 7 and 9 0.48 and "
+    "0.41 m off with joint 7 on its upper end-stop, reachable on another branch of the "
+    "inverse kinematics only; no library settles on every goal",
+    "goals/overshoot": "160 mm in goal 9 and 120 mm in goal 7, after joint 7 reached its "
+    "end-stop: the progress step (least L1 error, a metre priced as a radian) gives up "
+    "position for orientation, and the tool drifts from the goal",
+    "goals/step_p99": "as in scenario 10, the slowest 1 % are the stall stage's steps "
+    "(off_direction on a fifth of the steps, mostly in goals 7 and 9)",
+    "goals/step_max": "goal 5's 31 infeasible steps, near the singular configuration, go "
+    "to the HiGHS path: measured at d0ae98b, 20 of them took 0.5 to 7 ms",
     "end-stop/jitter": "when joint 1 reaches its velocity limit, the saturation pass hands "
     "its motion to the free joints within one step (6.9 rad/s summed over the joints at "
     "step 418 of leg 2), a step in the velocities with energy at every frequency; every "

@@ -49,6 +49,8 @@ ACCEL = {"jump": 0.10, "every": 0.2, "duration": 2.0}
 #: of the pose, leg [s], seed of the draw).
 POINT = {"step": 0.05, "step_duration": 1.0, "moves": 3, "spread": 0.6, "distance": 0.15,
          "turn": 0.3, "duration": 2.0, "seed": 7}  # fmt: skip
+#: Goals anywhere: how many, seed of the draw (lpik_bench.random_goals), seconds per goal.
+GOALS = {"goals": 10, "seed": 0, "duration": 5.0}
 
 AXES = {
     "+x": (1, 0, 0),
@@ -472,6 +474,39 @@ def point_to_point(model: PoseTask, dt: float, max_steps: int | None) -> Scenari
                     tuple(legs), acceleration_checked=True)  # fmt: skip
 
 
+def goals_anywhere(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
+    """Step targets held from rest: the poses of configurations anywhere in the joint ranges.
+
+    The draw is :func:`lpik_bench.random_goals.goal_configurations` (the benchmark that
+    runs every arm with and without acceleration limits), so that a goal is reachable
+    within the end-stops, though not always on the branch a local step follows from home.
+    """
+    from lpik_bench.random_goals import MIDDLE, goal_configurations
+
+    q0 = home_configuration("panda")
+    start = model.pose(q0)
+    legs = []
+    for k, goal_q in enumerate(goal_configurations(model, GOALS["goals"], GOALS["seed"])):
+        pose = model.pose(goal_q)
+        d = model.difference(start, pose)
+        size = f"{np.linalg.norm(d[:3]) * 100:.0f} cm, {np.linalg.norm(d[3:]):.2f} rad"
+        legs.append(make_leg(model, f"goal {k}", q0, lambda t, pose=pose: pose,
+                             GOALS["duration"], dt, max_steps, held=True, note=size,
+                             witness=lambda t, goal_q=goal_q: goal_q))  # fmt: skip
+    what = (
+        f"The target is one pose from the first step on, held, from rest at the home "
+        f"configuration: the poses of {GOALS['goals']} configurations drawn uniformly from the "
+        f"middle {MIDDLE:.0%} of every joint's range (seed {GOALS['seed']}, the first goals of "
+        f"benchmarks/random_goals.py), {GOALS['duration']:g} s each (distance, turn: "
+        + "; ".join(f"{leg.label}: {leg.note}" for leg in legs)
+        + "). Each is reachable within the end-stops, some only on another branch of the "
+        "inverse kinematics than the one a local step follows from home. Every library's "
+        "accelerations are checked, and those that take acceleration limits run with them."
+    )
+    return Scenario("goals", "11. Reachable goals anywhere in the joint ranges", what,
+                    tuple(legs), acceleration_checked=True)  # fmt: skip
+
+
 def obstacle(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     """Two legs from home with the sphere overlapping link 4, then inside ``d_s``.
 
@@ -533,4 +568,5 @@ SCENARIOS: dict[str, Callable[[PoseTask, float, int | None], Scenario]] = {
     "point": point_to_point,
     "obstacle": obstacle,
     "beyond-acc": beyond_reach_limited,
+    "goals": goals_anywhere,
 }
