@@ -44,6 +44,7 @@ from lpik_bench.quality_metrics import (
     SuiteResult,
 )
 from lpik_bench.quality_reach import REACH_TOL, SAMPLE_EVERY
+from lpik_bench.quality_scenarios import Scenario
 from lpik_bench.soak import STEP_TOL, STOP_TOL
 from lpik_bench.workload import QDD_MAX
 
@@ -218,7 +219,7 @@ def render(suite: SuiteResult, command: str) -> str:
         *intro(suite),
         "",
     ]
-    out += ["## The goal", "", goal_text(), "", *goal_summary(suite), "", NOT_DONE, ""]
+    out += ["## The goal", "", goal_text(suite), "", *goal_summary(suite), "", NOT_DONE, ""]
     for result in suite.scenarios:
         out += section(result)
     return "\n".join(out)
@@ -279,15 +280,25 @@ def clearance_table(result: ScenarioResult) -> list[str]:
     ])  # fmt: skip
 
 
-#: The point-to-point metrics, as the report's list of metrics says them.
-SETTLE_TEXT = (
-    f"- **Settle time** (scenarios 7 and 8, point to point): when the error comes within "
-    f"{SETTLE_TOL[0] * 1e3:g} mm and {SETTLE_TOL[1] * 1e3:g} mrad for good (the longest "
-    "over the moves; never: a move that has not settled by the end of its run). "
-    "**Overshoot**: the largest growth of the position error after its running minimum "
-    "[mm]. **Infeasible or braking steps**: steps the library did not answer (lpik: the "
-    "safe step, a status that does not move as the method intends; a peer: a failed step)."
-)
+def scenario_numbers(suite: SuiteResult, keep: Callable[[Scenario], bool]) -> str:
+    """The numbers of the suite's scenarios that ``keep`` selects, as a list in words."""
+    numbers = [r.scenario.title.split(".", 1)[0] for r in suite.scenarios if keep(r.scenario)]
+    return " and ".join([", ".join(numbers[:-1]), numbers[-1]] if len(numbers) > 1 else numbers)
+
+
+def settle_text(suite: SuiteResult) -> str:
+    """The point-to-point metrics, as the report's list of metrics says them."""
+    held = scenario_numbers(suite, lambda s: any(leg.held and leg.scene is None for leg in s.legs))
+    return (
+        f"- **Settle time** (scenarios {held}, point to point): when the error comes within "
+        f"{SETTLE_TOL[0] * 1e3:g} mm and {SETTLE_TOL[1] * 1e3:g} mrad for good (the longest "
+        "over the moves; never: a move that has not settled by the end of its run). "
+        "**Overshoot**: the largest growth of the position error after its running minimum "
+        "[mm]. **Infeasible or braking steps**: steps the library did not answer (lpik: the "
+        "safe step, a status that does not move as the method intends; a peer: a failed step)."
+    )
+
+
 #: The metrics among obstacles, as the report's list of metrics says them.
 CLEARANCE_TEXT = (
     "- **Among obstacles** (scenario 9): the signed distance between the robot's capsules "
@@ -501,8 +512,9 @@ def _like_labels() -> str:
     return ", ".join(m.label for m in METRICS if m.key in AGAINST_LIKE)
 
 
-def goal_text() -> str:
+def goal_text(suite: SuiteResult) -> str:
     """The goal and how each metric is judged (:mod:`lpik_bench.quality_judge`)."""
+    limited = scenario_numbers(suite, lambda s: s.acceleration_checked)
     return (
         "The goal: every scenario met on every judged metric, with zero violations. "
         "**Like against like**: every library gets the same command (the peers' V = error / "
@@ -512,7 +524,7 @@ def goal_text() -> str:
         f"against {', '.join(LIKE_PEERS['progress'])}; on every other metric every variant is "
         "judged against every peer that ran the scenario (a peer that failed every one of "
         "its steps did not: standing still is smooth and quick). In the acceleration-limited "
-        "scenarios (6, 7, 8 and 10) the libraries that take acceleration limits run with them "
+        f"scenarios ({limited}) the libraries that take acceleration limits run with them "
         "and the +acc variants are judged (against drake +acc on tracking; drake's run "
         "without the limits is shown there but is no reference); elsewhere the variants "
         "without them. **Ties "
@@ -556,15 +568,14 @@ def intro(suite: SuiteResult) -> list[str]:
         "summed over joints and runs).",
         f"- **Violations**: steps past an end-stop (by more than {STOP_TOL:g} rad), above a "
         f"velocity limit or, for the +acc rows and in the acceleration-limited scenarios "
-        "(6 to 8, 10) "
-        "for every library, above "
+        f"({scenario_numbers(suite, lambda s: s.acceleration_checked)}) for every library, above "
         f"the acceleration limit {QDD_MAX:g} rad/s^2 (by more than {STEP_TOL:g} rad per step), "
         "with the worst excess. **max |qdd|**: the largest joint acceleration, from rest.",
         f"- **Frozen**: steps with a reachable target, an error above {TRACK_TOL[0] * 1e3:g} mm "
         f"or {TRACK_TOL[1] * 1e3:g} mrad before the step and no joint moving more than "
         f"{FROZEN_DQ:g} rad. **Recovered** (scenario 2): within those tolerances over the "
         f"last {RECOVERY_WINDOW} steps of the final hold.",
-        SETTLE_TEXT,
+        settle_text(suite),
         CLEARANCE_TEXT,
         "- **lpik**: `p` (mean, share of steps with p = 0), statuses and the binding limits "
         "seen most; of the frozen steps, those with no exact direction at all: LP1's `p` (the "
