@@ -74,12 +74,10 @@ def goal_configurations(model, count: int, seed: int) -> np.ndarray:  # type: ig
 
 
 def errors(model, q: np.ndarray, target: np.ndarray) -> tuple[float, float]:  # type: ignore[no-untyped-def]
-    """The tool's distance from ``target`` at ``q``: position [m], orientation [rad]."""
-    from lpik.robots.rotations import log_so3
-
-    pose = model.pose(q)
-    turn = log_so3(pose[:3, :3].T @ target[:3, :3])
-    return float(np.linalg.norm(pose[:3, 3] - target[:3, 3])), float(np.linalg.norm(turn))
+    """The tool's distance from ``target`` at ``q`` (the task's own pose difference):
+    position [m], orientation [rad]."""
+    d = model.difference(model.pose(q), target)
+    return float(np.linalg.norm(d[:3])), float(np.linalg.norm(d[3:]))
 
 
 def reverses(acceleration: np.ndarray, before: np.ndarray, threshold: float) -> bool:
@@ -90,7 +88,8 @@ def reverses(acceleration: np.ndarray, before: np.ndarray, threshold: float) -> 
 
 def run_goal(robot: str, index: int, goal: np.ndarray, qdd_max: float | None,
              steps: int = STEPS) -> GoalRun:  # fmt: skip
-    """The default controller from rest on ``robot``'s home pose toward the pose at ``goal``."""
+    """The default controller from rest on ``robot``'s home pose toward the pose at ``goal``
+    for ``steps`` (at least 1) steps."""
     from lpik.control.controller import Lp2Controller
     from lpik.robots.registry import home_configuration, load_robot
 
@@ -100,30 +99,25 @@ def run_goal(robot: str, index: int, goal: np.ndarray, qdd_max: float | None,
     singular = np.linalg.svd(model.jacobian(goal), compute_uv=False)
     q = home_configuration(robot).copy()
     prev = q.copy()
-    velocity = np.zeros(q.size)
-    acceleration = np.zeros(q.size)
+    acceleration = np.zeros(q.size)  # the last step's change of the joint step
     threshold = None if qdd_max is None else REVERSAL_SHARE * qdd_max * DT * DT  # per step
     reversals, reached_at = 0, None
-    result = None
     for k in range(steps):
         result = controller.step(q, target, prev)
-        new_velocity = result.q - q
-        new_acceleration = new_velocity - velocity
+        change = (result.q - q) - (q - prev)
         if threshold is not None:
-            reversals += int(reverses(new_acceleration, acceleration, threshold))
-        velocity, acceleration = new_velocity, new_acceleration
-        prev, q = q, result.q
+            reversals += int(reverses(change, acceleration, threshold))
+        acceleration, prev, q = change, q, result.q
         position, orientation = errors(model, q, target)
         near = position <= REACHED[0] and orientation <= REACHED[1]
         reached_at = (k if reached_at is None else reached_at) if near else None
-    position, orientation = errors(model, q, target)
     return GoalRun(
         goal=index,
         position_error=position,
         orientation_error=orientation,
         reached_at=reached_at,
-        status=result.status if result is not None else "",
-        binding=str(result.binding) if result is not None and result.binding is not None else "-",
+        status=result.status,
+        binding="-" if result.binding is None else str(result.binding),
         goal_ratio=float(singular[-1] / singular[0]),
         reversals=reversals,
     )
