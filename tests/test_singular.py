@@ -151,6 +151,30 @@ def test_many_free_multiplier_directions_under_bounds_go_to_highs() -> None:
     assert lp2(unbounded).path == "singular" and lp2(unbounded).p == 1.0
 
 
+@pytest.mark.parametrize("seed", range(60))
+def test_multipliers_held_at_one_value_are_solved_without_highs(seed: int) -> None:
+    """Every multiplier held (``lam_min == lam_max``: the automatic bound's floor holds them at
+    0) gives ``lam``, however many free directions ``J`` leaves: the singular path answers,
+    as HiGHS does, and compiled the same."""
+    pytest.importorskip("numba")
+    problem = singular_problem(3 * seed)  # unbounded, J of rank 3 to 5
+    free = problem.m - np.linalg.matrix_rank(problem.J)
+    held = np.zeros(problem.m)
+    if seed % 2:  # held at a multiplier of the unbounded step: the same p
+        unbounded = lp2(problem)
+        if unbounded.status != OPTIMAL:
+            return
+        held = unbounded.lam
+    problem = problem.replace(lam_min=held, lam_max=held)
+    res = lp2(problem)
+    assert res.path == "singular", (free, res)
+    assert_equals_highs(problem)
+    if res.status == OPTIMAL:
+        np.testing.assert_array_equal(res.lam, held)
+        if seed % 2:
+            assert abs(res.p - unbounded.p) <= 1e-9
+
+
 def test_the_controller_takes_the_panda_singularity_compiled() -> None:
     """The Panda stretched out (joint 4 at its singular angle, then exactly singular J):
     every step compiled, the numpy singular path's answer; HiGHS's where J is singular."""

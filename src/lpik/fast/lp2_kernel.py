@@ -67,7 +67,7 @@ __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kern
 
 #: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
 _HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
-            "singularity_code")  # fmt: skip
+            "_held", "singularity_code")  # fmt: skip
 _loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
 condition_bound = njit(cache=True)(kkt.condition_bound)  # lp2s's later passes
 # the safe step, INFEASIBLE: one signature (the kernels pass -1 and a variable alike)

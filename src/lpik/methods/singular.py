@@ -23,7 +23,11 @@ The LP left over ``p`` and the free ``mu_i`` is solved exactly: the free
 :data:`MAX_FREE_MULTIPLIERS` of them; more go to HiGHS), the largest ``p`` in
 the remaining intervals is taken as by the ratio test, and the free ``mu_i``
 are chosen, by back-substitution, as close to 0 as the bounds allow (the
-smallest multipliers).
+smallest multipliers). Where every multiplier is held at one value
+(``lam_min == lam_max``: the automatic bound's floor, ``B = 0``, sec. 3.2)
+``lam`` is given, however many directions are free: along each regular
+direction ``(a_l + p b_l) . u_i`` must equal the held value's share, which fixes
+``p`` (the multiplier that moves most along ``u_i`` binds) or leaves no step.
 
 An ill-conditioned but regular ``J`` is solved exactly here (the decomposition
 is backward stable where the Cholesky factor of the Schur complement is not):
@@ -294,22 +298,48 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     stuck, p_lo, lo_code, p_hi, hi_code = _interval(alpha, beta, codes, count)
     if stuck >= 0:
         return _stop(lower, upper, dq, stuck)
+    # --- every multiplier held at one value (the automatic bound's floor, B = 0) ---
+    held = _held(lam_min, lam_max)
+    fixer = sing  # what fixes p: the singularity, or a held multiplier
+    if held:
+        lmax = 1.0
+        for a in range(m):
+            lmax = max(lmax, abs(lam_min[a]), abs(al[a]), abs(bl[a]))
+        ltol = 0.25 * EQUALITY_RTOL * lmax
+        for i in range(regular):
+            # lam's share along u_i is (al + p bl) . u_i: the held value's where hi_ = p bi
+            hi_, bi, a_top = 0.0, 0.0, 0
+            for a in range(m):
+                hi_ += U[a, i] * (lam_min[a] - al[a])
+                bi += U[a, i] * bl[a]
+                if abs(U[a, i]) > abs(U[a_top, i]):
+                    a_top = a
+            # the multiplier that moves most along u_i binds, on the side lam would leave by
+            if abs(bi) > ltol:
+                code = 2 * (n + a_top) + (1 if U[a_top, i] * bi > 0.0 else 0)
+                v = hi_ / bi
+                if fixed and abs(v - p_fix) > INTERVAL_TOL * max(1.0, abs(v)):
+                    return _stop(lower, upper, dq, code)
+                fixed, p_fix, fixer = True, v, code
+            elif abs(hi_) > ltol:
+                side = 1 if U[a_top, i] * hi_ < 0.0 else 0
+                return _stop(lower, upper, dq, 2 * (n + a_top) + side)
     # --- the multiplier bounds, the free directions eliminated ---
     free = m - regular
     bounded = False
     for a in range(m):
         if math.isfinite(lam_min[a]) or math.isfinite(lam_max[a]):
             bounded = True
-    if bounded and free > MAX_FREE_MULTIPLIERS:
+    if bounded and not held and free > MAX_FREE_MULTIPLIERS:
         return SINGULAR, 0.0, -1, 0.0
-    nz = free if bounded else 0
+    nz = free if bounded and not held else 0
     width = 3 + max(nz, 1)
     rows = np.zeros((2 * m, width))  # (code, alpha, beta, gamma...)
     nrows = 0
     for a in range(m):
         for side in range(2):
             bound = lam_max[a] if side == 1 else lam_min[a]
-            if not math.isfinite(bound):
+            if held or not math.isfinite(bound):
                 continue
             sign = 1.0 if side == 1 else -1.0
             rows[nrows, 0] = 2 * (n + a) + side
@@ -341,9 +371,9 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
         return _stop(lower, upper, dq, lo_code if bottom > 1.0 else hi_code)
     if fixed:
         if p_fix > top + INTERVAL_TOL or p_fix < bottom - INTERVAL_TOL:
-            return _stop(lower, upper, dq, sing)
+            return _stop(lower, upper, dq, fixer)
         p = min(max(p_fix, bottom), max(top, bottom))
-        binding = sing if p < FULL_P else -1
+        binding = fixer if p < FULL_P else -1
     else:
         p = max(top, bottom)
         binding = hi_code if p < FULL_P else -1
@@ -361,11 +391,19 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
         for j in range(nz):
             u = U[a, regular + j]
             v += u * z[j] if abs(u) > RATE_TOL**0.5 else 0.0
-        lam[a] = v
+        lam[a] = lam_min[a] if held else v
     ok, res = loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
     if not ok:
         return CHECK_FAILED, p, binding, res
     return OK, p, binding, res
+
+
+def _held(lam_min, lam_max):
+    """True when every multiplier's bounds coincide (and there is one): ``lam`` is given."""
+    for a in range(lam_min.shape[0]):
+        if lam_min[a] != lam_max[a]:
+            return False
+    return lam_min.shape[0] > 0
 
 
 def _stop(lower, upper, dq, binding):
