@@ -32,6 +32,8 @@ def test_a_goal_near_home_is_reached_and_counted_so() -> None:
     run = R.run_goal("panda", 0, goal, qdd_max=10.0, steps=1500)
     assert run.reached and run.reached_at is not None and run.reached_at < 1500
     assert run.goal_ratio > 0.0 and run.reversals >= 0
+    assert run.step_times.shape == (1500,) and np.all(run.step_times > 0.0)
+    assert run.uncompiled == 0  # every step on the compiled path
     short = R.run_goal("panda", 1, goal, qdd_max=None, steps=3)
     assert not short.reached and short.reached_at is None
     assert short.position_error > R.REACHED[0]
@@ -54,3 +56,17 @@ def test_the_section_lists_every_row_and_every_miss(tmp_path) -> None:  # type: 
     assert "| panda | 29 of 30 | 2.50 / 4.00 | 28 of 30 | 2.60 / 4.80 | 1,920 |" in text
     assert misses[0] in text
     assert "- none" in R.section(rows, [], 30, 0, 10.0, "c")
+    timings = [("panda", "qdd_max=10", "9.1 / 90 / 150 / 320", "0 of 300,000")]
+    assert "| panda | qdd_max=10 | 9.1 / 90 / 150 / 320 | 0 of 300,000 |" in R.section(
+        rows, misses, 30, 0, 10.0, "c", timings
+    )
+
+
+def test_timing_reads_every_step_of_every_run() -> None:
+    runs = [
+        R.GoalRun(0, 0.0, 0.0, 0, "optimal", "-", 0.1, 0, np.array([1.0, 2.0, 3.0]), 0),
+        R.GoalRun(1, 0.0, 0.0, 0, "optimal", "-", 0.1, 0, np.array([4.0, 1000.0]), 2),
+    ]
+    times, uncompiled = R.timing(runs)
+    assert times.startswith("3.0 / ") and times.endswith(" / 1,000")
+    assert uncompiled == "2 of 5"

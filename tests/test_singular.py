@@ -18,11 +18,12 @@ from lpik.result import INFEASIBLE, OPTIMAL
 
 
 def singular_problem(seed: int) -> Problem:
-    """A step whose J (m = 6, n = 7) has rank 3 to 5 (4 to 5 under multiplier bounds)."""
+    """A step whose J (m = 6, n = 7) has rank 3 to 5 (1 to 5 under multiplier bounds: more
+    than MAX_FREE_MULTIPLIERS free directions below rank 4)."""
     rng = np.random.default_rng(seed)
     n, m = 7, 6
-    bounded = seed % 3 != 0  # multiplier bounds: at most MAX_FREE_MULTIPLIERS free directions
-    rank = int(rng.integers(m - MAX_FREE_MULTIPLIERS if bounded else 3, m))
+    bounded = seed % 3 != 0
+    rank = int(rng.integers(1 if bounded else 3, m))
     J = rng.normal(size=(m, rank)) @ rng.normal(size=(rank, n))
     in_range = seed % 2 == 0
     dw = J @ rng.normal(size=n) * 1e-3 if in_range else rng.normal(size=m) * 1e-3
@@ -141,14 +142,96 @@ def test_a_pinned_joint_whose_motion_is_out_of_range_is_infeasible() -> None:
     assert res.binding == SINGULARITY
 
 
-def test_many_free_multiplier_directions_under_bounds_go_to_highs() -> None:
+def test_many_free_multiplier_directions_under_finite_bounds_are_solved_without_highs() -> None:
     n, m = 5, 4  # J = 0: every multiplier direction is free
     problem = Problem(J=np.zeros((m, n)), dw=np.zeros(m), q0=np.zeros(n),
                       lam_min=np.full(m, -1.0), lam_max=np.full(m, 1.0))  # fmt: skip
     assert m > MAX_FREE_MULTIPLIERS
-    assert lp2(problem).path == "highs"
+    res = lp2(problem)
+    assert (res.path, res.p) == ("singular", 1.0)
+    np.testing.assert_array_equal(res.lam, np.zeros(m))  # the multipliers nearest 0
+    one_sided = problem.replace(lam_min=np.full(m, -np.inf))  # an infinite bound: HiGHS
+    assert lp2(one_sided).path == "highs"
     unbounded = Problem(J=np.zeros((m, n)), dw=np.zeros(m), q0=np.zeros(n))
     assert lp2(unbounded).path == "singular" and lp2(unbounded).p == 1.0
+
+
+def free_directions(seed: int) -> int:
+    problem = singular_problem(seed)
+    return problem.m - int(np.linalg.matrix_rank(problem.J))
+
+
+#: Bounded seeds without extra rows or smoothing whose J leaves more than
+#: MAX_FREE_MULTIPLIERS multiplier directions free.
+WIDE_SEEDS = [s for s in range(120) if s % 3 and s % 7 and s % 4 != 1
+              and free_directions(s) > MAX_FREE_MULTIPLIERS][:12]  # fmt: skip
+
+
+@pytest.mark.parametrize("seed", WIDE_SEEDS)
+@pytest.mark.parametrize("scale", [1e-2, 1e-4])
+def test_tight_multiplier_bounds_over_many_free_directions_equal_highs(seed, scale) -> None:
+    """Bounds tight enough to hold p (or leave no step) where more multiplier directions are
+    free than Fourier-Motzkin eliminates: the facets of the bounds' image hold it as HiGHS."""
+    pytest.importorskip("numba")
+    problem = singular_problem(seed)
+    problem = problem.replace(lam_min=problem.lam_min * scale, lam_max=problem.lam_max * scale)
+    assert_equals_highs(problem)
+
+
+def nearly_singular_problem(seed: int) -> Problem:
+    """A step under acceleration-like bounds whose J's smallest singular value is 1e-10 to
+    1e-6 (above SINGULAR_RTOL: a regular direction), its multipliers bounded."""
+    rng = np.random.default_rng(seed)
+    n, m = 7, 6
+    U, _ = np.linalg.qr(rng.normal(size=(m, m)))
+    V, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    s = np.sort(rng.uniform(0.3, 2.0, size=m))[::-1]
+    s[-1] = 10 ** -rng.uniform(6, 10)
+    center, width = rng.normal(size=n) * 1e-5, rng.uniform(0, 2e-5, size=n)
+    if seed % 2:
+        width[rng.integers(n)] = 0.0  # a pinned joint
+    bound = 10 ** -rng.uniform(1, 3)
+    return Problem(J=U @ np.diag(s) @ V[:m], dw=rng.normal(size=m) * 1e-4, q0=np.zeros(n),
+                   dq_min=center - width, dq_max=center + width, lam_min=np.full(m, -bound),
+                   lam_max=np.full(m, bound))  # fmt: skip
+
+
+def test_an_interval_closed_by_a_fast_multiplier_takes_the_step_within_tolerance() -> None:
+    """Joint 2 moves y with a lever of 1e-8 and a pinned joint adds 5e-17 to y: the multiplier
+    along y is (5e-17 + p e) / 1e-16, within its bound 0.01 only for p in a window 1e-14 wide
+    around -5e-13, an interval of p empty by less than INTERVAL_TOL. At p = 0 the multiplier
+    sits on its bound and eq. 18's rows give dq for it: J dq = p dw within its tolerance, the
+    answer HiGHS gives, found without HiGHS."""
+    pytest.importorskip("numba")
+    J = np.array([[1.0, 0.0, 0.0], [0.0, 1e-8, 1.0]])
+    problem = Problem(J=J, dw=[0.0, 1e-4], q0=np.zeros(3), dq_min=[-1e-5, -1e-5, -5e-17],
+                      dq_max=[1e-5, 1e-5, -5e-17], lam_min=[-0.01, -0.01],
+                      lam_max=[0.01, 0.01])  # fmt: skip
+    assert_equals_highs(problem)
+    res = lp2(problem)
+    assert (res.status, res.p) == (OPTIMAL, 0.0)
+    np.testing.assert_allclose(res.lam, [0.0, -0.01], atol=1e-15)
+    np.testing.assert_allclose(res.dq, [0.0, 1e-10, -5e-17], rtol=1e-9, atol=1e-20)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_a_nearly_singular_step_is_answered_without_highs(seed: int) -> None:
+    """A multiplier along a direction of singular value s moves by 1/s^2 per unit of p: where
+    its row closes the interval of p to a point that rounding breaks, there is no step (a
+    safe stop), not a check failure handed to HiGHS. Every step HiGHS finds infeasible is;
+    an optimal one has HiGHS's p. (HiGHS, within its tolerances, can find a p in a window
+    of width bound s^2 / |dw| that the exact intervals miss: then only this path stops.)"""
+    pytest.importorskip("numba")
+    problem = nearly_singular_problem(seed)
+    res, reference = lp2(problem), lp2(problem, path="highs")
+    assert res.path in ("singular", "ratio-test"), res
+    if reference.status == INFEASIBLE or res.status == OPTIMAL:
+        assert res.status == reference.status and abs(res.p - reference.p) <= 1e-7
+    if res.status == OPTIMAL:
+        assert check_step(problem, res.dq, res.p, res.lam) is None
+    compiled = lp2(problem, path="compiled")  # (another SVD: the conflict it names may differ)
+    assert compiled.status == res.status and abs(compiled.p - res.p) <= 1e-6
+    np.testing.assert_allclose(compiled.q, res.q, atol=1e-6, rtol=0)
 
 
 @pytest.mark.parametrize("seed", range(60))

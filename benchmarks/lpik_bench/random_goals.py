@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -58,6 +59,10 @@ class GoalRun:
     binding: str
     goal_ratio: float
     reversals: int
+    #: Each step's ``controller.step`` call [us].
+    step_times: np.ndarray
+    #: Steps not answered on the compiled path (``Result.path``: the numpy engine, HiGHS).
+    uncompiled: int
 
     @property
     def reached(self) -> bool:
@@ -101,9 +106,13 @@ def run_goal(robot: str, index: int, goal: np.ndarray, qdd_max: float | None,
     prev = q.copy()
     acceleration = np.zeros(q.size)  # the last step's change of the joint step
     threshold = None if qdd_max is None else REVERSAL_SHARE * qdd_max * DT * DT  # per step
-    reversals, reached_at = 0, None
+    reversals, reached_at, uncompiled = 0, None, 0
+    step_times = np.empty(steps)
     for k in range(steps):
+        start = time.perf_counter_ns()
         result = controller.step(q, target, prev)
+        step_times[k] = (time.perf_counter_ns() - start) * 1e-3
+        uncompiled += result.path != "compiled"
         change = (result.q - q) - (q - prev)
         if threshold is not None:
             reversals += int(reverses(change, acceleration, threshold))
@@ -120,6 +129,8 @@ def run_goal(robot: str, index: int, goal: np.ndarray, qdd_max: float | None,
         binding="-" if result.binding is None else str(result.binding),
         goal_ratio=float(singular[-1] / singular[0]),
         reversals=reversals,
+        step_times=step_times,
+        uncompiled=uncompiled,
     )
 
 
@@ -138,8 +149,16 @@ def summary(runs: list[GoalRun]) -> tuple[str, str, str]:
     return reached, timing, f"{sum(r.reversals for r in runs):,}"
 
 
+def timing(runs: list[GoalRun]) -> tuple[str, str]:
+    """``(median / p99 / p99.9 / max [us], steps not compiled)`` of one arm and setting."""
+    times = np.concatenate([r.step_times for r in runs])
+    median, p99, p999 = np.percentile(times, [50, 99, 99.9])
+    return (f"{median:.1f} / {p99:.0f} / {p999:.0f} / {times.max():,.0f}",
+            f"{sum(r.uncompiled for r in runs):,} of {times.size:,}")  # fmt: skip
+
+
 def section(rows: list[tuple[str, ...]], misses: list[str], goals: int, seed: int,
-            qdd: float, command: str) -> str:  # fmt: skip
+            qdd: float, command: str, timings: list[tuple[str, ...]] = ()) -> str:  # fmt: skip
     """The page's section: the setup, one row per arm, then every miss."""
     return "\n".join([
         *section_head(HEADING, "benchmarks/random_goals.py", command),
@@ -154,6 +173,12 @@ def section(rows: list[tuple[str, ...]], misses: list[str], goals: int, seed: in
         "limits | time to reach [s] | reversals |",
         "|---|---:|---:|---:|---:|---:|",
         *(f"| {' | '.join(row)} |" for row in rows),
+        "", "Every step's `controller.step` call timed (`time.perf_counter_ns`, on this shared "
+        "machine: the max is the noisiest), and the steps the compiled path did not answer (its "
+        "`Result.path`: the numpy engine's stages, HiGHS):", "",
+        "| arm | setting | step time, median / p99 / p99.9 / max [us] | steps not compiled |",
+        "|---|---|---:|---:|",
+        *(f"| {' | '.join(row)} |" for row in timings),
         "", "Misses (the last step's binding limit, and how near the goal configuration is to a "
         "singular one):", "",
         *(misses or ["- none"]),
@@ -173,7 +198,7 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("LPIK_COMPILE", "now")
     from lpik.robots.registry import load_robot
 
-    rows, misses = [], []
+    rows, misses, timings = [], [], []
     for robot in args.robots:
         goals = goal_configurations(load_robot(robot), args.goals, args.seed)
         free = [run_goal(robot, i, g, None) for i, g in enumerate(goals)]
@@ -181,11 +206,13 @@ def main(argv: list[str] | None = None) -> int:
         (free_reached, free_time, _), (held_reached, held_time, reversals) = (
             summary(free), summary(held))  # fmt: skip
         rows.append((robot, free_reached, free_time, held_reached, held_time, reversals))
+        timings += [(robot, "without acceleration limits", *timing(free)),
+                    (robot, f"qdd_max={args.qdd_max:g}", *timing(held))]  # fmt: skip
         for setting, runs in (("without acceleration limits", free), ("with them", held)):
             misses += [f"- {robot}, {setting}: {miss_text(r)}" for r in runs if not r.reached]
         print(rows[-1], flush=True)
     command = " ".join(["python benchmarks/random_goals.py", *given])
-    text = section(rows, misses, args.goals, args.seed, args.qdd_max, command)
+    text = section(rows, misses, args.goals, args.seed, args.qdd_max, command, timings)
     print(text)
     args.out.write_text(replace_section(args.out.read_text(encoding="utf-8"), HEADING, text),
                         encoding="utf-8")  # fmt: skip

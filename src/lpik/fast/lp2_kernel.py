@@ -67,15 +67,22 @@ __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kern
 
 #: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
 _HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
-            "_held", "singularity_code")  # fmt: skip
+            "_held", "_held_share", "_finite", "_facet_rows", "_basic_values",
+            "singularity_code")  # fmt: skip
 _loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
+_singular_helpers = {name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS}
 condition_bound = njit(cache=True)(kkt.condition_bound)  # lp2s's later passes
 # the safe step, INFEASIBLE: one signature (the kernels pass -1 and a variable alike)
 _stop = njit((float64[:], float64[:], float64[:], int64), cache=True)(singular._stop)
 singular_core = compiled_twin(
     singular.singular_core, _svd=jacobi_svd, loop_check=_loop_check, _stop=_stop,
     pull_scale=compiled_pull_scale,
-    **{name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS},
+    _within_bounds=compiled_twin(singular._within_bounds, loop_check=_loop_check,
+                                 _forward=_singular_helpers["_forward"],
+                                 _backward=_singular_helpers["_backward"]),
+    _vertex_multipliers=compiled_twin(singular._vertex_multipliers,
+                                      _basic_values=_singular_helpers["_basic_values"]),
+    **_singular_helpers,
 )  # fmt: skip
 
 #: :func:`lpik.fast.workspace.workspace_size` (compiled), by its former name.

@@ -65,8 +65,12 @@ INFEASIBLE = 1
 SINGULAR = 2  # beyond this path: the caller solves the LP with HiGHS
 CHECK_FAILED = 3
 
-#: At most this many free multiplier directions are eliminated; more go to HiGHS.
+#: At most this many free multiplier directions are eliminated (Fourier-Motzkin); with more,
+#: the bounds' image along the regular directions (:func:`_facet_rows`) takes them.
 MAX_FREE_MULTIPLIERS = 2
+#: :func:`_facet_rows` takes at most this many regular directions (its facets are normal to
+#: pairs of generators); more, or an infinite multiplier bound, go to HiGHS.
+MAX_FACET_RANK = 3
 
 
 def singularity_code(n, m, r):
@@ -302,44 +306,28 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     held = _held(lam_min, lam_max)
     fixer = sing  # what fixes p: the singularity, or a held multiplier
     if held:
-        lmax = 1.0
-        for a in range(m):
-            lmax = max(lmax, abs(lam_min[a]), abs(al[a]), abs(bl[a]))
-        ltol = 0.25 * EQUALITY_RTOL * lmax
-        for i in range(regular):
-            # lam's share along u_i is (al + p bl) . u_i: the held value's where hi_ = p bi
-            hi_, bi, a_top = 0.0, 0.0, 0
-            for a in range(m):
-                hi_ += U[a, i] * (lam_min[a] - al[a])
-                bi += U[a, i] * bl[a]
-                if abs(U[a, i]) > abs(U[a_top, i]):
-                    a_top = a
-            # the multiplier that moves most along u_i binds, on the side lam would leave by
-            if abs(bi) > ltol:
-                code = 2 * (n + a_top) + (1 if U[a_top, i] * bi > 0.0 else 0)
-                v = hi_ / bi
-                if fixed and abs(v - p_fix) > INTERVAL_TOL * max(1.0, abs(v)):
-                    return _stop(lower, upper, dq, code)
-                fixed, p_fix, fixer = True, v, code
-            elif abs(hi_) > ltol:
-                side = 1 if U[a_top, i] * hi_ < 0.0 else 0
-                return _stop(lower, upper, dq, 2 * (n + a_top) + side)
+        stop, fixed, p_fix, fixer = _held_share(U, regular, al, bl, lam_min, n, fixed, p_fix,
+                                                fixer)  # fmt: skip
+        if stop >= 0:
+            return _stop(lower, upper, dq, stop)
     # --- the multiplier bounds, the free directions eliminated ---
     free = m - regular
     bounded = False
     for a in range(m):
         if math.isfinite(lam_min[a]) or math.isfinite(lam_max[a]):
             bounded = True
-    if bounded and not held and free > MAX_FREE_MULTIPLIERS:
+    # more free directions than eliminated: the bounds' image along the regular ones
+    wide = bounded and not held and free > MAX_FREE_MULTIPLIERS
+    if wide and (regular > MAX_FACET_RANK or not _finite(lam_min, lam_max)):
         return SINGULAR, 0.0, -1, 0.0
-    nz = free if bounded and not held else 0
+    nz = free if bounded and not held and not wide else 0
     width = 3 + max(nz, 1)
     rows = np.zeros((2 * m, width))  # (code, alpha, beta, gamma...)
     nrows = 0
     for a in range(m):
         for side in range(2):
             bound = lam_max[a] if side == 1 else lam_min[a]
-            if held or not math.isfinite(bound):
+            if held or wide or not math.isfinite(bound):
                 continue
             sign = 1.0 if side == 1 else -1.0
             rows[nrows, 0] = 2 * (n + a) + side
@@ -357,9 +345,10 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     lam_codes = np.empty(cnt, dtype=np.int64)
     for k in range(cnt):
         lam_codes[k] = int(last[k, 0])
-    stuck, q_lo, q_lo_code, q_hi, q_hi_code = _interval(
-        last[:cnt, 1].copy(), last[:cnt, 2].copy(), lam_codes, cnt
-    )
+    lam_alpha, lam_beta = last[:cnt, 1].copy(), last[:cnt, 2].copy()
+    if wide:
+        lam_alpha, lam_beta, lam_codes, cnt = _facet_rows(U, regular, al, bl, lam_min, lam_max, n)
+    stuck, q_lo, q_lo_code, q_hi, q_hi_code = _interval(lam_alpha, lam_beta, lam_codes, cnt)
     if stuck >= 0:
         return _stop(lower, upper, dq, stuck)
     if q_hi < p_hi:
@@ -369,6 +358,7 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     top, bottom = min(1.0, p_hi), max(0.0, p_lo)
     if top < bottom - INTERVAL_TOL:
         return _stop(lower, upper, dq, lo_code if bottom > 1.0 else hi_code)
+    touching = top < bottom  # empty within INTERVAL_TOL: a point, where the rows hold there
     if fixed:
         if p_fix > top + INTERVAL_TOL or p_fix < bottom - INTERVAL_TOL:
             return _stop(lower, upper, dq, fixer)
@@ -386,13 +376,20 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
         z[var] = min(max(0.0, lo), hi) if lo <= hi else 0.5 * (lo + hi)
     for i in range(n):  # the step, and its own check (as lpik.check.check_step)
         dq[i] = min(max(a_q[i] + p * b_q[i], lower[i]), upper[i])
-    for a in range(m):
+    if wide and not _vertex_multipliers(U, regular, al, bl, p, lam_min, lam_max, lam):
+        return CHECK_FAILED, p, binding, 0.0
+    for a in range(m if not wide else 0):
         v = al[a] + p * bl[a]
         for j in range(nz):
             u = U[a, regular + j]
             v += u * z[j] if abs(u) > RATE_TOL**0.5 else 0.0
         lam[a] = lam_min[a] if held else v
     ok, res = loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
+    if not ok and touching:  # a multiplier that p moves fast (1 / s_i^2) broken at the point
+        ok, res = _within_bounds(L, rhs, scale, Jt, J, dw, p, lower, upper, lam_min, lam_max, G,
+                                 g, dq, lam)  # fmt: skip
+        if not ok:
+            return _stop(lower, upper, dq, lo_code if bottom > 1.0 else hi_code)
     if not ok:
         return CHECK_FAILED, p, binding, res
     return OK, p, binding, res
@@ -404,6 +401,206 @@ def _held(lam_min, lam_max):
         if lam_min[a] != lam_max[a]:
             return False
     return lam_min.shape[0] > 0
+
+
+def _held_share(U, regular, al, bl, held, n, fixed, p_fix, fixer):
+    """Every multiplier held at ``held``: the ``p`` that the regular directions fix.
+
+    ``lam``'s share along a regular direction ``u_i`` is ``(al + p bl) . u_i``; it
+    must be the held value's, which fixes ``p`` (where ``bl . u_i`` is not 0) or
+    leaves no step. The multiplier that moves most along ``u_i`` binds, on the side
+    ``lam`` would leave by. Returns ``(stop, fixed, p_fix, fixer)``: ``stop`` the code
+    of the conflict (``-1``: none), ``fixer`` the code of what fixes ``p``.
+    """
+    m = U.shape[0]
+    lmax = 1.0
+    for a in range(m):
+        lmax = max(lmax, abs(held[a]), abs(al[a]), abs(bl[a]))
+    ltol = 0.25 * EQUALITY_RTOL * lmax
+    for i in range(regular):
+        gap, bi, top = 0.0, 0.0, 0  # the share to make up, and its rate in p
+        for a in range(m):
+            gap += U[a, i] * (held[a] - al[a])
+            bi += U[a, i] * bl[a]
+            if abs(U[a, i]) > abs(U[top, i]):
+                top = a
+        if abs(bi) > ltol:
+            code = 2 * (n + top) + (1 if U[top, i] * bi > 0.0 else 0)
+            v = gap / bi
+            if fixed and abs(v - p_fix) > INTERVAL_TOL * max(1.0, abs(v)):
+                return code, fixed, p_fix, fixer
+            fixed, p_fix, fixer = True, v, code
+        elif abs(gap) > ltol:
+            return 2 * (n + top) + (1 if U[top, i] * gap < 0.0 else 0), fixed, p_fix, fixer
+    return -1, fixed, p_fix, fixer
+
+
+def _finite(lam_min, lam_max):
+    """True when every multiplier bound is finite."""
+    for a in range(lam_min.shape[0]):
+        if not (math.isfinite(lam_min[a]) and math.isfinite(lam_max[a])):
+            return False
+    return True
+
+
+def _facet_rows(U, regular, al, bl, lam_min, lam_max, n):
+    """The multiplier bounds as rows ``alpha + beta p <= 0`` on ``p`` alone (finite bounds).
+
+    ``lam = al + p bl + U_s z`` lies within its bounds for some ``z`` exactly where
+    its share along the regular directions, ``c(p) = U_r^T (al + p bl)``, lies in the
+    image of the bounds' box, ``U_r^T box``: a zonotope in ``regular`` (at most
+    :data:`MAX_FACET_RANK`) dimensions whose generators are the rows of ``U_r``. Each
+    facet is normal to ``regular - 1`` generators; for each such unit normal ``nu``
+    and its opposite, one row ``nu . c(p) <= max over the box of nu . U_r^T lam``.
+    A row's code is the bound of the multiplier that moves most along ``nu``.
+    Returns ``(alpha, beta, codes, count)``.
+    """
+    m = U.shape[0]
+    normals = np.zeros((max(m * m, 1), 3))
+    count = 0
+    if regular == 1:
+        normals[0, 0], count = 1.0, 1
+    for a in range(m if regular == 2 else 0):
+        normals[count, 0], normals[count, 1] = -U[a, 1], U[a, 0]
+        count += 1
+    for a in range(m if regular == 3 else 0):
+        for b in range(a + 1, m):
+            normals[count, 0] = U[a, 1] * U[b, 2] - U[a, 2] * U[b, 1]
+            normals[count, 1] = U[a, 2] * U[b, 0] - U[a, 0] * U[b, 2]
+            normals[count, 2] = U[a, 0] * U[b, 1] - U[a, 1] * U[b, 0]
+            count += 1
+    alpha, beta = np.empty(2 * count), np.empty(2 * count)
+    codes = np.empty(2 * count, dtype=np.int64)
+    rows = 0
+    for k in range(count):
+        size = math.sqrt(normals[k, 0] ** 2 + normals[k, 1] ** 2 + normals[k, 2] ** 2)
+        if size <= SINGULAR_RTOL:
+            continue  # two generators along one line: no facet
+        for side in range(2):
+            sign = (1.0 if side == 0 else -1.0) / size
+            support, sa, sb, top, code = 0.0, 0.0, 0.0, 0.0, 0
+            for a in range(m):
+                s = 0.0
+                for i in range(regular):
+                    s += sign * normals[k, i] * U[a, i]
+                support += s * (lam_max[a] if s > 0.0 else lam_min[a])
+                sa += s * al[a]
+                sb += s * bl[a]
+                if abs(s) > top:
+                    top, code = abs(s), 2 * (n + a) + (1 if s > 0.0 else 0)
+            alpha[rows], beta[rows], codes[rows] = sa - support, sb, code
+            rows += 1
+    return alpha, beta, codes, rows
+
+
+def _basic_values(U, c, x, cols, rest, d, W):
+    """``x`` at the ``d`` basic multipliers ``cols`` from ``U_B^T x_B = c - U_N^T x_N``.
+
+    The others (the bits of ``rest``) are given in ``x``; Gauss-Jordan with
+    partial pivots on ``W`` (3, 4). False where the basic columns are dependent.
+    """
+    m = U.shape[0]
+    for i in range(d):  # W = [U_B^T | c - U_N^T x_N]
+        W[i, d] = c[i]
+        for a in range(m):
+            if rest >> a & 1:
+                W[i, d] -= U[a, i] * x[a]
+        for j in range(d):
+            W[i, j] = U[cols[j], i]
+    for j in range(d):
+        piv = j
+        for i in range(j + 1, d):
+            if abs(W[i, j]) > abs(W[piv, j]):
+                piv = i
+        if abs(W[piv, j]) <= SINGULAR_RTOL:
+            return False
+        for col in range(d + 1):
+            W[j, col], W[piv, col] = W[piv, col], W[j, col]
+        for i in range(d):
+            if i != j:
+                f = W[i, j] / W[j, j]
+                for col in range(j, d + 1):
+                    W[i, col] -= f * W[j, col]
+    for j in range(d):
+        x[cols[j]] = W[j, d] / W[j, j]
+    return True
+
+
+def _vertex_multipliers(U, regular, al, bl, p, lam_min, lam_max, lam):
+    """``lam`` within its (finite) bounds with ``U_r^T lam = U_r^T (al + p bl)``.
+
+    A vertex of that polytope: ``regular`` multipliers solve the equations, the
+    others sit on a bound; of the vertices within the bounds (to rounding), the
+    one of least ``sum |lam|``. Where ``regular`` is 0 each multiplier is the
+    value nearest 0 its bounds allow. Returns False where no vertex fits (rounding).
+    """
+    m = U.shape[0]
+    d = regular
+    if d == 0:
+        for a in range(m):
+            lam[a] = min(max(0.0, lam_min[a]), lam_max[a])
+        return True
+    c = np.zeros(3)
+    for i in range(d):
+        for a in range(m):
+            c[i] += U[a, i] * (al[a] + p * bl[a])
+    x, W, cols = np.empty(m), np.empty((3, 4)), np.empty(3, dtype=np.int64)
+    best = np.inf
+    for basic in range(1 << m):
+        k = 0
+        for a in range(m):
+            if basic >> a & 1:
+                cols[min(k, 2)] = a
+                k += 1
+        if k != d:
+            continue
+        rest = (1 << m) - 1 - basic
+        upper_set = rest
+        while True:  # every choice of bounds for the others (subsets of rest)
+            for a in range(m):
+                if rest >> a & 1:
+                    x[a] = lam_max[a] if upper_set >> a & 1 else lam_min[a]
+            ok = _basic_values(U, c, x, cols, rest, d, W)
+            total = 0.0
+            for j in range(d if ok else 0):
+                a = cols[j]
+                tol = EQUALITY_RTOL * max(1.0, abs(lam_min[a]), abs(lam_max[a]))
+                if x[a] < lam_min[a] - tol or x[a] > lam_max[a] + tol:
+                    ok = False
+                x[a] = min(max(x[a], lam_min[a]), lam_max[a])
+            for a in range(m):
+                total += abs(x[a])
+            if ok and total < best:
+                best = total
+                for a in range(m):
+                    lam[a] = x[a]
+            if upper_set == 0:
+                break
+            upper_set = (upper_set - 1) & rest
+    return best < np.inf
+
+
+def _within_bounds(L, rhs, scale, Jt, J, dw, p, lower, upper, lam_min, lam_max, G, g, dq, lam):
+    """The step at ``p`` with ``lam`` clipped to its bounds, and its check.
+
+    ``dq`` comes from eq. 18's criterion rows for that ``lam`` and is checked by
+    :func:`~lpik.check.loop_check`. Where the interval of ``p`` closes to a point
+    that a multiplier moving as ``1 / s_i^2`` breaks, this is the answer within
+    the equality tolerance of ``J dq = p dw`` that a general LP solver returns
+    (its own tolerances), or none.
+    """
+    n, m = Jt.shape
+    for a in range(m):
+        lam[a] = min(max(lam[a], lam_min[a]), lam_max[a])
+    v = np.empty((n, 1))
+    for i in range(n):
+        v[i, 0] = rhs[i, 0] + scale * rhs[i, 1]
+        for a in range(m):
+            v[i, 0] -= Jt[i, a] * lam[a]
+    _backward(L, _forward(L, v)[:, 0], dq)
+    for i in range(n):
+        dq[i] = min(max(dq[i], lower[i]), upper[i])
+    return loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
 
 
 def _stop(lower, upper, dq, binding):
