@@ -394,8 +394,10 @@ MISSED_BECAUSE = {
     "position for orientation, and the tool drifts from the goal",
     "goals/step_p99": "as in scenario 10, the slowest 1 % are the stall stage's steps "
     "(off_direction on a fifth of the steps, mostly in goals 7 and 9)",
-    "goals/step_max": "goal 5's 31 infeasible steps, near the singular configuration, go "
-    "to the HiGHS path: measured at d0ae98b, 20 of them took 0.5 to 7 ms",
+    "goals/step_max": "the slowest step is noise of this shared machine: every step is "
+    "answered on the compiled path since 41e4768 (before, goal 5's 31 infeasible steps near "
+    "the singular configuration went to HiGHS, 0.5 to 7 ms each: benchmarks/random_goals.py "
+    "counts the steps not compiled)",
     "end-stop/jitter": "when joint 1 reaches its velocity limit, the saturation pass hands "
     "its motion to the free joints within one step (6.9 rad/s summed over the joints at "
     "step 418 of leg 2), a step in the velocities with energy at every frequency; every "
