@@ -12,7 +12,7 @@ from lpik.check import check_step
 from lpik.labels import SINGULARITY
 from lpik.methods.kkt import affine_solution
 from lpik.methods.lp2 import lp2
-from lpik.methods.singular import MAX_FREE_MULTIPLIERS
+from lpik.methods.singular import MAX_FACET_ROWS, MAX_FREE_MULTIPLIERS
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, OPTIMAL
 
@@ -152,6 +152,10 @@ def test_many_free_multiplier_directions_under_finite_bounds_are_solved_without_
     np.testing.assert_array_equal(res.lam, np.zeros(m))  # the multipliers nearest 0
     one_sided = problem.replace(lam_min=np.full(m, -np.inf))  # an infinite bound: HiGHS
     assert lp2(one_sided).path == "highs"
+    rows = MAX_FACET_ROWS + 1  # too many multipliers to enumerate their box's vertices: HiGHS
+    many = Problem(J=np.zeros((rows, n)), dw=np.zeros(rows), q0=np.zeros(n),
+                   lam_min=np.full(rows, -1.0), lam_max=np.full(rows, 1.0))  # fmt: skip
+    assert lp2(many).path == "highs" and lp2(many).p == 1.0
     unbounded = Problem(J=np.zeros((m, n)), dw=np.zeros(m), q0=np.zeros(n))
     assert lp2(unbounded).path == "singular" and lp2(unbounded).p == 1.0
 

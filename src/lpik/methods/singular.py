@@ -20,10 +20,15 @@ read ``y = L^-1 c - sum_i s_i mu_i v_i`` and, along each ``u_i``,
 
 The LP left over ``p`` and the free ``mu_i`` is solved exactly: the free
 ``mu_i`` are eliminated from the multiplier bounds (Fourier-Motzkin, at most
-:data:`MAX_FREE_MULTIPLIERS` of them; more go to HiGHS), the largest ``p`` in
-the remaining intervals is taken as by the ratio test, and the free ``mu_i``
-are chosen, by back-substitution, as close to 0 as the bounds allow (the
-smallest multipliers). Where every multiplier is held at one value
+:data:`MAX_FREE_MULTIPLIERS` of them), the largest ``p`` in the remaining
+intervals is taken as by the ratio test, and the free ``mu_i`` are chosen, by
+back-substitution, as close to 0 as the bounds allow (the smallest
+multipliers). With more free directions and finite bounds, the bounds become
+rows on ``p`` alone, the facets of their image along the regular directions
+(:func:`_facet_rows`), and ``lam`` a vertex of least ``sum |lam|``
+(:func:`_vertex_multipliers`); beyond :data:`MAX_FACET_RANK` regular
+directions, :data:`MAX_FACET_ROWS` task rows or with an infinite bound,
+HiGHS decides. Where every multiplier is held at one value
 (``lam_min == lam_max``: the automatic bound's floor, ``B = 0``, sec. 3.2)
 ``lam`` is given, however many directions are free: along each regular
 direction ``(a_l + p b_l) . u_i`` must equal the held value's share, which fixes
@@ -71,6 +76,9 @@ MAX_FREE_MULTIPLIERS = 2
 #: :func:`_facet_rows` takes at most this many regular directions (its facets are normal to
 #: pairs of generators); more, or an infinite multiplier bound, go to HiGHS.
 MAX_FACET_RANK = 3
+#: :func:`_vertex_multipliers` enumerates the vertices of ``m`` multipliers' box (``2^m``
+#: choices at most); a step with more task rows than this goes to HiGHS there.
+MAX_FACET_ROWS = 8
 
 
 def singularity_code(n, m, r):
@@ -318,7 +326,7 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
             bounded = True
     # more free directions than eliminated: the bounds' image along the regular ones
     wide = bounded and not held and free > MAX_FREE_MULTIPLIERS
-    if wide and (regular > MAX_FACET_RANK or not _finite(lam_min, lam_max)):
+    if wide and (regular > MAX_FACET_RANK or m > MAX_FACET_ROWS or not _finite(lam_min, lam_max)):
         return SINGULAR, 0.0, -1, 0.0
     nz = free if bounded and not held and not wide else 0
     width = 3 + max(nz, 1)
