@@ -448,17 +448,26 @@ def point_step(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
                     acceleration_checked=True)  # fmt: skip
 
 
+def _held_pose_leg(
+    model: PoseTask, label: str, q0: FloatArray, goal_q: FloatArray, duration: float, dt: float,
+    max_steps: int | None, note: str,
+) -> Leg:  # fmt: skip
+    """From rest at ``q0``, the pose at ``goal_q`` held from the first step (``goal_q`` the
+    configuration that reaches it: the leg's witness)."""
+    pose = model.pose(goal_q)
+    return make_leg(model, label, q0, lambda t: pose, duration, dt, max_steps, held=True,
+                    note=note, witness=lambda t: goal_q)  # fmt: skip
+
+
 def point_to_point(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     """Step targets held from rest: the poses of random configurations about home."""
     q0 = home_configuration("panda")
     legs = []
     for k, (goal_q, size) in enumerate(_random_moves(model, q0)):
         least = rest_to_rest_time(goal_q - q0, model.qd_max, QDD_MAX)
-        pose = model.pose(goal_q)
-        legs.append(make_leg(model, f"move {k + 1}", q0, lambda t, pose=pose: pose,
-                             POINT["duration"], dt, max_steps, held=True,
-                             note=f"{size}; joint move at the limits {least * 1e3:.0f} ms",
-                             witness=lambda t, goal_q=goal_q: goal_q))  # fmt: skip
+        note = f"{size}; joint move at the limits {least * 1e3:.0f} ms"
+        legs.append(_held_pose_leg(model, f"move {k + 1}", q0, goal_q, POINT["duration"], dt,
+                                   max_steps, note))  # fmt: skip
     what = (
         f"The target is one pose from the first step on, held, from rest at the home "
         f"configuration: the poses of {POINT['moves']} configurations drawn within "
@@ -487,12 +496,10 @@ def goals_anywhere(model: PoseTask, dt: float, max_steps: int | None) -> Scenari
     start = model.pose(q0)
     legs = []
     for k, goal_q in enumerate(goal_configurations(model, GOALS["goals"], GOALS["seed"])):
-        pose = model.pose(goal_q)
-        d = model.difference(start, pose)
+        d = model.difference(start, model.pose(goal_q))
         size = f"{np.linalg.norm(d[:3]) * 100:.0f} cm, {np.linalg.norm(d[3:]):.2f} rad"
-        legs.append(make_leg(model, f"goal {k}", q0, lambda t, pose=pose: pose,
-                             GOALS["duration"], dt, max_steps, held=True, note=size,
-                             witness=lambda t, goal_q=goal_q: goal_q))  # fmt: skip
+        legs.append(_held_pose_leg(model, f"goal {k}", q0, goal_q, GOALS["duration"], dt,
+                                   max_steps, size))  # fmt: skip
     what = (
         f"The target is one pose from the first step on, held, from rest at the home "
         f"configuration: the poses of {GOALS['goals']} configurations drawn uniformly from the "
