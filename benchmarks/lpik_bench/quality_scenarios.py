@@ -459,6 +459,17 @@ def _held_pose_leg(
                     note=note, witness=lambda t: goal_q)  # fmt: skip
 
 
+def _held_poses_text(draw: str, legs: list[Leg], remark: str = "") -> str:
+    """A held-pose scenario's description: ``draw`` (how the poses were drawn, up to the
+    legs' notes), each leg's note, ``remark``, and how accelerations are judged."""
+    notes = "; ".join(f"{leg.label}: {leg.note}" for leg in legs)
+    return (
+        "The target is one pose from the first step on, held, from rest at the home "
+        f"configuration: the poses of {draw}{notes}). {remark}Every library's accelerations "
+        "are checked, and those that take acceleration limits run with them."
+    )
+
+
 def point_to_point(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     """Step targets held from rest: the poses of random configurations about home."""
     q0 = home_configuration("panda")
@@ -468,16 +479,12 @@ def point_to_point(model: PoseTask, dt: float, max_steps: int | None) -> Scenari
         note = f"{size}; joint move at the limits {least * 1e3:.0f} ms"
         legs.append(_held_pose_leg(model, f"move {k + 1}", q0, goal_q, POINT["duration"], dt,
                                    max_steps, note))  # fmt: skip
-    what = (
-        f"The target is one pose from the first step on, held, from rest at the home "
-        f"configuration: the poses of {POINT['moves']} configurations drawn within "
-        f"{POINT['spread']:g} rad of home and the end-stops, at least "
-        f"{POINT['distance'] * 100:g} cm and {POINT['turn']:g} rad away "
+    what = _held_poses_text(
+        f"{POINT['moves']} configurations drawn within {POINT['spread']:g} rad of home and the "
+        f"end-stops, at least {POINT['distance'] * 100:g} cm and {POINT['turn']:g} rad away "
         f"({POINT['duration']:g} s each; distance, turn, and the least time in which the "
-        f"joints reach that configuration at their velocity limits and {QDD_MAX:g} rad/s^2: "
-        + "; ".join(f"{leg.label}: {leg.note}" for leg in legs)
-        + "). Every library's accelerations are checked, and those that take acceleration "
-        "limits run with them."
+        f"joints reach that configuration at their velocity limits and {QDD_MAX:g} rad/s^2: ",
+        legs,
     )
     return Scenario("point", "8. Point to point: larger moves under acceleration limits", what,
                     tuple(legs), acceleration_checked=True)  # fmt: skip
@@ -500,15 +507,13 @@ def goals_anywhere(model: PoseTask, dt: float, max_steps: int | None) -> Scenari
         size = f"{np.linalg.norm(d[:3]) * 100:.0f} cm, {np.linalg.norm(d[3:]):.2f} rad"
         legs.append(_held_pose_leg(model, f"goal {k}", q0, goal_q, GOALS["duration"], dt,
                                    max_steps, size))  # fmt: skip
-    what = (
-        f"The target is one pose from the first step on, held, from rest at the home "
-        f"configuration: the poses of {GOALS['goals']} configurations drawn uniformly from the "
-        f"middle {MIDDLE:.0%} of every joint's range (seed {GOALS['seed']}, the first goals of "
-        f"benchmarks/random_goals.py), {GOALS['duration']:g} s each (distance, turn: "
-        + "; ".join(f"{leg.label}: {leg.note}" for leg in legs)
-        + "). Each is reachable within the end-stops, some only on another branch of the "
-        "inverse kinematics than the one a local step follows from home. Every library's "
-        "accelerations are checked, and those that take acceleration limits run with them."
+    what = _held_poses_text(
+        f"{GOALS['goals']} configurations drawn uniformly from the middle {MIDDLE:.0%} of every "
+        f"joint's range (seed {GOALS['seed']}, the first goals of benchmarks/random_goals.py), "
+        f"{GOALS['duration']:g} s each (distance, turn: ",
+        legs,
+        "Each is reachable within the end-stops, some only on another branch of the inverse "
+        "kinematics than the one a local step follows from home. ",
     )
     return Scenario("goals", "11. Reachable goals anywhere in the joint ranges", what,
                     tuple(legs), acceleration_checked=True)  # fmt: skip
