@@ -115,15 +115,20 @@ def rate_band(
     A ``last`` faster than the velocity limits is a fault of the state (a bad
     ``q_prev`` sample: the drives cannot move the joint that fast), not a
     motion to continue: the band is taken around the limit instead
-    (:func:`plausible_step`), and the verdict names the velocity limit on that side.
+    (:func:`plausible_step`), or around the braking distance's bound where that
+    is nearer (a joint near its end-stop: the fault's speed is unknown, and the
+    step it starts must leave the joint the room to stop before the end-stop),
+    and the verdict names the velocity limit on that side.
     """
+    dt2 = dt * dt
+    brake_hi = braking_room(room_hi, -qdd_min * dt2)
+    brake_lo = -braking_room(-room_lo, qdd_max * dt2)
     fault = MET
     if qdd_min > -math.inf or qdd_max < math.inf:  # else the last step binds nothing
         last, fault = plausible_step(last, vel_lo, vel_hi)
-    dt2 = dt * dt
+        if fault != MET:  # no motion to continue into an end-stop
+            last = min(max(last, brake_lo), brake_hi)
     acc_lo, acc_hi = last + qdd_min * dt2, last + qdd_max * dt2
-    brake_hi = braking_room(room_hi, -qdd_min * dt2)
-    brake_lo = -braking_room(-room_lo, qdd_max * dt2)
     soft_lo, lo_kind = (brake_lo, 0) if brake_lo > vel_lo else (vel_lo, 1)
     soft_hi, hi_kind = (brake_hi, 0) if brake_hi < vel_hi else (vel_hi, 1)
     lo, hi, verdict = yield_to(acc_lo, acc_hi, soft_lo, soft_hi)
