@@ -21,6 +21,7 @@ written from coal before it (:class:`SceneRows`).
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -59,7 +60,7 @@ from lpik.control.stepper import Stepper
 from lpik.control.warmup import Warmup, cached, compile_mode, compile_now, warmup
 from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL
 from lpik.fast import layout
-from lpik.fast.autobound import bound_in_state, settings
+from lpik.fast.autobound import bound_in_state, floor_in_state, settings
 from lpik.fast.batch import BatchResult
 from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
@@ -76,6 +77,7 @@ from lpik.fast.step import BAD_INPUT, continues
 from lpik.labels import row_label, step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
+from lpik.methods.autobound import floor_row
 from lpik.methods.progress import (
     STALLS,
     is_stall,
@@ -86,7 +88,7 @@ from lpik.methods.progress import (
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result
 from lpik.robots.base import TaskModel
-from lpik.tolerances import FULL_P, STALL_P
+from lpik.tolerances import FLOOR_CREEP_TIME, FULL_P, STALL_P
 from lpik.types import FloatArray
 
 __all__ = ["Lp2Controller", "SceneRows", "StateRows"]
@@ -439,6 +441,7 @@ class Lp2Controller:
             ref = reference_configuration(template.q_min, template.q_max, np.full(n, np.nan))
         origins, axes, revolute, tip = chain_arrays(model)
         self._n, self._m = n, m
+        self._floor = np.empty(n + 1)  # the bound's floor as the progress step's row (_on_floor)
         self._labels = step_label_table(model.joint_names, m, template.row_labels)
         #: An optimal step's fields as :func:`compiled_result` decodes them; the fast
         #: path of :meth:`step` copies it and fills in the numbers.
@@ -788,7 +791,7 @@ class Lp2Controller:
         start, dq = perf_counter(), np.empty(n)
         stalled = False
         if may_stall:
-            code, before, after = progress_in_state(self._state, q, prev, dq)
+            code, before, after = progress_in_state(self._state, q, prev, dq, self._on_floor(q))
             exact_gain = before - l1_error(J, dw, result.dq)
             stall = code == SOLVED and is_stall(
                 result.p, exact_gain, before - after, result.binding, moving, keeping
@@ -807,6 +810,28 @@ class Lp2Controller:
         progress = progress_result(q, dq, J.copy(), dw.copy(), before, p, binding,
                                    perf_counter() - start, "compiled")  # fmt: skip
         return progress if progress.status == OFF_DIRECTION else result
+
+    def _on_floor(self, q: FloatArray) -> FloatArray:
+        """The bound's floor as the progress step's row, where the step's motion reached it.
+
+        :meth:`Stepper.on_floor <lpik.control.stepper.Stepper.on_floor>`'s rule on the
+        state: where the stop ahead found the floor 0 steps away (the ``singular``
+        block), :func:`lpik.methods.autobound.floor_row`, compiled over a SerialChain
+        (:func:`lpik.fast.autobound.floor_in_state`), else over the backend's Jacobian.
+        Returns the row and its right-hand side (last entry; inf: none).
+        """
+        n, floor = self._n, self._floor
+        floor[n] = math.inf
+        limit = self.automatic_bound
+        if limit is None or layout.vector(self._state, layout.SINGULAR)[0] != 0.0:
+            return floor
+        if fuses_kinematics(self.model):
+            floor[n] = floor_in_state(self._state, q, floor)
+        else:
+            J = layout.matrix_at(self._state, layout.JACOBIAN, self._m, n)
+            floor[n] = floor_row(J, self.model.jacobian, q, limit.activation, limit.floor,
+                                 limit.probe, self.dt / FLOOR_CREEP_TIME, floor)  # fmt: skip
+        return floor
 
     def _bounded(self, q0: Any, target: Any, q_prev: Any, unbounded: Result) -> Result:
         """The bound policy where the kernel did not apply it (a backend's kinematics, HiGHS).

@@ -54,19 +54,21 @@ from lpik.control.inputs import (
 )
 from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL, MODES
 from lpik.highs import HighsSolver
+from lpik.labels import SINGULARITY
 from lpik.limits import (
     AutomaticMultiplierBounds,
     LambdaBound,
     Limit,
     build_problem,
 )
-from lpik.methods.autobound import bound_for_step, singular_steps
+from lpik.methods.autobound import bound_for_step, floor_row, singular_steps
 from lpik.methods.progress import StallWatch, further_step, least_error_lp
 from lpik.methods.registry import DEFAULT_METHOD, MethodSpec, get_method
 from lpik.problem import Problem
 from lpik.result import VIOLATES_LIMITS, Result
 from lpik.robots.base import TaskModel
 from lpik.robots.tasks import as_task_model
+from lpik.tolerances import FLOOR_CREEP_TIME
 from lpik.types import FloatArray
 
 __all__ = ["DEFAULT_METHOD", "Stepper"]
@@ -194,6 +196,9 @@ class Stepper:
         #: The scene's collision avoidance, or None.
         self.avoidance = as_avoidance(model, scene, home_q)
         self.stall_watch = StallWatch(on_stall)
+        #: Where the last step's motion reached the automatic bound's floor (the stop
+        #: ahead 0 steps away): what :meth:`on_floor` rebuilds its problem from, else None.
+        self.floor_reached: tuple[FloatArray | None, FloatArray, FloatArray | None] | None = None
         if mode not in MODES:
             raise ValueError(f"mode: must be one of {', '.join(MODES)}, got {mode!r}")
         #: ``"exact"`` or ``"progress"`` (:data:`lpik.defaults.MODES`).
@@ -299,11 +304,13 @@ class Stepper:
         *,
         bound: FloatArray | None = None,
         jacobian_before: FloatArray | None = None,
+        singular_stop: bool = True,
     ) -> Problem:
         """The limits stage: ``build_problem`` with the scene's rows and field on top.
 
         ``jacobian_before``: :meth:`previous_jacobian` where the caller has it (None:
-        computed where the stops ahead need it).
+        computed where the stops ahead need it). ``singular_stop=False``: without the
+        stop before a singular configuration (:meth:`on_floor`).
         """
         limits, weights = self.limits, self.weights
         if self.avoidance is not None:
@@ -314,7 +321,8 @@ class Stepper:
         before = None if jacobian_before is None else jacobian_before @ (q0 - q_prev)
         P = build_problem(J, dw, q0, limits, dt=self.dt, q_prev=q_prev,
                           continuation=self.continues, motion_before=before,
-                          singular_steps=self.singular_steps(J, jacobian_before, bound),
+                          singular_steps=self.singular_steps(
+                              J, jacobian_before, bound if singular_stop else None),
                           **weights)  # fmt: skip
         return P if bound is None else _under_bound(P, bound)
 
@@ -339,11 +347,15 @@ class Stepper:
             The step's problem and result: ``problem`` and ``result`` where the step
             stays unbounded.
         """
+        self.floor_reached = None
         bound = self.bound_of(problem.q0, problem.J, result)
         if bound is None:
             return problem, result
         J_before = None if q_prev is None else self.previous_jacobian(problem.q0, q_prev)
-        if self.singular_steps(problem.J, J_before, bound) < math.inf:
+        steps = self.singular_steps(problem.J, J_before, bound)
+        if steps == 0.0:
+            self.floor_reached = (q_prev, bound, J_before)
+        if steps < math.inf:
             problem = self.limited(problem.q0, problem.dw, q_prev, problem.J, bound=bound,
                                    jacobian_before=J_before)  # fmt: skip
         else:
@@ -357,13 +369,37 @@ class Stepper:
         return bound_for_step(self.automatic_bound, self.model.jacobian, q0, J, self.task_rows,
                               self.dt, result)  # fmt: skip
 
+    def on_floor(self, problem: Problem) -> Problem:
+        """The stall stage's problem: where the motion reached the bound's floor, its row.
+
+        Where :meth:`bounded` found the floor 0 steps ahead, the progress step takes
+        :func:`lpik.methods.autobound.floor_row` instead of the stop ahead's band
+        (its docstring says why); else ``problem`` as it is.
+        """
+        limit = self.automatic_bound
+        if self.floor_reached is None or limit is None:
+            return problem
+        q_prev, bound, J_before = self.floor_reached
+        n = problem.J.shape[1]
+        row = np.empty(n)
+        rhs = floor_row(problem.J, self.model.jacobian, problem.q0, limit.activation, limit.floor,
+                        limit.probe, self.dt / FLOOR_CREEP_TIME, row)  # fmt: skip
+        if not rhs < math.inf:
+            return problem
+        rebuilt = self.limited(problem.q0, problem.dw, q_prev, problem.J, bound=bound,
+                               jacobian_before=J_before, singular_stop=False)  # fmt: skip
+        return replace(rebuilt, G=np.vstack([rebuilt.G, row]),
+                       h=np.append(rebuilt.h, rhs + row @ problem.q0),
+                       row_labels=(*rebuilt.row_labels, SINGULARITY))  # fmt: skip
+
     def stalled(self, result: Result, problem_of: Callable[[], Problem]) -> Result:
         """The stall stage: the progress step once the step has stalled ``on_stall`` times.
 
-        In ``mode="progress"`` a step that did not stall gets the second stage,
-        :func:`lpik.methods.progress.further_step`, where ``p < 1``.
+        Its problem is :meth:`on_floor`'s. In ``mode="progress"`` a step that did not
+        stall gets the second stage, :func:`lpik.methods.progress.further_step`, where
+        ``p < 1``.
         """
-        checked = self.stall_watch.check(result, problem_of)
+        checked = self.stall_watch.check(result, lambda: self.on_floor(problem_of()))
         if self.mode != "progress" or checked is not result or result.p >= 1.0:
             return checked
         return further_step(problem_of(), result, solver=self._solver)

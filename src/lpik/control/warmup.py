@@ -38,6 +38,7 @@ from typing import Any
 from numba import types
 
 from lpik.defaults import COMPILE_ENV, COMPILE_MODES, DEFAULT_COMPILE
+from lpik.fast.autobound import floor_in_state
 from lpik.fast.progress import (
     further_in_state,
     largest_share_lp,
@@ -54,7 +55,11 @@ _VECTOR, _MATRIX = types.float64[::1], types.float64[:, ::1]
 STAGES = {
     # on_stall (the stall stage; it asks `continues` whether the step was solved around
     # the motion: loaded lazily, its first call took 4 ms)
-    "progress": ((progress_in_state, (_VECTOR,) * 4), (continues, (_VECTOR,) * 3)),
+    "progress": (
+        (progress_in_state, (_VECTOR,) * 5),
+        (continues, (_VECTOR,) * 3),
+        (floor_in_state, (_VECTOR,) * 3),  # the bound's floor as the progress step's row
+    ),
     "further": ((further_in_state, (_VECTOR,) * 5),),  # mode="progress"'s second stage
     # a scene's recovery stage (lpik.collision.recovery.recovery_motion on the state's arrays)
     "recovery": (

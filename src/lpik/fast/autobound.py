@@ -1,7 +1,8 @@
 """The automatic multiplier bound (sec. 3.2), compiled for the fused step.
 
 :func:`lpik.methods.autobound.automatic_bound` is the rule; :data:`automatic_bound`
-(and :data:`singular_steps`, the floor as a stop ahead under acceleration limits)
+(and :data:`singular_steps`, the floor as a stop ahead under acceleration limits,
+and :data:`floor_row`, the floor as a row on the stall stage's progress step)
 is that very function compiled (:func:`lpik.fast.twins.compiled_twin`), with
 the one-sided Jacobi SVD of :mod:`lpik.fast.jacobi` for its singular values
 and the chain's kinematics from the state buffer (:func:`state_jacobian`) for
@@ -16,13 +17,22 @@ import numpy as np
 from numba import njit
 
 from lpik.fast import layout as L
-from lpik.fast.jacobi import singular_values
+from lpik.fast.jacobi import jacobi_svd, singular_values
 from lpik.fast.kinematics import chain_fk_jacobian
 from lpik.fast.twins import compiled_twin, inlined_twin
 from lpik.limits import AutomaticMultiplierBounds
 from lpik.methods import autobound
+from lpik.tolerances import FLOOR_CREEP_TIME
 
-__all__ = ["automatic_bound", "bound_in_state", "settings", "singular_steps", "state_jacobian"]
+__all__ = [
+    "automatic_bound",
+    "bound_in_state",
+    "floor_in_state",
+    "floor_row",
+    "settings",
+    "singular_steps",
+    "state_jacobian",
+]
 
 
 @njit(cache=True)
@@ -56,6 +66,28 @@ singular_steps = compiled_twin(
     _singular_values=singular_values,
     clearly_regular=inlined_twin(autobound.clearly_regular),
 )
+
+
+#: :func:`lpik.methods.autobound.floor_row`, compiled as it is.
+floor_row = compiled_twin(
+    autobound.floor_row,
+    _svd=jacobi_svd,
+    _task_jacobian=state_jacobian,
+    clearly_regular=inlined_twin(autobound.clearly_regular),
+)
+
+
+@njit(cache=True)
+def floor_in_state(state, q0, row):
+    """:func:`floor_row` on the step ``state`` holds (its ``J`` and parameters): ``rhs``.
+
+    ``creep`` is ``dt / FLOOR_CREEP_TIME``; the chain's kinematics in the state
+    give the Jacobian at the probes.
+    """
+    n, m = int(state[L.N]), int(state[L.M])
+    settings = L.vector(state, L.AUTO_BOUND)  # (on, approach time, activation, floor, probe)
+    return floor_row(L.matrix_at(state, L.JACOBIAN, m, n), state, q0, settings[2], settings[3],
+                     settings[4], state[L.DT] / FLOOR_CREEP_TIME, row)  # fmt: skip
 
 
 @njit(cache=True)

@@ -415,16 +415,27 @@ def state_rows(state, q0, q_prev):
 
 
 @njit(cache=True)
-def progress_in_state(state, q0, q_prev, dq):
+def progress_in_state(state, q0, q_prev, dq, floor):
     """The stall stage's progress step on the step a fused step left in ``state``.
 
     ``J`` and ``dw`` are the step's (its Jacobian and command blocks), the
     bounds are recomputed from ``q0`` and ``q_prev`` (eqs. 13-14) and the rows
-    are the state's. Returns ``(outcome, error before, error after)``: the L1
-    task errors ``sum |dw|`` and ``sum |J dq - dw|``.
+    are the state's. ``floor`` (n + 1): where the arm's motion has reached the
+    automatic bound's floor, its row and right-hand side
+    (:func:`lpik.methods.autobound.floor_row`), which the step takes instead of
+    the stop ahead's band; ``floor[n]`` inf: none. Returns ``(outcome, error
+    before, error after)``: the L1 task errors ``sum |dw|`` and ``sum |J dq - dw|``.
     """
+    n = q0.shape[0]
+    ahead = L.vector(state, L.SINGULAR)
+    held = ahead[0]
+    if floor[n] < math.inf:
+        ahead[0] = math.inf  # the row below instead of the stop ahead
     J, dw, lower, upper, G, g = state_rows(state, q0, q_prev)
-    n, m, r = q0.shape[0], J.shape[0], G.shape[0]
+    ahead[0] = held
+    if floor[n] < math.inf:
+        G, g = _with_row(G, g, floor)
+    m, r = J.shape[0], G.shape[0]
     # the motion term from the arm's motion under acceleration limits (progress_center)
     center = np.zeros(n)
     if continues(state, q0, q_prev):
@@ -442,6 +453,21 @@ def progress_in_state(state, q0, q_prev, dq):
         dq[i] = min(max(center[i] + delta[i], lower[i]), upper[i])
     zero = np.zeros(n)
     return code, least_error_value(J, dw, zero), least_error_value(J, dw, dq) - _motion(dq)
+
+
+@njit(cache=True)
+def _with_row(G, g, row):
+    """``G`` and ``g`` with one more row ``row[:n] . dq <= row[n]``."""
+    r, n = G.shape[0], G.shape[1]
+    G2, g2 = np.empty((r + 1, n)), np.empty(r + 1)
+    for j in range(r):
+        g2[j] = g[j]
+        for i in range(n):
+            G2[j, i] = G[j, i]
+    for i in range(n):
+        G2[r, i] = row[i]
+    g2[r] = row[n]
+    return G2, g2
 
 
 @njit(cache=True)

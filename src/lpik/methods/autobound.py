@@ -47,7 +47,14 @@ from lpik.result import Result
 from lpik.tolerances import FULL_P
 from lpik.types import FloatArray
 
-__all__ = ["PARAMETERS", "automatic_bound", "bound_for_step", "parameters", "singular_steps"]
+__all__ = [
+    "PARAMETERS",
+    "automatic_bound",
+    "bound_for_step",
+    "floor_row",
+    "parameters",
+    "singular_steps",
+]
 
 #: The parameters of :class:`~lpik.limits.AutomaticMultiplierBounds` in the order
 #: :func:`automatic_bound` reads them (and the fused step's state holds them).
@@ -65,6 +72,10 @@ def _singular_values(A):  # the compiled twin binds lpik.fast.jacobi's SVD inste
 
 def _task_jacobian(jacobian, q):  # the compiled twin: the chain in the state buffer
     return np.asarray(jacobian(q), dtype=np.float64)
+
+
+def _svd(A):  # the compiled twin binds lpik.fast.jacobi's (the same full U and Vt)
+    return np.linalg.svd(A)
 
 
 def clearly_regular(J, activation):  # type: ignore[no-untyped-def]
@@ -212,6 +223,65 @@ def singular_steps(J: FloatArray, J_before: FloatArray, activation: float, floor
     if not before > s_min:
         return math.inf
     return max(s_min - floor * s_max, 0.0) / (before - s_min)
+
+
+def floor_row(
+    J: FloatArray, jacobian: Any, q0: FloatArray, activation: float, floor: float, probe: float,
+    creep: float, row: FloatArray,
+) -> float:  # fmt: skip
+    """The bound's floor as one row on the progress step, where the arm's motion has reached it.
+
+    Where :func:`singular_steps` finds the floor 0 steps ahead, its stop ahead
+    holds every moving joint to full braking. For the exact step that is the
+    controlled stop it must be; for the stall stage's progress step
+    (:mod:`lpik.methods.progress`) it made a cycle of two steps: the braked
+    motion no longer nears the floor, so the next progress step, free again,
+    sped up towards the singular configuration, and the stop ahead braked it
+    once more (the acceleration reversing on every step: 27,683 reversals over
+    the UR5e's random goals of ``benchmarks/random_goals.py``). There the
+    progress step takes this row instead of the band: the first-order change of
+    ``sigma_min`` along the step, ``sigma_min + grad . dq``, stays at least
+    ``min(sigma_min, floor sigma_max) - creep floor sigma_max``, so the arm slides
+    along the floor and deepens the singular configuration only slowly
+    (``creep = dt / FLOOR_CREEP_TIME``), which a path through it needs.
+    ``grad_i = u^T (dJ/dq_i) v`` (``u``, ``v`` the singular vectors of
+    ``sigma_min``), by a forward difference of ``probe`` rad. Plain loops; the
+    fused step's stall stage compiles this very function (:mod:`lpik.fast.autobound`).
+
+    Args:
+        J: The task Jacobian at ``q0``, (m, n).
+        jacobian: What gives the task Jacobian at a configuration (compiled: the state).
+        q0: Joint coordinates now, (n,).
+        activation: Below this ``sigma_min / sigma_max`` the bound acts (the bound's).
+        floor: The bound's floor, a share of ``sigma_max``.
+        probe: The forward difference's step [rad] (the bound's).
+        creep: The share of ``floor sigma_max`` by which one step may deepen it.
+        row: Receives the row ``row . dq <= rhs``, (n,).
+
+    Returns:
+        ``rhs``; ``inf`` (no row) where ``J`` is far from singular.
+    """
+    m, n = J.shape
+    if m == 0 or not activation > 0.0 or clearly_regular(J, activation):
+        return math.inf
+    U, s, Vt = _svd(J)
+    last = s.size - 1
+    s_max, s_min = s[0], s[last]
+    if s_min > activation * s_max:
+        return math.inf
+    q = np.empty(n)
+    for i in range(n):
+        q[i] = q0[i]
+    for i in range(n):
+        q[i] = q0[i] + probe
+        moved = _task_jacobian(jacobian, q)
+        q[i] = q0[i]
+        change = 0.0
+        for a in range(m):
+            for j in range(n):
+                change += U[a, last] * (moved[a, j] - J[a, j]) * Vt[last, j]
+        row[i] = -change / probe
+    return max(s_min - floor * s_max, 0.0) + creep * floor * s_max
 
 
 def bound_for_step(
