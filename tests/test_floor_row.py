@@ -43,7 +43,7 @@ def test_the_row_is_the_first_order_change_of_sigma_min_and_compiles_alike() -> 
     s = np.linalg.svd(J, compute_uv=False)
     assert s[-1] < limit.activation * s[0]
     row, creep = np.empty(6), DT / FLOOR_CREEP_TIME
-    rhs = floor_row(J, model.jacobian, q, limit.activation, limit.floor, limit.probe, creep, row)
+    rhs = floor_row(J, model.jacobian, q, limit.activation, limit.floor, limit.probe, DT, row)
     expected = max(s[-1] - limit.floor * s[0], 0.0) + creep * limit.floor * s[0]
     assert math.isclose(rhs, expected, rel_tol=1e-12)
     for _ in range(5):  # -row . d is d(sigma_min) along d, to first order
@@ -57,7 +57,7 @@ def test_the_row_is_the_first_order_change_of_sigma_min_and_compiles_alike() -> 
     np.testing.assert_allclose(compiled[:6], row, rtol=1e-6, atol=1e-9 * np.abs(row).max())
     far = home_configuration("ur5e")  # far from singular: no row
     assert floor_row(model.jacobian(far), model.jacobian, far, limit.activation, limit.floor,
-                     limit.probe, creep, row) == math.inf  # fmt: skip
+                     limit.probe, DT, row) == math.inf  # fmt: skip
 
 
 def test_at_the_floor_the_progress_step_slides_without_chatter_on_both_paths() -> None:

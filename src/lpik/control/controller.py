@@ -88,7 +88,7 @@ from lpik.methods.progress import (
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result
 from lpik.robots.base import TaskModel
-from lpik.tolerances import FLOOR_CREEP_TIME, FULL_P, STALL_P
+from lpik.tolerances import FULL_P, STALL_P
 from lpik.types import FloatArray
 
 __all__ = ["Lp2Controller", "SceneRows", "StateRows"]
@@ -830,7 +830,7 @@ class Lp2Controller:
         else:
             J = layout.matrix_at(self._state, layout.JACOBIAN, self._m, n)
             floor[n] = floor_row(J, self.model.jacobian, q, limit.activation, limit.floor,
-                                 limit.probe, self.dt / FLOOR_CREEP_TIME, floor)  # fmt: skip
+                                 limit.probe, self.dt, floor)  # fmt: skip
         return floor
 
     def _bounded(self, q0: Any, target: Any, q_prev: Any, unbounded: Result) -> Result:

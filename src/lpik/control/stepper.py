@@ -68,7 +68,6 @@ from lpik.problem import Problem
 from lpik.result import VIOLATES_LIMITS, Result
 from lpik.robots.base import TaskModel
 from lpik.robots.tasks import as_task_model
-from lpik.tolerances import FLOOR_CREEP_TIME
 from lpik.types import FloatArray
 
 __all__ = ["DEFAULT_METHOD", "Stepper"]
@@ -383,7 +382,7 @@ class Stepper:
         n = problem.J.shape[1]
         row = np.empty(n)
         rhs = floor_row(problem.J, self.model.jacobian, problem.q0, limit.activation, limit.floor,
-                        limit.probe, self.dt / FLOOR_CREEP_TIME, row)  # fmt: skip
+                        limit.probe, self.dt, row)  # fmt: skip
         if not rhs < math.inf:
             return problem
         rebuilt = self.limited(problem.q0, problem.dw, q_prev, problem.J, bound=bound,

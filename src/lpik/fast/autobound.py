@@ -22,7 +22,6 @@ from lpik.fast.kinematics import chain_fk_jacobian
 from lpik.fast.twins import compiled_twin, inlined_twin
 from lpik.limits import AutomaticMultiplierBounds
 from lpik.methods import autobound
-from lpik.tolerances import FLOOR_CREEP_TIME
 
 __all__ = [
     "automatic_bound",
@@ -81,13 +80,12 @@ floor_row = compiled_twin(
 def floor_in_state(state, q0, row):
     """:func:`floor_row` on the step ``state`` holds (its ``J`` and parameters): ``rhs``.
 
-    ``creep`` is ``dt / FLOOR_CREEP_TIME``; the chain's kinematics in the state
-    give the Jacobian at the probes.
+    The chain's kinematics in the state give the Jacobian at the probes.
     """
     n, m = int(state[L.N]), int(state[L.M])
     settings = L.vector(state, L.AUTO_BOUND)  # (on, approach time, activation, floor, probe)
     return floor_row(L.matrix_at(state, L.JACOBIAN, m, n), state, q0, settings[2], settings[3],
-                     settings[4], state[L.DT] / FLOOR_CREEP_TIME, row)  # fmt: skip
+                     settings[4], state[L.DT], row)  # fmt: skip
 
 
 @njit(cache=True)

@@ -44,7 +44,7 @@ import numpy as np
 
 from lpik.limits import AutomaticMultiplierBounds
 from lpik.result import Result
-from lpik.tolerances import FULL_P
+from lpik.tolerances import FLOOR_CREEP_TIME, FULL_P
 from lpik.types import FloatArray
 
 __all__ = [
@@ -227,7 +227,7 @@ def singular_steps(J: FloatArray, J_before: FloatArray, activation: float, floor
 
 def floor_row(
     J: FloatArray, jacobian: Any, q0: FloatArray, activation: float, floor: float, probe: float,
-    creep: float, row: FloatArray,
+    dt: float, row: FloatArray,
 ) -> float:  # fmt: skip
     """The bound's floor as one row on the progress step, where the arm's motion has reached it.
 
@@ -241,9 +241,9 @@ def floor_row(
     the UR5e's random goals of ``benchmarks/random_goals.py``). There the
     progress step takes this row instead of the band: the first-order change of
     ``sigma_min`` along the step, ``sigma_min + grad . dq``, stays at least
-    ``min(sigma_min, floor sigma_max) - creep floor sigma_max``, so the arm slides
+    ``min(sigma_min, floor sigma_max) - floor sigma_max dt / FLOOR_CREEP_TIME``, so the arm slides
     along the floor and deepens the singular configuration only slowly
-    (``creep = dt / FLOOR_CREEP_TIME``), which a path through it needs.
+    (:data:`~lpik.tolerances.FLOOR_CREEP_TIME`), which a path through it needs.
     ``grad_i = u^T (dJ/dq_i) v`` (``u``, ``v`` the singular vectors of
     ``sigma_min``), by a forward difference of ``probe`` rad. Plain loops; the
     fused step's stall stage compiles this very function (:mod:`lpik.fast.autobound`).
@@ -255,7 +255,7 @@ def floor_row(
         activation: Below this ``sigma_min / sigma_max`` the bound acts (the bound's).
         floor: The bound's floor, a share of ``sigma_max``.
         probe: The forward difference's step [rad] (the bound's).
-        creep: The share of ``floor sigma_max`` by which one step may deepen it.
+        dt: Control period [s].
         row: Receives the row ``row . dq <= rhs``, (n,).
 
     Returns:
@@ -281,7 +281,7 @@ def floor_row(
             for j in range(n):
                 change += U[a, last] * (moved[a, j] - J[a, j]) * Vt[last, j]
         row[i] = -change / probe
-    return max(s_min - floor * s_max, 0.0) + creep * floor * s_max
+    return max(s_min - floor * s_max, 0.0) + dt / FLOOR_CREEP_TIME * floor * s_max
 
 
 def bound_for_step(
