@@ -319,3 +319,31 @@ def limiting_ratios(P: Problem) -> list[tuple[float, str]] | None:
             if rate > 1e-12:
                 ratios.append((max(0.0, slack) / rate, labels[i]))
     return sorted(ratios, key=lambda item: item[0])
+
+
+def plausible_last(
+    q0: np.ndarray, q_prev: np.ndarray, model: object, qdd: np.ndarray, dt: float
+) -> np.ndarray:
+    """The last step ``q0 - q_prev`` as the acceleration limits are kept around it.
+
+    Written from the contract (``docs/concepts.md``), not from :mod:`lpik.bands`:
+    a step faster than the velocity limit is taken at the limit; one that is a
+    fault that way, or that lies more than one full deceleration beyond the
+    largest step after which the joint can still stop before its end-stop (no
+    step of the arm's own leaves it), is taken at that braking bound.
+    """
+    last = np.asarray(q0, float) - np.asarray(q_prev, float)
+    vel = model.qd_max * dt  # type: ignore[attr-defined]
+    decel = qdd * dt * dt
+
+    def braking(room: np.ndarray) -> np.ndarray:
+        room = np.maximum(room, 0.0)
+        bound = np.maximum(np.minimum(room, decel), np.sqrt(2.0 * decel * room) - 0.5 * decel)
+        return np.where(room > 0.0, bound, 0.0)
+
+    brake_hi = braking(model.q_max - q0)  # type: ignore[attr-defined]
+    brake_lo = -braking(q0 - model.q_min)  # type: ignore[attr-defined]
+    fault = np.abs(last) > vel * (1.0 + 1e-12) + 1e-12
+    last = np.clip(last, -vel, vel)
+    unstoppable = (last > brake_hi + decel + 1e-12) | (last < brake_lo - decel - 1e-12)
+    return np.where(fault | unstoppable, np.clip(last, brake_lo, brake_hi), last)

@@ -386,3 +386,22 @@ def test_every_qualified_reference_in_a_docstring_resolves() -> None:
         return False
 
     assert [name for name in sorted(names) if not resolves(name)] == []
+
+
+def test_every_test_a_page_names_exists() -> None:
+    """A page that cites a test (``test_x.py::test_y``, or a bare ``test_y`` after it in
+    the same line) names one that is there: a renamed test leaves no stale citation."""
+    defined: dict[str, set[str]] = {}
+    for path in (ROOT / "tests").glob("test_*.py"):
+        defined[path.name] = set(re.findall(r"^(?:async )?def (test_\w+)", path.read_text(), re.M))
+    every = set().union(*defined.values())
+    missing = []
+    for page in [ROOT / "README.md", *sorted(DOCS.rglob("*.md"))]:
+        for number, line in enumerate(page.read_text().splitlines(), 1):
+            for file, name in re.findall(r"`(?:tests/)?(test_\w+\.py)::(test_\w+)", line):
+                if name not in defined.get(file, set()):
+                    missing.append(f"{page.name}:{number}: {file}::{name}")
+            for name in re.findall(r"`(test_\w+)`", line):
+                if name not in every:
+                    missing.append(f"{page.name}:{number}: {name}")
+    assert not missing, "\n".join(missing)

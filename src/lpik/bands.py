@@ -15,6 +15,13 @@ is met exactly, and the lower one as closely as it allows. Precedence:
    deceleration is a bound on the speed now: :func:`braking_room`);
 3. the end-stops themselves.
 
+Precedence applies to motions the arm can have made under these limits. A
+``last`` that no step of its own leaves, faster than the velocity limit
+(:func:`plausible_step`) or too fast to stop before the end-stop by more than
+one braking step (:func:`stoppable_step`), is a fault of the state (a bad
+``q_prev`` sample, a push from outside): it is taken at that limit, and the
+end-stop keeps its room.
+
 A joint outside its end-stops is *pinned* for the step: it returns onto the
 end-stop if its velocity and acceleration limits allow, else as far towards it
 as they allow, and never further out unless its acceleration limit forces it
@@ -118,16 +125,22 @@ def rate_band(
     (:func:`plausible_step`), or around the braking distance's bound where that
     is nearer (a joint near its end-stop: the fault's speed is unknown, and the
     step it starts must leave the joint the room to stop before the end-stop),
-    and the verdict names the velocity limit on that side.
+    and the verdict names the velocity limit on that side. A ``last`` within
+    the velocity limits but more than one braking step beyond the braking
+    distance's bound (:func:`stoppable_step`) is a fault too: the band is taken
+    around that bound, and the verdict names the end-stop (kind 0).
     """
     dt2 = dt * dt
     brake_hi = braking_room(room_hi, -qdd_min * dt2)
     brake_lo = -braking_room(-room_lo, qdd_max * dt2)
-    fault = MET
+    fault, fault_kind = MET, 1
     if qdd_min > -math.inf or qdd_max < math.inf:  # else the last step binds nothing
         last, fault = plausible_step(last, vel_lo, vel_hi)
         if fault != MET:  # no motion to continue into an end-stop
             last = min(max(last, brake_lo), brake_hi)
+        else:  # a motion no step within the braking distance leaves: no motion to continue
+            last, fault = stoppable_step(last, brake_lo, brake_hi, qdd_min * dt2, qdd_max * dt2)
+            fault_kind = 0
     acc_lo, acc_hi = last + qdd_min * dt2, last + qdd_max * dt2
     soft_lo, lo_kind = (brake_lo, 0) if brake_lo > vel_lo else (vel_lo, 1)
     soft_hi, hi_kind = (brake_hi, 0) if brake_hi < vel_hi else (vel_hi, 1)
@@ -141,7 +154,7 @@ def rate_band(
     if acc_hi < soft_hi:
         hi_kind = 2
     if fault != MET:  # the bands meet, around a faulty last step taken at the limit
-        return lo, hi, 1, 1, fault
+        return lo, hi, fault_kind, fault_kind, fault
     return lo, hi, lo_kind, hi_kind, MET
 
 
@@ -190,6 +203,42 @@ def plausible_step(last: float, vel_lo: float, vel_hi: float) -> tuple:
     if last < vel_lo:
         fault = LOWER_YIELDED if vel_lo - last > SLACK_TOL * max(1.0, abs(vel_lo)) else MET
         return vel_lo, fault
+    return last, MET
+
+
+def stoppable_step(
+    last: float, brake_lo: float, brake_hi: float, accel_lo: float, accel_hi: float
+) -> tuple:
+    """The last step as a motion the braking distance can have left: at most one braking step out.
+
+    A step within the braking distance's bound (:func:`braking_room`) leaves
+    the next step's bound at most one full deceleration ``-accel_lo`` (towards
+    the upper end-stop) below it: from its own steps a joint can always stop.
+    A ``last`` further out (a joint that cannot stop before its end-stop, even
+    braking at the acceleration limit from now on) is no motion the arm made
+    under these limits: a bad ``q_prev`` sample, or a push from outside. Its
+    real speed is unknown, and continued, it would run the joint into the
+    end-stop; it is taken at the braking distance's bound instead.
+
+    Args:
+        last: The previous step ``q0 - q_prev``, already within the velocity band.
+        brake_lo: The lower bound of the braking distance (``-braking_room``).
+        brake_hi: The upper bound of the braking distance (``braking_room``).
+        accel_lo: The lower acceleration limit times ``dt^2`` (at most 0).
+        accel_hi: The upper acceleration limit times ``dt^2`` (at least 0).
+
+    Returns:
+        ``(step, verdict)``: the step, and :data:`MET`, or :data:`UPPER_YIELDED`
+        (:data:`LOWER_YIELDED`) where ``last`` lay beyond the upper (lower)
+        bound by more than one braking step and the ratio test's
+        :data:`~lpik.tolerances.SLACK_TOL`.
+    """
+    reach_hi = brake_hi - accel_lo  # the furthest last step the arm's own steps can leave
+    if last > reach_hi and last - reach_hi > SLACK_TOL * max(1.0, abs(reach_hi)):
+        return brake_hi, UPPER_YIELDED
+    reach_lo = brake_lo - accel_hi
+    if last < reach_lo and reach_lo - last > SLACK_TOL * max(1.0, abs(reach_lo)):
+        return brake_lo, LOWER_YIELDED
     return last, MET
 
 

@@ -60,6 +60,7 @@ _yield_to = njit(cache=True)(bands.yield_to)
 rate_band = compiled_twin(
     bands.rate_band,
     plausible_step=njit(cache=True)(bands.plausible_step),
+    stoppable_step=njit(cache=True)(bands.stoppable_step),
     yield_to=_yield_to,
     braking_room=njit(cache=True)(bands.braking_room),
 )
