@@ -327,10 +327,9 @@ def plausible_last(
     """The last step ``q0 - q_prev`` as the acceleration limits are kept around it.
 
     Written from the contract (``docs/concepts.md``), not from :mod:`lpik.bands`:
-    a step faster than the velocity limit is taken at the limit; one that is a
-    fault that way, or that lies more than one full deceleration beyond the
-    largest step after which the joint can still stop before its end-stop (no
-    step of the arm's own leaves it), is taken at that braking bound.
+    a step faster than the velocity limit is taken at the limit, and any step
+    at most one full deceleration beyond the largest step after which the joint
+    can still stop before its end-stop (no step of the arm's own goes further).
     """
     last = np.asarray(q0, float) - np.asarray(q_prev, float)
     vel = model.qd_max * dt  # type: ignore[attr-defined]
@@ -343,7 +342,4 @@ def plausible_last(
 
     brake_hi = braking(model.q_max - q0)  # type: ignore[attr-defined]
     brake_lo = -braking(q0 - model.q_min)  # type: ignore[attr-defined]
-    fault = np.abs(last) > vel * (1.0 + 1e-12) + 1e-12
-    last = np.clip(last, -vel, vel)
-    unstoppable = (last > brake_hi + decel + 1e-12) | (last < brake_lo - decel - 1e-12)
-    return np.where(fault | unstoppable, np.clip(last, brake_lo, brake_hi), last)
+    return np.clip(np.clip(last, -vel, vel), brake_lo - decel, brake_hi + decel)

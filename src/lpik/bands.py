@@ -122,13 +122,13 @@ def rate_band(
     A ``last`` faster than the velocity limits is a fault of the state (a bad
     ``q_prev`` sample: the drives cannot move the joint that fast), not a
     motion to continue: the band is taken around the limit instead
-    (:func:`plausible_step`), or around the braking distance's bound where that
-    is nearer (a joint near its end-stop: the fault's speed is unknown, and the
-    step it starts must leave the joint the room to stop before the end-stop),
-    and the verdict names the velocity limit on that side. A ``last`` within
-    the velocity limits but more than one braking step beyond the braking
-    distance's bound (:func:`stoppable_step`) is a fault too: the band is taken
-    around that bound, and the verdict names the end-stop (kind 0).
+    (:func:`plausible_step`), and the verdict names the velocity limit on that
+    side. Near an end-stop, any ``last`` is taken at most as fast as a motion
+    the joint's own steps can leave, one full deceleration beyond the braking
+    distance's bound (:func:`stoppable_step`), so that the step brakes onto
+    that bound: a ``last`` beyond it (a bad sample within the velocity limits,
+    a push from outside) is a fault too, and the verdict names the end-stop
+    (kind 0).
     """
     dt2 = dt * dt
     brake_hi = braking_room(room_hi, -qdd_min * dt2)
@@ -136,11 +136,10 @@ def rate_band(
     fault, fault_kind = MET, 1
     if qdd_min > -math.inf or qdd_max < math.inf:  # else the last step binds nothing
         last, fault = plausible_step(last, vel_lo, vel_hi)
-        if fault != MET:  # no motion to continue into an end-stop
-            last = min(max(last, brake_lo), brake_hi)
-        else:  # a motion no step within the braking distance leaves: no motion to continue
-            last, fault = stoppable_step(last, brake_lo, brake_hi, qdd_min * dt2, qdd_max * dt2)
-            fault_kind = 0
+        # no motion to continue into an end-stop, whether the speed was a fault or not
+        last, unstoppable = stoppable_step(last, brake_lo, brake_hi, qdd_min * dt2, qdd_max * dt2)
+        if fault == MET and unstoppable != MET:
+            fault, fault_kind = unstoppable, 0
     acc_lo, acc_hi = last + qdd_min * dt2, last + qdd_max * dt2
     soft_lo, lo_kind = (brake_lo, 0) if brake_lo > vel_lo else (vel_lo, 1)
     soft_hi, hi_kind = (brake_hi, 0) if brake_hi < vel_hi else (vel_hi, 1)
@@ -213,12 +212,16 @@ def stoppable_step(
 
     A step within the braking distance's bound (:func:`braking_room`) leaves
     the next step's bound at most one full deceleration ``-accel_lo`` (towards
-    the upper end-stop) below it: from its own steps a joint can always stop.
-    A ``last`` further out (a joint that cannot stop before its end-stop, even
-    braking at the acceleration limit from now on) is no motion the arm made
-    under these limits: a bad ``q_prev`` sample, or a push from outside. Its
-    real speed is unknown, and continued, it would run the joint into the
-    end-stop; it is taken at the braking distance's bound instead.
+    the upper end-stop) below it, exactly so after a step at the bound: from
+    its own steps a joint can always stop. A ``last`` further out (a joint
+    that cannot stop before its end-stop, even braking at the acceleration
+    limit from now on) is no motion the arm made under these limits: a bad
+    ``q_prev`` sample, or a push from outside. Its real speed is unknown, and
+    continued, it would run the joint into the end-stop; it is taken at that
+    furthest motion instead, so that the step, one full deceleration from it,
+    lands on the braking distance's bound. The clip is continuous: a ``last``
+    a rounding beyond (a step at its bound within the ratio test's slack)
+    changes the band by that rounding only.
 
     Args:
         last: The previous step ``q0 - q_prev``, already within the velocity band.
@@ -234,11 +237,13 @@ def stoppable_step(
         :data:`~lpik.tolerances.SLACK_TOL`.
     """
     reach_hi = brake_hi - accel_lo  # the furthest last step the arm's own steps can leave
-    if last > reach_hi and last - reach_hi > SLACK_TOL * max(1.0, abs(reach_hi)):
-        return brake_hi, UPPER_YIELDED
+    if last > reach_hi:
+        fault = UPPER_YIELDED if last - reach_hi > SLACK_TOL * max(1.0, abs(reach_hi)) else MET
+        return reach_hi, fault
     reach_lo = brake_lo - accel_hi
-    if last < reach_lo and reach_lo - last > SLACK_TOL * max(1.0, abs(reach_lo)):
-        return brake_lo, LOWER_YIELDED
+    if last < reach_lo:
+        fault = LOWER_YIELDED if reach_lo - last > SLACK_TOL * max(1.0, abs(reach_lo)) else MET
+        return reach_lo, fault
     return last, MET
 
 
