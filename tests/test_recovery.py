@@ -56,6 +56,31 @@ def test_braking_room_always_leaves_a_stop_before_the_end_stop(room, speed, qdd,
     assert bands.braking_room(0.0, decel) == 0.0 and bands.braking_room(-0.1, decel) == 0.0
 
 
+@settings(max_examples=examples(300), deadline=None)
+@given(room=st.floats(0.0, 1.0), share=st.floats(0.0, 1.0), qdd=st.floats(0.1, 100.0),
+       dt=st.sampled_from([1e-3, 4e-3, 1e-2]))  # fmt: skip
+def test_no_step_within_the_braking_bound_leaves_a_motion_taken_as_a_fault(
+    room, share, qdd, dt
+) -> None:
+    """A step up to the braking distance's bound (``share`` of it) leaves a ``last`` that
+    :func:`lpik.bands.stoppable_step` keeps as it is on the next step: the fault is only
+    for motions the arm cannot have made under its limits. One beyond by more than one
+    full deceleration is clipped to that furthest motion, continuously."""
+    decel = qdd * dt * dt
+    step = share * bands.braking_room(room, decel)
+    left = room - step
+    brake_hi = bands.braking_room(left, decel)
+    kept, fault = bands.stoppable_step(step, -math.inf, brake_hi, -decel, decel)
+    assert fault == bands.MET  # at the bound exactly: the same step within one rounding
+    assert kept == pytest.approx(step, rel=1e-12, abs=1e-18)
+    beyond = brake_hi + decel + 1e-6
+    assert bands.stoppable_step(beyond, -math.inf, brake_hi, -decel, decel) == (
+        brake_hi + decel, bands.UPPER_YIELDED)  # fmt: skip
+    # the lower side alike, mirrored
+    kept, fault = bands.stoppable_step(-step, -brake_hi, math.inf, -decel, decel)
+    assert fault == bands.MET and kept == pytest.approx(-step, rel=1e-12, abs=1e-18)
+
+
 def test_a_joint_outside_its_end_stop_is_pinned_back_towards_it() -> None:
     # 0.05 past q_max, 0.01 back per step: pinned at -0.01; 0.005 past: pinned onto it
     assert bands.stop_band(1.05, -1.0, 1.0, -0.01, 0.01)[:2] == (-0.01, -0.01)
