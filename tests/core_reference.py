@@ -327,9 +327,11 @@ def plausible_last(
     """The last step ``q0 - q_prev`` as the acceleration limits are kept around it.
 
     Written from the contract (``docs/concepts.md``), not from :mod:`lpik.bands`:
-    a step faster than the velocity limit is taken at the limit, and any step
-    at most one full deceleration beyond the largest step after which the joint
-    can still stop before its end-stop (no step of the arm's own goes further).
+    a step faster than the velocity limit is taken at the limit, or at rest where
+    it lies more than one step of acceleration past it (a sample that tells nothing
+    of the motion), and any step at most one full deceleration beyond the largest
+    step after which the joint can still stop before its end-stop (no step of the
+    arm's own goes further).
     """
     last = np.asarray(q0, float) - np.asarray(q_prev, float)
     vel = model.qd_max * dt  # type: ignore[attr-defined]
@@ -342,4 +344,5 @@ def plausible_last(
 
     brake_hi = braking(model.q_max - q0)  # type: ignore[attr-defined]
     brake_lo = -braking(q0 - model.q_min)  # type: ignore[attr-defined]
-    return np.clip(np.clip(last, -vel, vel), brake_lo - decel, brake_hi + decel)
+    plausible = np.where(np.abs(last) > vel + decel, 0.0, np.clip(last, -vel, vel))
+    return np.clip(plausible, brake_lo - decel, brake_hi + decel)

@@ -177,20 +177,31 @@ def test_a_start_past_an_end_stop_recovers_on_every_path(
 
 
 def test_a_speed_above_its_limit_is_a_fault_taken_at_the_limit_and_named() -> None:
-    # 3 rad/s against a limit of 1 rad/s: a bad q_prev sample, not a motion to continue
-    arm = planar()
-    q = np.array([0.3, 0.4, 0.5, 0.6])
-    prev = q - np.array([0.003, 0.0, 0.0, 0.0])
-    limits = [*standard_limits(arm), AccelerationLimits(np.full(4, 100.0))]
+    # 1.05 rad/s against a limit of 1 rad/s (within one step of acceleration past it, 1.1):
+    # a fault of the state, not a motion to continue, taken at the limit
     from lpik.limits import build_problem
 
-    problem = build_problem(arm.jacobian(q), np.zeros(2), q, limits, dt=DT, q_prev=prev,
-                            joint_names=arm.joint_names, continuation=True)  # fmt: skip
-    assert problem.recovering() == ("joint 1 upper velocity limit",)
-    lower, upper = problem.step_bounds()[:2]
+    arm = planar()
+    q = np.array([0.3, 0.4, 0.5, 0.6])
+    limits = [*standard_limits(arm), AccelerationLimits(np.full(4, 100.0))]
+
+    def problem(speed: float):  # type: ignore[no-untyped-def]
+        prev = q - np.array([speed * DT, 0.0, 0.0, 0.0])
+        return build_problem(arm.jacobian(q), np.zeros(2), q, limits, dt=DT, q_prev=prev,
+                             joint_names=arm.joint_names, continuation=True)  # fmt: skip
+
+    near = problem(1.05)
+    assert near.recovering() == ("joint 1 upper velocity limit",)
+    lower, upper = near.step_bounds()[:2]
     assert upper[0] == pytest.approx(0.001)  # the band is taken around the limit
     assert lower[0] == pytest.approx(0.001 - 100.0 * DT**2)
-    assert problem.motion[0] == pytest.approx(0.001)  # the motion continued: at the limit
+    assert near.motion[0] == pytest.approx(0.001)  # the motion continued: at the limit
+    # 3 rad/s: no motion the drives can have made even one step past the limit; the
+    # sample tells nothing of the motion, and the band is taken around rest
+    far = problem(3.0)
+    assert far.recovering() == ("joint 1 upper velocity limit",)
+    lower, upper = far.step_bounds()[:2]
+    assert (lower[0], upper[0]) == pytest.approx((-100.0 * DT**2, 100.0 * DT**2))
 
 
 def test_a_bad_q_prev_sample_never_runs_a_joint_past_its_end_stop() -> None:

@@ -19,8 +19,9 @@ Precedence applies to motions the arm can have made under these limits. A
 ``last`` that no step of its own leaves, faster than the velocity limit
 (:func:`plausible_step`) or too fast to stop before the end-stop by more than
 one braking step (:func:`stoppable_step`), is a fault of the state (a bad
-``q_prev`` sample, a push from outside): it is taken at that limit, and the
-end-stop keeps its room.
+``q_prev`` sample, a push from outside): it is taken at that limit (at rest,
+where it lies more than one step of acceleration past the velocity limit:
+:func:`rate_band`), and the end-stop keeps its room.
 
 A joint outside its end-stops is *pinned* for the step: it returns onto the
 end-stop if its velocity and acceleration limits allow, else as far towards it
@@ -121,21 +122,30 @@ def rate_band(
 
     A ``last`` faster than the velocity limits is a fault of the state (a bad
     ``q_prev`` sample: the drives cannot move the joint that fast), not a
-    motion to continue: the band is taken around the limit instead
-    (:func:`plausible_step`), and the verdict names the velocity limit on that
-    side. Near an end-stop, any ``last`` is taken at most as fast as a motion
-    the joint's own steps can leave, one full deceleration beyond the braking
-    distance's bound (:func:`stoppable_step`), so that the step brakes onto
-    that bound: a ``last`` beyond it (a bad sample within the velocity limits,
-    a push from outside) is a fault too, and the verdict names the end-stop
-    (kind 0).
+    motion to continue, and the verdict names the velocity limit on that side.
+    Within one step of acceleration past the limit (a joint at its limit, and
+    noise or a push) the band is taken around the limit (:func:`plausible_step`).
+    Beyond that the sample tells nothing of the motion, and the band is taken
+    around rest: taken at the limit, one bad sample would send the joint at
+    full speed in the sample's direction, which the acceleration limits then
+    take a long way to stop (a closed-loop fuzz: a UR5e's base swung 0.5 rad
+    into its own wrist, 97 mm deep). Near an end-stop, any ``last`` is taken
+    at most as fast as a motion the joint's own steps can leave, one full
+    deceleration beyond the braking distance's bound (:func:`stoppable_step`),
+    so that the step brakes onto that bound: a ``last`` beyond it (a bad
+    sample within the velocity limits, a push from outside) is a fault too,
+    and the verdict names the end-stop (kind 0).
     """
     dt2 = dt * dt
     brake_hi = braking_room(room_hi, -qdd_min * dt2)
     brake_lo = -braking_room(-room_lo, qdd_max * dt2)
     fault, fault_kind = MET, 1
     if qdd_min > -math.inf or qdd_max < math.inf:  # else the last step binds nothing
+        sample = last
         last, fault = plausible_step(last, vel_lo, vel_hi)
+        if fault != MET and not vel_lo - qdd_max * dt2 <= sample <= vel_hi - qdd_min * dt2:
+            # not even one step of acceleration past the limit: no motion at all is known
+            last = min(max(0.0, vel_lo), vel_hi)
         # no motion to continue into an end-stop, whether the speed was a fault or not
         last, unstoppable = stoppable_step(last, brake_lo, brake_hi, qdd_min * dt2, qdd_max * dt2)
         if fault == MET and unstoppable != MET:
@@ -152,7 +162,7 @@ def rate_band(
         lo_kind = 2
     if acc_hi < soft_hi:
         hi_kind = 2
-    if fault != MET:  # the bands meet, around a faulty last step taken at the limit
+    if fault != MET:  # the bands meet, around a faulty last step taken as plausible
         return lo, hi, fault_kind, fault_kind, fault
     return lo, hi, lo_kind, hi_kind, MET
 
