@@ -596,9 +596,8 @@ class Lp2Controller:
         q = np.ascontiguousarray(q0, dtype=np.float64)
         labels = self.scene_rows.labels
         binding = row_label(rows[0], labels[rows[0]]).outside()
-        J, dw, lower, upper, G, g = state_rows(
-            self._state, q, q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
-        )
+        prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
+        J, dw, lower, upper, G, g = state_rows(self._state, q, prev, True)
         if keeps_direction(result) and rows_kept(G[rows], g[rows], result.dq):
             return marked_recovering(result, binding)
         dq = recovery_motion(J, dw, lower, upper, G, g, rows, compiled_least_error,

@@ -396,12 +396,17 @@ def further_progress(J, dw, lower, upper, G, g, dq1, dq):
 
 
 @njit(cache=True)
-def state_rows(state, q0, q_prev):
-    """The step's ``J``, ``dw``, bounds on ``dq`` and rows ``G dq <= h - G q0`` from ``state``."""
+def state_rows(state, q0, q_prev, singular_stop):
+    """The step's ``J``, ``dw``, bounds on ``dq`` and rows ``G dq <= h - G q0`` from ``state``.
+
+    ``singular_stop`` False: the bounds without the stop before a singular configuration
+    (:func:`lpik.fast.step.fading_in_state`; the floor's row takes its place).
+    """
     n, m, r = q0.shape[0], int(state[L.M]), int(state[L.R])
     lower, upper, kinds = np.empty(n), np.empty(n), np.empty((2, n))
     J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
-    fading = fading_in_state(state, q0, q_prev, J, dw) if continues(state, q0, q_prev) else math.inf
+    moving = continues(state, q0, q_prev)
+    fading = fading_in_state(state, q0, q_prev, J, dw, singular_stop) if moving else math.inf
     step_bounds(L.matrix_at(state, L.LIMITS, 6, n), state[L.DT], q0, q_prev, lower, upper, kinds,
                 fading)  # fmt: skip
     G, h = L.matrix_at(state, L.ROWS_G, r, n), L.vector(state, L.ROWS_H)
@@ -427,14 +432,11 @@ def progress_in_state(state, q0, q_prev, dq, floor):
     before, error after)``: the L1 task errors ``sum |dw|`` and ``sum |J dq - dw|``.
     """
     n = q0.shape[0]
-    ahead = L.vector(state, L.SINGULAR)
-    held = ahead[0]
-    if floor[n] < math.inf:
-        ahead[0] = math.inf  # the row below instead of the stop ahead
-    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev)
-    ahead[0] = held
-    if floor[n] < math.inf:
-        G, g = _with_row(G, g, floor)
+    on_floor = floor[n] < math.inf  # the row instead of the stop ahead
+    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev, not on_floor)
+    if on_floor:  # one more row floor[:n] . dq <= floor[n]
+        G = np.vstack((G, floor[:n].copy().reshape((1, n))))
+        g = np.append(g, floor[n])
     m, r = J.shape[0], G.shape[0]
     # the motion term from the arm's motion under acceleration limits (progress_center)
     center = np.zeros(n)
@@ -456,28 +458,13 @@ def progress_in_state(state, q0, q_prev, dq, floor):
 
 
 @njit(cache=True)
-def _with_row(G, g, row):
-    """``G`` and ``g`` with one more row ``row[:n] . dq <= row[n]``."""
-    r, n = G.shape[0], G.shape[1]
-    G2, g2 = np.empty((r + 1, n)), np.empty(r + 1)
-    for j in range(r):
-        g2[j] = g[j]
-        for i in range(n):
-            G2[j, i] = G[j, i]
-    for i in range(n):
-        G2[r, i] = row[i]
-    g2[r] = row[n]
-    return G2, g2
-
-
-@njit(cache=True)
 def further_in_state(state, q0, q_prev, dq1, dq):
     """``mode="progress"``'s second stage after the exact step ``dq1``, over ``state``'s step.
 
     ``dq`` receives the step; returns ``(outcome, error before, error after)``, the
     L1 task errors of the exact step and of ``dq``.
     """
-    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev)
+    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev, True)
     code = further_progress(J, dw, lower, upper, G, g, dq1, dq)
     before = least_error_value(J, dw, dq1) - _motion(dq1)
     return code, before, least_error_value(J, dw, dq) - _motion(dq)

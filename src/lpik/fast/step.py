@@ -151,20 +151,21 @@ def continues(state, q0, q_prev):
 
 
 @njit(cache=True)
-def fading_in_state(state, q0, q_prev, J, dw):
+def fading_in_state(state, q0, q_prev, J, dw, singular_stop):
     """In how many steps the motion ``q0 - q_prev`` is to stop: the stops ahead of the step.
 
     The nearer of :func:`lpik.continuation.fading_steps` (``J(q_prev) last`` is the
-    ``rho`` block's row 0, :func:`last_task_motion`) and the stop before a
-    singular configuration (the ``singular`` block: :func:`singular_ahead`, finite
-    only in a step solved under the automatic multiplier bound).
+    ``rho`` block's row 0, :func:`last_task_motion`) and, with ``singular_stop``,
+    the stop before a singular configuration (the ``singular`` block:
+    :func:`singular_ahead`, finite only in a step solved under the automatic
+    multiplier bound).
     """
     n, m = q0.shape[0], J.shape[0]
     last = L.vector(state, L.LAST)  # scratch here: continue_motion fills it afterwards
     for i in range(n):
         last[i] = q0[i] - q_prev[i]
     steps = fading_steps(J, dw, last, L.matrix_at(state, L.RHO, 2, m)[0])
-    return min(steps, L.vector(state, L.SINGULAR)[0])
+    return min(steps, L.vector(state, L.SINGULAR)[0]) if singular_stop else steps
 
 
 @njit(cache=True)
@@ -282,7 +283,7 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     kinds = L.matrix_at(state, L.KINDS, 2, n)
     dq, lam = L.vector(state, L.DQ), L.vector(state, L.LAM)
     moving = continues(state, q0, q_prev)
-    fading = fading_in_state(state, q0, q_prev, J, dw) if moving else math.inf
+    fading = fading_in_state(state, q0, q_prev, J, dw, True) if moving else math.inf
     outside = step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading)
     origin = continue_motion(state, q0, q_prev, J, dw, lower, upper) if moving else q0
     G = L.matrix_at(state, L.ROWS_G, r, n)
