@@ -74,7 +74,23 @@ def test_lp1_achieves_at_least_lp2s_dexterity(case: Case) -> None:
     p1 = case.solve("lp1")
     p2 = case.solve("lp2")
     assert p1.moved
-    assert p1.p >= p2.p - 1e-9
+    if exact_on_every_row(case.problem, p2):
+        assert p1.p >= p2.p - 1e-9
+
+
+def exact_on_every_row(P, res: Result) -> bool:  # type: ignore[no-untyped-def]
+    """True when ``J dq = p dw`` holds on every row to 1e-9 of that row's own scale.
+
+    The contract bounds the residual relative to the whole task (:data:`EQUALITY_RTOL`):
+    where a row of ``J`` is tiny (a planar arm stretched along one axis, ``J`` row
+    1e-7) LP2's singular path may count it as rank-deficient and move along ``dw``
+    with a residual of the row's own size, while HiGHS solves that row exactly and
+    finds p = 0. Both are right within the tolerance; only steps exact on every row
+    bind LP1 to reach at least as far.
+    """
+    residual = np.abs(P.J @ res.dq - res.p * P.dw)
+    scale = np.abs(P.J) @ np.abs(res.dq) + res.p * np.abs(P.dw)
+    return bool(np.all(residual <= 1e-9 * np.maximum(scale, 1e-300) + 1e-15))
 
 
 #: Agreement of an optimal value with linprog's, beyond the bracket of the tolerances.
