@@ -10,6 +10,7 @@ from scipy.optimize import linprog
 
 from core_strategies import examples
 from lpik import Lp2Controller, home_configuration
+from lpik.collision.avoidance import INACTIVE_RHS
 from lpik.control.stepper import Stepper
 from lpik.defaults import DEFAULT_ON_STALL
 from lpik.methods.progress import (
@@ -70,7 +71,16 @@ def least_error_cases(draw):
     lower[pinned] = np.minimum(lower[pinned], 0.0)
     r = draw(st.integers(0, 3))
     G, g = rng.normal(size=(r, n)), rng.uniform(-0.005, 0.01, r)
-    return J, dw, lower, upper, G, g
+    return J, dw, lower, upper, *with_inactive_rows(draw, G, g)
+
+
+def with_inactive_rows(draw, G, g):  # type: ignore[no-untyped-def]
+    """``G``, ``g`` with, sometimes, a controller's reserved rows that no pair fills
+    (``0 dq <= INACTIVE_RHS``): a row of 1e9 must not loosen the others' tolerance."""
+    if not draw(st.booleans()):
+        return G, g
+    k = draw(st.integers(1, 2))
+    return np.vstack([G, np.zeros((k, G.shape[1]))]), np.append(g, np.full(k, INACTIVE_RHS))
 
 
 @settings(max_examples=examples(150), deadline=None)
@@ -105,7 +115,8 @@ def share_cases(draw):
     rhs = rng.uniform(-0.05, 0.01, r)
     inside = rng.random(r) < 0.6
     demand = np.where(inside & (rhs < 0), rhs, 0.0)
-    return G, rhs - demand, demand, lower, upper
+    G, b = with_inactive_rows(draw, G, rhs - demand)
+    return G, b, np.append(demand, np.zeros(b.size - demand.size)), lower, upper
 
 
 @settings(max_examples=examples(200), deadline=None)
@@ -142,6 +153,18 @@ def test_no_step_holds_infeasible_rows() -> None:
     code, dq = fast.least_error(J, dw, -np.ones(2), np.ones(2), G, g)
     assert code == fast.INFEASIBLE
     np.testing.assert_array_equal(dq, 0.0)
+
+
+def test_a_reserved_row_does_not_excuse_a_broken_one() -> None:
+    """A row broken by 1e-4 (the bounds force ``x >= 0.0105``, the row asks ``x <= 0.0104``)
+    is infeasible beside a reserved row ``0 dq <= 1e9``, whose scale once loosened phase 1's
+    tolerance to 100 (a folded UR5e braking into a pair's ``d_s`` was called solved)."""
+    J, dw = np.eye(1), np.array([0.0])
+    G, g = np.array([[1.0], [0.0]]), np.array([0.0104, INACTIVE_RHS])
+    code, _ = fast.least_error(J, dw, np.array([0.0105]), np.array([0.02]), G, g)
+    assert code == fast.INFEASIBLE
+    code, _ = fast.largest_share_lp(G, g, np.zeros(2), np.array([0.0105]), np.array([0.02]))
+    assert code == fast.INFEASIBLE
 
 
 def test_further_progress_never_worsens_a_task_row() -> None:

@@ -250,3 +250,63 @@ def test_the_recovery_rule_on_the_state_rows_is_the_rule_on_the_problem(
     served = [hit for hit in hits if hit is not None]
     assert sum(hit.method != "recovery" for hit in served) >= 10  # marked, from the state's rows
     assert sum(hit.method == "recovery" for hit in served) >= 5  # the LPs on the state's arrays
+
+
+# ---------------------------------------------------- pairs whose gradients contradict
+
+#: A UR5e folded onto itself (elbow on its end-stop at pi): seven link pairs overlap by up
+#: to 97 mm, and no step moves all of them apart (a closed-loop fuzz with one bad
+#: ``q_prev`` sample ended here).
+FOLDED_UR5E = np.array([-1.503, -1.79, np.pi, -1.672, -2.608, 1.069])
+
+
+def total_penetration(avoid, q) -> float:  # type: ignore[no-untyped-def]
+    """The sum over pairs of how far each is inside ``d_s`` [m]."""
+    safety = avoid.scene.safety_distance
+    return sum(max(0.0, safety - p.distance) for p in avoid.proximities.at(q))
+
+
+def test_a_folded_arm_comes_apart_where_no_step_moves_every_pair_apart() -> None:
+    """Where the pairs' distance gradients contradict each other (the largest share of their
+    demand is 0), the recovery step is the step of least total penetration: the arm comes
+    apart instead of standing still, the compiled rule on the state's rows takes the same
+    steps as the rule on the step's problem, and no joint limit breaks."""
+    from lpik import Lp2Controller
+
+    ur5e = load_robot("ur5e", task="position")
+    far = ball_scene([3.0, 3.0, 3.0], 0.05, 0.02, 0.1)
+    avoid = collision_avoidance(ur5e, far, home_configuration("ur5e"))
+    fast, slow = (Lp2Controller(ur5e, dt=0.01, scene=avoid, qdd_max=10.0) for _ in range(2))
+    slow._recovered_in_state = lambda *args: None  # type: ignore[method-assign]
+    in_state, hits = fast._recovered_in_state, []
+    fast._recovered_in_state = (  # type: ignore[method-assign]
+        lambda *args: hits.append(in_state(*args)) or hits[-1]
+    )
+    target = np.array([0.3, 0.2, 0.5])
+    q, prev = FOLDED_UR5E.copy(), FOLDED_UR5E.copy()
+    before = total_penetration(avoid, q)
+    for _ in range(60):
+        a, b = fast.step(q, target, prev), slow.step(q, target, prev)
+        np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-9)
+        assert a.status == b.status == RECOVERING
+        assert np.all(a.q >= ur5e.q_min - 1e-9) and np.all(a.q <= ur5e.q_max + 1e-9)
+        prev, q = q, a.q
+    # served from the state's rows, but where the acceleration limits carry the arm into
+    # another pair's d_s whatever the step (no LP answers: the braking safe step, alike)
+    assert sum(hit is not None for hit in hits) >= 55
+    assert total_penetration(avoid, q) < before - 0.05
+
+
+def test_only_the_rows_of_pairs_inside_demand_an_increase() -> None:
+    """A label names one row per capsule pair: of a link pair inside ``d_s``, the row of a
+    capsule pair outside it is an ordinary row and a reserved row left empty (``0 dq <=
+    1e9``) is none; neither is asked to move apart (a demand of 1e9 broke the share LP)."""
+    from lpik.collision.avoidance import INACTIVE_RHS
+    from lpik.collision.recovery import demanding_rows, inside_pairs
+
+    labels = ["a - b", "a - b", "a - b", "c - d"]
+    G = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    g = np.array([INACTIVE_RHS, -0.002, 0.003, -0.001])
+    inside = inside_pairs(["a - b", "a - b", "c - d"], [0.015, -0.03, 0.01], safety=0.02)
+    assert inside == {"a - b": -0.03, "c - d": 0.01}  # the deepest of a label's pairs
+    assert demanding_rows(labels, G, g, inside) == [1, 3]  # deepest first

@@ -304,34 +304,26 @@ class CollisionAvoidance:
         return recovery.recovered(problem, result, inside, least_error, largest_share)
 
     def with_rows(self, problem: Problem, inside: Mapping[str, float], dt: float) -> Problem:
-        """``problem`` with a damper's row for every pair of ``inside`` without an active one.
+        """``problem`` with a damper's row for every pair of ``inside`` without one.
 
-        A pair's row is missing where the problem has none (the field's) or an
-        inactive one (``0 q <= INACTIVE_RHS``, a controller's reserved row).
+        A pair's row is missing where the problem has no row of its label that demands
+        an increase (:func:`lpik.collision.recovery.demanding_rows`): the field's pairs,
+        or a controller's reserved rows left inactive (``0 q <= INACTIVE_RHS``). The
+        rows of those pairs (one per capsule pair inside ``d_s``) are appended.
         """
-        row_of: dict[str, int] = {}
-        for k, label in enumerate(problem.row_labels):
-            row_of.setdefault(str(label), k)  # the first row of a label, as before
-        active = np.abs(problem.G).max(axis=1, initial=0.0) > 0.0
-        if all(label in row_of and active[row_of[label]] for label in inside):
+        covered = {str(problem.row_labels[k]) for k in recovery.inside_rows(problem, inside)}
+        if covered >= set(inside):
             return problem  # every pair inside has its row already (the rows' mechanism)
-        G, h = problem.G.copy(), problem.h.copy()
         pairs, rows, rhs = DistanceRows(self.proximities, self.approach_speed, True).pair_rows(
             problem.q0, dt)  # fmt: skip
         found = self.proximities.at(problem.q0)
-        extra = []
-        for k, row, b in zip(pairs, rows, rhs):
-            label = found[k].label
-            at = row_of.get(label, -1)
-            if at < 0:
-                extra.append((label, row, b))
-            elif not active[at]:
-                G[at], h[at] = row, b
-        if not extra and np.array_equal(G, problem.G):
+        extra = [(found[k].label, row, b) for k, row, b in zip(pairs, rows, rhs)
+                 if found[k].label in inside and found[k].label not in covered]  # fmt: skip
+        if not extra:
             return problem
         return problem.replace(
-            G=np.vstack([G, *(row for _, row, _ in extra)]),
-            h=np.concatenate([h, [b for _, _, b in extra]]),
+            G=np.vstack([problem.G, *(row for _, row, _ in extra)]),
+            h=np.concatenate([problem.h, [b for _, _, b in extra]]),
             row_labels=(*problem.row_labels, *(label for label, _, _ in extra)),
         )
 

@@ -25,7 +25,12 @@ marked recovering), as a recovery from past an end-stop names the end-stop:
   ``least_error``). A progress step of the stall stage on the same rows
   (``off_direction``) is that step already, and is kept. Where the joints'
   bounds (eqs. 13-14) cannot give the whole demanded increase, a first LP
-  finds the largest share of it they can give, and the step takes that share.
+  finds the largest share of it they can give, and the step takes that share;
+* where that share is at most :data:`~lpik.tolerances.STALL_P` (the pairs'
+  gradients contradict each other, or the acceleration limits carry the arm
+  deeper whatever the step), the *restoration*: the step of least total
+  penetration (:func:`restoration`), then the least task error with each
+  pair held to what that step gives it.
 
 The step gives up the direction (``p = 0``) for the distance: the tool still
 moves towards its target as far as the rows and bounds allow.
@@ -33,6 +38,7 @@ moves towards its target as far as the rows and bounds allow.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Mapping
 
@@ -61,17 +67,35 @@ def inside_pairs(labels, distances, safety: float) -> dict[str, float]:  # type:
     """The pairs closer than ``safety`` by more than the check's tolerance: label -> distance.
 
     A pair inside by less than :data:`~lpik.tolerances.FEASIBILITY_TOL` demands an
-    increase the check cannot tell from none.
+    increase the check cannot tell from none. Where a label names several pairs (a link
+    of several capsules), its distance is the smallest.
     """
-    return {
-        str(label): float(d) for label, d in zip(labels, distances) if d < safety - FEASIBILITY_TOL
-    }
+    inside: dict[str, float] = {}
+    for label, d in zip(labels, distances):
+        if d < safety - FEASIBILITY_TOL:
+            inside[str(label)] = min(float(d), inside.get(str(label), math.inf))
+    return inside
 
 
 def inside_rows(problem: Problem, inside: Mapping[str, float]) -> list[int]:
-    """The problem's rows whose pair is inside, deepest first."""
-    rows = [k for k, label in enumerate(problem.row_labels) if str(label) in inside]
-    return sorted(rows, key=lambda k: inside[str(problem.row_labels[k])])
+    """The problem's rows that demand an increase of an inside pair's distance, deepest first."""
+    G = problem.G
+    return demanding_rows(problem.row_labels, G, problem.h - G @ problem.q0, inside)
+
+
+def demanding_rows(labels, G: FloatArray, g: FloatArray, inside: Mapping[str, float]) -> list[int]:  # type: ignore[no-untyped-def]
+    """The rows ``G dq <= g`` of the ``inside`` pairs that demand an increase (``g < 0``).
+
+    A label may name several rows (a link of several capsules, one row per capsule
+    pair): only those of pairs inside ``d_s`` demand (their ``g``, the mirrored
+    damper's ``r (d - d_s)``, is negative); the others are the ordinary rows, and a
+    reserved row with no pair in reach (``0 dq <= INACTIVE_RHS``) demands nothing.
+    Deepest first: by the pair's distance (a tie in the rows' order), a label's rows by ``g``.
+    """
+    active = np.abs(G).max(axis=1, initial=0.0) > 0.0
+    rows = [k for k, label in enumerate(labels) if str(label) in inside and g[k] < 0 and active[k]]
+    first = {str(labels[k]): k for k in reversed(rows)}  # ties between pairs: row order
+    return sorted(rows, key=lambda k: (inside[str(labels[k])], first[str(labels[k])], g[k]))
 
 
 def keeps_rows(problem: Problem, dq: FloatArray, rows: list[int]) -> bool:
@@ -178,9 +202,45 @@ def recovery_motion(
     demand = np.zeros(g.size)
     demand[rows] = g[rows]
     share = largest_share(G, g - demand, demand, lower, upper)
-    if share is None:  # not even s = 0 holds (a joint braking under its acceleration limits)
+    if share is not None and share > STALL_P:
+        dq = least_error_within(J, dw, lower, upper, G, g - (1.0 - share) * demand, least_error)
+        if dq is not None:
+            return dq
+    restored = restoration(G, g, lower, upper, rows, least_error)
+    if restored is None:
         return None
-    return least_error_within(J, dw, lower, upper, G, g - (1.0 - share) * demand, least_error)
+    relaxed, dq = restored
+    again = least_error_within(J, dw, lower, upper, G, relaxed, least_error)
+    return dq if again is None else again
+
+
+def restoration(
+    G: FloatArray, g: FloatArray, lower: FloatArray, upper: FloatArray, rows: list[int],
+    least_error: LeastError,
+) -> tuple[FloatArray, FloatArray] | None:  # fmt: skip
+    """The step of least total penetration and the right-hand sides it relaxes ``rows`` to.
+
+    Where no step moves every pair of ``rows`` apart by a share of their demand above
+    :data:`~lpik.tolerances.STALL_P` (their distance gradients contradict each other,
+    or the joints' acceleration limits carry them deeper whatever the step), the rows
+    are met in the least-L1 sense instead, as the feasibility restoration of SQP
+    solvers meets violated constraints: ``dq`` minimises ``sum_rows |G_k dq - g_k|``
+    (the rows' demands as a task, by the same least-error LP) within the bounds and
+    the other rows, and each row is then held to what that step gives it,
+    ``G_k dq <= max(g_k, G_k dq)``: a pair may go deeper by what lets the others come
+    apart by more. Returns ``(relaxed right-hand sides, dq)``, or None where no step
+    keeps the bounds and the other rows.
+    """
+    others = np.setdiff1d(np.arange(g.size), rows)
+    status, dq = least_error(G[rows], g[rows], lower, upper, G[others], g[others])
+    if status != OPTIMAL:
+        return None
+    dq = np.clip(np.asarray(dq, dtype=np.float64), lower, upper)
+    if not np.isfinite(dq).all() or not rows_kept(G[others], g[others], dq):
+        return None
+    relaxed = g.copy()
+    relaxed[rows] = np.maximum(g[rows], G[rows] @ dq)
+    return relaxed, dq
 
 
 def least_error_within(

@@ -38,6 +38,7 @@ from lpik.collision.avoidance import INACTIVE_RHS
 from lpik.collision.model import as_avoidance
 from lpik.collision.recovery import (
     RECOVERY,
+    demanding_rows,
     inside_pairs,
     keeps_direction,
     marked_recovering,
@@ -559,7 +560,7 @@ class Lp2Controller:
         inside = {} if avoidance is None else self.inside(q0)
         if not inside:
             return result
-        rows = self._inside_rows(inside)
+        rows = self._inside_rows(q0, inside)
         if rows is not None and result.method != RECOVERY:
             stepped = self._recovered_in_state(q0, q_prev, result, rows)
             if stepped is not None:
@@ -568,16 +569,19 @@ class Lp2Controller:
         return avoidance.recovered(problem, result, self.dt, compiled_least_error, inside,
                                    compiled_largest_share)  # fmt: skip
 
-    def _inside_rows(self, inside: dict[str, float]) -> list[int] | None:
-        """The state's rows of the pairs ``inside``, deepest first.
+    def _inside_rows(self, q0: Any, inside: dict[str, float]) -> list[int] | None:
+        """The state's rows that demand an increase of an ``inside`` pair's distance.
 
-        None where one of them has no active row there (the potential field's pairs).
+        :func:`~lpik.collision.recovery.demanding_rows`, deepest first. None where a
+        pair inside has no such row there and the numpy rule would add it (the potential
+        field alone writes no rows); with the damper's rows the state holds every row
+        there is (a pair whose segments cross has no gradient, and no row on any path).
         """
-        labels = self.scene_rows.labels
-        rows = sorted((j for j, label in enumerate(labels) if label in inside),
-                      key=lambda j: inside[labels[j]])  # fmt: skip
-        active = np.abs(self.scene_rows.G[rows]).max(axis=1, initial=0.0) > 0.0
-        return rows if len(rows) == len(inside) and active.all() else None
+        labels, G = self.scene_rows.labels, self.scene_rows.G
+        g = self.scene_rows.h - G @ np.asarray(q0, dtype=np.float64)
+        rows = demanding_rows(labels, G, g, inside)
+        complete = self.scene_rows.avoidance.mechanism != "field"
+        return rows if complete or {labels[j] for j in rows} == set(inside) else None
 
     def _recovered_in_state(
         self, q0: Any, q_prev: Any, result: Result, rows: list[int]

@@ -297,8 +297,10 @@ def _solve(A, b, lo, up, cost, x, basis, row_of, T):
 def _two_phases(A, b, lo, up, cost, r, g, x):
     """Phase 1 where the start needs it, then phase 2 on ``cost``: the outcome; ``x`` the vertex.
 
-    Phase 1 drives the ``r`` artificial columns (the last ones) to 0; its
-    tolerance is relative to ``g``, the extra rows' right-hand sides.
+    Phase 1 drives the ``r`` artificial columns (the last ones) to 0; each row's
+    tolerance is relative to its own right-hand side in ``g``, as the check's
+    (:func:`lpik.collision.recovery.rows_kept`): one scale for all would let a row of
+    ``1e9`` (a reserved row with no pair in reach) excuse a violation of the others.
     """
     rows, cols = A.shape
     basis, row_of = np.empty(rows, np.int64), np.empty(cols, np.int64)
@@ -310,11 +312,11 @@ def _two_phases(A, b, lo, up, cost, r, g, x):
         phase1 = np.zeros(cols)
         phase1[cols - r :] = 1.0
         code = _solve(A, b, lo, up, phase1, x, basis, row_of, T)
-        scale = 1.0
+        if code != SOLVED:
+            return code
         for j in range(r):
-            scale = max(scale, abs(g[j]))
-        if code != SOLVED or x[cols - r :].sum() > FEASIBILITY_TOL * scale:
-            return INFEASIBLE if code == SOLVED else code
+            if x[cols - r + j] > FEASIBILITY_TOL * max(1.0, abs(g[j])):
+                return INFEASIBLE
     up[cols - r :] = 0.0  # phase 2: the artificial variables stay at 0
     for j in range(cols - r, cols):
         x[j] = 0.0
