@@ -100,6 +100,12 @@ STALL_KEEP_SHARE = 1.0
 #: reach) the LP's optimum otherwise jumps between vertices, the joints at their velocity
 #: limits one way and then the other: at 1e-6 the quality suite's scenario 2 with the
 #: stage on had a joint-velocity jitter of 26,440 rad/s, at 1e-2 3,207 (strict: 447).
+#: Near a singular configuration a radian buys about ``sigma_min`` of error, at the
+#: automatic multiplier bound's floor less than 1 cm, so a goal there is not crept up to
+#: (``benchmarks/random_goals.py``: Panda goals 5 and 12 end 0.09 and 0.64 mm off). At 1e-4
+#: goal 12 is reached and goal 5 ends 0.028 mm off, but the quality suite's scenario 2 had
+#: 8,890 frozen steps against 297 (position error RMS 346 mm against 126) and scenario
+#: 11's jitter rose from 620 to 743 rad/s: not kept.
 MOTION_WEIGHT = 1e-2
 #: Where the arm's motion has reached the automatic multiplier bound's floor under
 #: acceleration limits, the stall stage's progress step may take ``sigma_min / sigma_max``
