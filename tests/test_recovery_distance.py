@@ -310,3 +310,31 @@ def test_only_the_rows_of_pairs_inside_demand_an_increase() -> None:
     inside = inside_pairs(["a - b", "a - b", "c - d"], [0.015, -0.03, 0.01], safety=0.02)
     assert inside == {"a - b": -0.03, "c - d": 0.01}  # the deepest of a label's pairs
     assert demanding_rows(labels, G, g, inside) == [1, 3]  # deepest first
+
+
+def test_a_pair_no_joint_moves_apart_is_reported_inside() -> None:
+    """A ball at the Panda's shoulder, 6.6 mm from links 1 and 2 (inside ``d_s``), where their
+    closest points lie on the first joints' axes: no joint changes the distance, so the
+    pair has no row and no step recovers. The arm still follows its command, and every
+    step is ``recovering``, naming the pair, on both paths (the compiled one raised an
+    IndexError on its empty rows, the numpy one said ``optimal``)."""
+    from lpik import Lp2Controller
+
+    panda = load_robot("panda", task="position")
+    home = home_configuration("panda")
+    scene = ball_scene([0.10164088326575398, 0.03279898085930831, 0.29332339766886983],
+                       0.047352300548661075, 0.02, 0.1)  # fmt: skip
+    target = panda_goal(load_robot("panda"), home)[:3, 3]
+    avoid = collision_avoidance(panda, scene, home)
+    controller = Lp2Controller(panda, dt=0.01, scene=avoid, qdd_max=10.0)
+    numpy_log = simulate(panda, ClampedTarget(target), home, 100, dt=0.01, scene=avoid,
+                         qdd_max=10.0)  # fmt: skip
+    q, prev = home.copy(), home.copy()
+    for k in range(100):
+        assert avoid.closest(q)[0] < 0.02
+        result = controller.step(q, target, prev)
+        assert result.status == numpy_log.status[k] == RECOVERING
+        assert result.binding.kind == "collision" and result.binding.recovering
+        assert result.binding.name in {"panda_link1 - ball", "panda_link2 - ball"}
+        prev, q = q, result.q
+    assert np.linalg.norm(panda.pose(q) - target) < np.linalg.norm(panda.pose(home) - target) / 2

@@ -45,7 +45,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from lpik.highs import HighsSolver, LinearProgram
-from lpik.labels import Binding, row_label
+from lpik.labels import COLLISION, Binding, row_label
 from lpik.problem import Problem
 from lpik.result import MOVING, OFF_DIRECTION, OPTIMAL, RECOVERING, Result, safe_step
 from lpik.tolerances import FEASIBILITY_TOL, STALL_P
@@ -148,18 +148,35 @@ def recovered(
         largest_share: The largest-share LP (:data:`LargestShare`; None: HiGHS's).
 
     Returns:
-        ``result`` unchanged where no row of ``problem`` is inside; else ``result``
-        marked ``recovering`` (naming the deepest pair) where it keeps the rows and
+        ``result`` unchanged where no pair is inside; ``result`` marked ``recovering``
+        where no row of an inside pair demands an increase (:func:`unmovable`); else
+        ``result`` marked ``recovering`` (naming the deepest pair) where it keeps the rows and
         the direction (``p > STALL_P``) or is the progress step on these rows;
         else the recovery step (:func:`recovery_step`).
     """
-    rows = inside_rows(problem, inside) if inside else []
-    if not rows or result.method == RECOVERY:
+    if not inside or result.method == RECOVERY:
         return result
+    rows = inside_rows(problem, inside)
+    if not rows:  # no joint moves the pairs apart: the step as it is, and why it is inside
+        return unmovable(result, inside)
     binding = row_label(rows[0], problem.row_labels[rows[0]]).outside()
     if keeps_direction(result) and keeps_rows(problem, result.dq, rows):
         return marked_recovering(result, binding)
     return recovery_step(problem, rows, binding, least_error, largest_share)
+
+
+def unmovable(result: Result, inside: Mapping[str, float]) -> Result:
+    """``result`` marked ``recovering``, naming the deepest pair, where no row can recover.
+
+    A pair inside ``d_s`` whose distance no joint changes (its closest point on the
+    axes of the first joints, where the gradient is 0, e.g. a ball at the Panda's
+    shoulder) has no row: no step moves it apart, and the step is the method's. It is
+    still inside, and the status says so (the binding has no row index: the pair has
+    no row on any path).
+    """
+    deepest = str(min(inside, key=lambda label: inside[label]))
+    name = deepest.removeprefix(f"{COLLISION} ")
+    return marked_recovering(result, Binding(deepest, COLLISION, None, name, "upper").outside())
 
 
 def recovery_step(

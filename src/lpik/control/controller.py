@@ -572,16 +572,19 @@ class Lp2Controller:
     def _inside_rows(self, q0: Any, inside: dict[str, float]) -> list[int] | None:
         """The state's rows that demand an increase of an ``inside`` pair's distance.
 
-        :func:`~lpik.collision.recovery.demanding_rows`, deepest first. None where a
-        pair inside has no such row there and the numpy rule would add it (the potential
-        field alone writes no rows); with the damper's rows the state holds every row
-        there is (a pair whose segments cross has no gradient, and no row on any path).
+        :func:`~lpik.collision.recovery.demanding_rows`, deepest first. None (the numpy
+        rule on the step's problem decides) where no row demands, or where a pair inside
+        has no such row and the numpy rule would add it (the potential field alone writes
+        no rows); with the damper's rows the state holds every row there is (a pair whose
+        segments cross has no gradient, and no row on any path).
         """
         labels, G = self.scene_rows.labels, self.scene_rows.G
         g = self.scene_rows.h - G @ np.asarray(q0, dtype=np.float64)
         rows = demanding_rows(labels, G, g, inside)
         complete = self.scene_rows.avoidance.mechanism != "field"
-        return rows if complete or {labels[j] for j in rows} == set(inside) else None
+        if not rows or not (complete or {labels[j] for j in rows} == set(inside)):
+            return None
+        return rows
 
     def _recovered_in_state(
         self, q0: Any, q_prev: Any, result: Result, rows: list[int]
