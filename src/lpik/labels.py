@@ -141,8 +141,10 @@ def multiplier_label(index: int, side: str) -> Binding:
     return Binding(f"multiplier {index + 1} {side} bound", "multiplier", index, None, side)
 
 
-def row_label(index: int, label: str, kind: str = "row") -> Binding:
+def row_label(index: int | None, label: str, kind: str = "row") -> Binding:
     """Row ``index`` of ``G q <= h``, named by its label (``kind`` ``"row"`` or ``"collision"``).
+
+    ``index`` None: a pair that has no row (:func:`lpik.collision.recovery.unmovable`).
 
     A label that is already a :class:`Binding` keeps its kind.
     """

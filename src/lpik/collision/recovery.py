@@ -71,9 +71,9 @@ def inside_pairs(labels, distances, safety: float) -> dict[str, float]:  # type:
     of several capsules), its distance is the smallest.
     """
     inside: dict[str, float] = {}
-    for label, d in zip(labels, distances):
+    for label, d in zip(labels, distances):  # the label itself kept: a Binding names the pair
         if d < safety - FEASIBILITY_TOL:
-            inside[str(label)] = min(float(d), inside.get(str(label), math.inf))
+            inside[label] = min(float(d), inside.get(label, math.inf))
     return inside
 
 
@@ -90,12 +90,11 @@ def demanding_rows(labels, G: FloatArray, g: FloatArray, inside: Mapping[str, fl
     pair): only those of pairs inside ``d_s`` demand (their ``g``, the mirrored
     damper's ``r (d - d_s)``, is negative); the others are the ordinary rows, and a
     reserved row with no pair in reach (``0 dq <= INACTIVE_RHS``) demands nothing.
-    Deepest first: by the pair's distance (a tie in the rows' order), a label's rows by ``g``.
+    Deepest first by the pair's distance (ties in the rows' order).
     """
     active = np.abs(G).max(axis=1, initial=0.0) > 0.0
-    rows = [k for k, label in enumerate(labels) if str(label) in inside and g[k] < 0 and active[k]]
-    first = {str(labels[k]): k for k in reversed(rows)}  # ties between pairs: row order
-    return sorted(rows, key=lambda k: (inside[str(labels[k])], first[str(labels[k])], g[k]))
+    rows = [k for k, label in enumerate(labels) if label in inside and g[k] < 0 and active[k]]
+    return sorted(rows, key=lambda k: inside[labels[k]])
 
 
 def keeps_rows(problem: Problem, dq: FloatArray, rows: list[int]) -> bool:
@@ -174,9 +173,8 @@ def unmovable(result: Result, inside: Mapping[str, float]) -> Result:
     still inside, and the status says so (the binding has no row index: the pair has
     no row on any path).
     """
-    deepest = str(min(inside, key=lambda label: inside[label]))
-    name = deepest.removeprefix(f"{COLLISION} ")
-    return marked_recovering(result, Binding(deepest, COLLISION, None, name, "upper").outside())
+    deepest = min(inside, key=lambda label: inside[label])
+    return marked_recovering(result, row_label(None, deepest, COLLISION).outside())
 
 
 def recovery_step(
