@@ -66,6 +66,13 @@ WORKLOADS = (
         "from lpik.cli.compile import compile_kernels\ncompile_kernels()\n",
         None,
     ),
+    (
+        "lpik compile --jobs 2 (every kernel, 2 processes)",
+        "from lpik.cli.compile import compile_kernels\n"
+        "if __name__ == '__main__':\n"
+        "    compile_kernels(jobs=2)\n",
+        None,
+    ),
 )
 
 #: Run after each workload: the background compile's children (lpik.control.warmup), if any.

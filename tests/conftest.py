@@ -18,6 +18,7 @@ one process (for ``pdb``, or a single test).
 from __future__ import annotations
 
 import os
+from importlib.util import find_spec
 
 import numpy as np
 import pytest
@@ -47,6 +48,25 @@ MAX_WORKERS = 4
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     """``-n auto``: one worker per core, at most :data:`MAX_WORKERS`."""
     return max(1, min(MAX_WORKERS, os.cpu_count() or 1))
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Before the xdist workers start: every kernel compiled once, in as many processes.
+
+    Each worker would otherwise compile the kernels its tests use on an empty
+    numba cache, the same kernels in every worker (about 340 s of the suite's
+    wall time on 2 cores); ``lpik compile --jobs N`` (the same code) compiles
+    each once into the disk cache, where the workers load it. On a warm cache it
+    costs a few seconds. Not in a worker, and not in one process (``-n 0``).
+    """
+    workers = getattr(config.option, "numprocesses", None)
+    if hasattr(config, "workerinput") or not isinstance(workers, int) or workers < 2:
+        return
+    if find_spec("numba") is None:
+        return
+    from lpik.cli.compile import compile_kernels
+
+    compile_kernels(jobs=workers)
 
 
 #: The paper's start configuration (sec. 4, Fig. 2) [rad].
