@@ -20,6 +20,7 @@ from lpik.exceptions import MissingBackendError  # noqa: E402
 from lpik.fast import BatchArrays, layout, lp2_batch  # noqa: E402
 from lpik.fast import arrays as fast_arrays  # noqa: E402
 from lpik.fast import lp2_kernel as K  # noqa: E402
+from lpik.fast.batch import BATCH_KERNELS  # noqa: E402
 from lpik.highs import HighsSolver  # noqa: E402
 from lpik.methods.lp2 import PATHS, affine_solution, lp2  # noqa: E402
 from lpik.methods.lp2s import lp2s  # noqa: E402
@@ -297,6 +298,23 @@ def test_raw_batch_arrays_are_normalised_and_solved_like_problems() -> None:
             assert (batch.status_of(i), batch.binding_of(i)) == (one.status, one.binding)
             np.testing.assert_allclose(batch.q[i], one.q, atol=1e-9, rtol=0)
     assert BatchArrays(**_raw_batch(H=full_H)).h_diag is False
+
+
+@pytest.mark.parametrize("method", ["lp2", "lp2s"])
+def test_read_only_batch_arrays_take_the_kernel_already_compiled(method: str) -> None:
+    fields = _raw_batch()
+    expected = lp2_batch(BatchArrays(**fields), method=method)
+    kernel = BATCH_KERNELS[method]
+    signatures = len(kernel.signatures)
+    read_only = {k: v.copy() for k, v in fields.items()}
+    for value in read_only.values():
+        value.flags.writeable = False
+    arrays = BatchArrays(**read_only)
+    assert all(getattr(arrays, k).flags.writeable for k in fields)
+    batch = lp2_batch(arrays, method=method)
+    assert len(kernel.signatures) == signatures  # numba compiled nothing more
+    np.testing.assert_array_equal(batch.q, expected.q)
+    np.testing.assert_array_equal(batch.p, expected.p)
 
 
 #: Bad raw batch fields and the start of the error each must raise.

@@ -23,6 +23,7 @@ NAMES = [
     "the recovery stage's least_error_step (inside a scene's d_s)",
     "the recovery stage's largest_share_lp (inside a scene's d_s)",
     "the recovery stage's state_rows (inside a scene's d_s)",
+    "capability map's inverse kinematics and steps (lpik map)",
 ]
 
 

@@ -137,17 +137,38 @@ def _scene_kernels() -> list[KernelLoad]:
     return loads
 
 
+def _map_kernels() -> list[KernelLoad]:
+    """``lpik map``'s inverse kinematics and steps (a Panda's map of one cell)."""
+    from lpik.maps import ik
+    from lpik.maps.api import map_job
+    from lpik.maps.block import solve_block
+    from lpik.maps.robot import map_robot
+    from lpik.maps.spec import MapSpec
+    from lpik.robots.registry import home_configuration, load_robot
+
+    panda = load_robot("panda", task="pose")
+    x, y, z = panda.pose(home_configuration("panda"))[:3, 3]
+    half = 0.025
+    region = (x - half, x + half, y - half, y + half, z - half, z + half)
+    job = map_job(map_robot(panda), MapSpec(region, 2 * half))
+    loads: list[KernelLoad] = []
+    _ready(loads, "capability map's inverse kinematics and steps (lpik map)",
+           partial(solve_block, job, (0, 0, 0)), ik.solve_targets)  # fmt: skip
+    return loads
+
+
 #: The kernels in groups that share no kernel of their own, the longest to compile first:
 #: ``lpik compile --jobs N`` readies the groups in N processes side by side.
 GROUPS: tuple[Callable[[], list[KernelLoad]], ...] = (
     _controller_kernels,
     _lp2_kernels,
     _scene_kernels,
+    _map_kernels,
 )
 
 
 def compile_kernels(jobs: int = 1) -> list[KernelLoad]:
-    """Ready every kernel: the fused steps, their batch and stages, LP2 alone and batched.
+    """Ready every kernel: the fused steps, their batch and stages, LP2 alone and batched, maps.
 
     Args:
         jobs: Processes that compile side by side (numba compiles on one core): with

@@ -122,14 +122,19 @@ def _check_batch(arrays: BatchArrays) -> None:
 
 
 def _float_arrays(arrays: BatchArrays) -> dict[str, FloatArray]:
-    """Each array field as a C-contiguous float64 array (no pull: ``c_ref`` zero)."""
+    """Each array field as a writable C-contiguous float64 array (no pull: ``c_ref`` zero).
+
+    Writable too: numba types a read-only array (``np.broadcast_to``'s, a memory
+    map's) apart and would compile the batch kernel once more for it.
+    """
     values = {}
     for name in _BATCH_FIELDS:
         if name == "c_ref" and arrays.c_ref is None:  # no pull (c comes before it)
             values[name] = np.zeros_like(values["c"])
             continue
         try:
-            values[name] = np.ascontiguousarray(getattr(arrays, name), dtype=np.float64)
+            value = np.ascontiguousarray(getattr(arrays, name), dtype=np.float64)
+            values[name] = value if value.flags.writeable else value.copy()
         except (TypeError, ValueError) as exc:
             raise InvalidProblemError(
                 f"BatchArrays.{name}", f"must be an array of numbers ({exc})"
