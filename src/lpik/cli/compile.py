@@ -90,9 +90,14 @@ def _controller_kernels() -> list[KernelLoad]:
     _ready(loads, "the stall stage's progress step (on_stall, mode=\"progress\")",
            partial(Lp2Controller, panda, dt=1e-3, qdd_max=10.0, mode="progress", compile="now"),
            progress.progress_in_state)  # fmt: skip
-    _ready(loads, "fused step batch, serial chain",
-           lambda: controller.step_batch(q[None], panda.pose(q)[None], q[None]),
-           step.chain_step_batch)  # fmt: skip
+    points = load_robot("panda", task="position")  # the batch compiles per target's shape
+    on_points = Lp2Controller(points, dt=1e-3, qdd_max=10.0, on_stall=None, compile="now")
+
+    def batches() -> None:
+        controller.step_batch(q[None], panda.pose(q)[None], q[None])  # (B, 4, 4) targets
+        on_points.step_batch(q[None], points.position(q)[None], q[None])  # (B, 3) targets
+
+    _ready(loads, "fused step batch, serial chain", batches, step.chain_step_batch)
     _ready(loads, "the automatic multiplier bound's rule, after a step on the HiGHS path",
            lambda: bound_in_state(controller._state, q, np.ones(q.size)),
            bound_in_state)  # fmt: skip
