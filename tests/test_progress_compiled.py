@@ -16,15 +16,18 @@ from lpik.defaults import DEFAULT_ON_STALL
 from lpik.methods.progress import (
     MOTION_WEIGHT,
     StallWatch,
+    exact_weight,
     is_stall,
     least_error_lp,
+    stall_limit,
+    stalled_step,
 )
 from lpik.paper.scenarios import PLANAR, get_scenario
 from lpik.paper.setup import PAPER_COMMAND
 from lpik.result import OFF_DIRECTION, OPTIMAL
 from lpik.robots.planar import planar_arm
 from lpik.robots.registry import load_robot
-from lpik.tolerances import STALL_P
+from lpik.tolerances import STALL_BLEND_P, STALL_P
 
 fast = pytest.importorskip("lpik.fast.progress")
 
@@ -269,6 +272,57 @@ def test_under_acceleration_limits_the_stall_stage_is_alike_on_both_paths() -> N
         prev, q = q, res.q
     assert statuses[0] == OPTIMAL  # from rest: held by the acceleration limits, not a stall
     assert OFF_DIRECTION in statuses
+
+
+def test_the_stalled_step_is_continuous_in_p() -> None:
+    """The exact step's weight in a stalled step rises linearly from 0 at STALL_P to 1 at
+    STALL_BLEND_P; a step solved around the arm's motion stalls only up to STALL_P."""
+    assert exact_weight(STALL_P) == 0.0 and exact_weight(0.0) == 0.0
+    assert exact_weight(STALL_BLEND_P) == 1.0 and exact_weight(1.0) == 1.0
+    assert exact_weight(0.5 * (STALL_P + STALL_BLEND_P)) == pytest.approx(0.5, abs=1e-15)
+    assert stall_limit(moving=True) == STALL_P and stall_limit(moving=False) == STALL_BLEND_P
+    exact, progress = np.array([1.0, -2.0]), np.array([0.0, 4.0])
+    assert stalled_step(exact, progress, STALL_P) is progress
+    p = STALL_P + 0.25 * (STALL_BLEND_P - STALL_P)
+    np.testing.assert_allclose(stalled_step(exact, progress, p), [0.25, 2.5], rtol=1e-14)
+
+
+def test_a_blended_stalled_step_is_alike_on_both_paths(monkeypatch) -> None:
+    """Scenario 2's leg -x of the quality suite (Panda, no acceleration limits, the command
+    unclamped): the target goes 1.39 m out along -x at 1 m/s, is held 0.3 s and comes
+    back. While it comes back, steps with STALL_P < p < STALL_BLEND_P stall and are the
+    blend of the exact and the progress step; the numpy stepper (HiGHS) and the compiled
+    controller agree on every step from the same state, within every limit."""
+    import lpik.methods.progress as progress
+
+    weights: list[float] = []
+    weight = progress.exact_weight
+    monkeypatch.setattr(progress, "exact_weight", lambda p: weights.append(weight(p)) or weight(p))
+    model = load_robot("panda")
+    home = home_configuration("panda")
+    start, far, hold = model.pose(home), 1.39, 0.3
+
+    def target(k: int) -> np.ndarray:
+        t = k * 1e-3
+        pose = start.copy()
+        pose[0, 3] -= far * min(t / far, 1.0, max(0.0, (2 * far + hold - t) / far))
+        return pose
+
+    options = dict(dt=1e-3, v_max=1e6, w_max=1e6)
+    controller, stepper = Lp2Controller(model, **options), Stepper(model, **options)
+    q = prev = home
+    for k in range(2450):  # out, held and half way back: the compiled step alone
+        prev, q = q, controller.step(q, target(k), prev).q
+    compiled_weights = len(weights)
+    for k in range(2450, 2650):
+        res, ref = controller.step(q, target(k), prev), stepper.step(q, target(k), prev)
+        assert res.status == ref.status, k
+        np.testing.assert_allclose(res.q, ref.q, rtol=0, atol=1e-9)
+        assert np.all(np.abs(res.q - q) <= model.qd_max * 1e-3 * (1 + 1e-9))
+        assert np.all(res.q <= model.q_max + 1e-12) and np.all(res.q >= model.q_min - 1e-12)
+        prev, q = q, res.q
+    blended = [w for w in weights[compiled_weights:] if 0.0 < w < 1.0]
+    assert len(blended) >= 20  # on both paths
 
 
 def test_a_basis_that_rounding_leaves_singular_is_an_outcome_not_an_exception() -> None:

@@ -85,11 +85,12 @@ from lpik.methods.progress import (
     l1_error,
     progress_result,
     stall_candidate,
+    stalled_step,
 )
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result
 from lpik.robots.base import TaskModel
-from lpik.tolerances import FULL_P, STALL_P
+from lpik.tolerances import FULL_P, STALL_BLEND_P, STALL_P
 from lpik.types import FloatArray
 
 __all__ = ["Lp2Controller", "SceneRows", "StateRows"]
@@ -714,7 +715,8 @@ class Lp2Controller:
                 code = self._run(q0, target, q_prev)
         if code == OK and self._out.item(self._outside) < 0:
             p = self._out.item(self._p)
-            if p > STALL_P or not self._watch_stall:  # no stall: the kernel's step stands
+            moving = STALL_P < p <= STALL_BLEND_P and self._moving(q0, q_prev)
+            if not self._watch_stall or p > STALL_BLEND_P or moving:  # stall_limit: no stall
                 self.stepper.stall_watch.clear()
                 self._last_code = code
                 out[...] = self._q_view
@@ -781,7 +783,8 @@ class Lp2Controller:
         """
         watch, n, m = self.stepper.stall_watch, self._n, self._m
         further = self._further and result.status == OPTIMAL and result.p < 1.0
-        may_stall = watch.after is not None and result.status in STALLS and result.p <= STALL_P
+        may_stall = (watch.after is not None and result.status in STALLS
+                     and result.p <= STALL_BLEND_P)  # fmt: skip
         if may_stall or further:  # else (nearly every step) nothing more to do
             q = np.ascontiguousarray(q0, dtype=np.float64)
             prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
@@ -807,6 +810,7 @@ class Lp2Controller:
                 return result
         if stalled:  # p 0; binding: the limit that stopped the direction
             p, binding = 0.0, result.binding
+            dq = stalled_step(result.dq, dq, result.p)
         else:
             dq1 = np.ascontiguousarray(result.dq, dtype=np.float64)
             code, before, _ = further_in_state(self._state, q, prev, dq1, dq)
@@ -816,6 +820,10 @@ class Lp2Controller:
         progress = progress_result(q, dq, J.copy(), dw.copy(), before, p, binding,
                                    perf_counter() - start, "compiled")  # fmt: skip
         return progress if progress.status == OFF_DIRECTION else result
+
+    def _moving(self, q0: Any, q_prev: Any) -> bool:
+        """Whether the step is solved around the arm's motion (the stall stage's ``moving``)."""
+        return self.stepper.continues and q_prev is not None and not np.array_equal(q0, q_prev)
 
     def _on_floor(self, q: FloatArray) -> FloatArray:
         """The bound's floor as the progress step's row, where the step's motion reached it.
@@ -932,7 +940,7 @@ class Lp2Controller:
         if self._further:  # mode="progress": every row with p < 1 gets the second stage
             again |= outs[:, self._p] < 1.0
         elif self.stepper.stall_watch.after == 1:  # a row that may stall: the stall stage
-            again |= outs[:, self._p] <= STALL_P
+            again |= outs[:, self._p] <= STALL_BLEND_P  # (stall_limit decides per row)
         return again
 
     def _batch_result(

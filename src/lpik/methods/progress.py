@@ -51,6 +51,7 @@ from lpik.tolerances import (
     FEASIBILITY_TOL,
     MOTION_WEIGHT,
     NO_CHANGE_P,
+    STALL_BLEND_P,
     STALL_KEEP_SHARE,
     STALL_P,
     STALL_SHARE,
@@ -100,16 +101,48 @@ def l1_error(J: FloatArray, dw: FloatArray, dq: FloatArray) -> float:
 STALLS = (OPTIMAL, INFEASIBLE)
 
 
+def stall_limit(moving: bool) -> float:
+    """The largest ``p`` at which a step may stall.
+
+    :data:`~lpik.tolerances.STALL_P` for a step solved around the arm's motion
+    (``moving``: under acceleration limits, ``q_prev != q0``), whose acceleration
+    limits bound the jump of a switch between the exact and the progress step;
+    :data:`~lpik.tolerances.STALL_BLEND_P` otherwise, where :func:`exact_weight`
+    blends the two steps so that the law does not jump (its comment says why).
+    """
+    return STALL_P if moving else STALL_BLEND_P
+
+
+def exact_weight(p: float) -> float:
+    """The exact step's weight ``w`` in a stalled step ``w dq_exact + (1 - w) dq_progress``.
+
+    0 at ``p <= STALL_P`` (the progress step alone), 1 at ``p >= STALL_BLEND_P``,
+    linear in between, so that the stall stage's step is continuous in ``p``. Both
+    steps keep every bound, row and acceleration band, all of them convex, so
+    their blend does too.
+    """
+    return min(max((p - STALL_P) / (STALL_BLEND_P - STALL_P), 0.0), 1.0)
+
+
+def stalled_step(exact_dq: FloatArray, progress_dq: FloatArray, p: float) -> FloatArray:
+    """The step that replaces a stalled exact step (``p`` its): :func:`exact_weight`'s blend."""
+    weight = exact_weight(p)
+    if weight == 0.0:
+        return progress_dq
+    return weight * np.asarray(exact_dq, dtype=np.float64) + (1.0 - weight) * progress_dq
+
+
 def stall_candidate(p: float, binding: object = None, moving: bool = True) -> bool:
     """Whether a step may stall (:func:`is_stall`), from its ``p``, binding limit and motion.
 
-    ``p <= STALL_P``, and not a start from rest: a step of an arm at rest
-    (``moving`` False) with ``p > 0`` (above :data:`~lpik.tolerances.NO_CHANGE_P`)
-    held by an acceleration limit (``binding.kind == "acceleration"``) has its
-    direction and takes it as fast as the arm can speed up, and ``p`` grows as it
-    does. Only a candidate needs the progress step's LP.
+    ``p`` at most :func:`stall_limit`, and not a start from rest: a step of an arm
+    at rest (``moving`` False) with ``p > 0`` (above
+    :data:`~lpik.tolerances.NO_CHANGE_P`) held by an acceleration limit
+    (``binding.kind == "acceleration"``) has its direction and takes it as fast as
+    the arm can speed up, and ``p`` grows as it does. Only a candidate needs the
+    progress step's LP.
     """
-    if p > STALL_P:
+    if p > stall_limit(moving):
         return False
     if p <= NO_CHANGE_P or moving:
         return True
@@ -135,6 +168,9 @@ def is_stall(
       last step was the progress step): less than
       :data:`~lpik.tolerances.STALL_KEEP_SHARE`, a band that keeps the steps from
       flipping between the two laws.
+
+    A stalled step is replaced by :func:`stalled_step` (the progress step, blended
+    with the exact one where ``p > STALL_P``).
 
     Where no motion brings the target nearer the stall stage keeps the step all the
     same: the progress step gains nothing (:func:`progress_result`, ``no progress``).
@@ -315,9 +351,9 @@ class StallWatch:
         """``result``, or the progress step (HiGHS) once the step has stalled ``after`` times.
 
         ``problem_of()`` builds the step's :class:`~lpik.problem.Problem` (only when
-        needed: a step with ``p <= STALL_P`` under a watch).
+        needed: a step with ``p <= STALL_BLEND_P`` under a watch).
         """
-        if self.after is None or result.status not in STALLS or result.p > STALL_P:
+        if self.after is None or result.status not in STALLS or result.p > STALL_BLEND_P:
             self.run = 0
             return result
         problem = problem_of()
@@ -335,4 +371,8 @@ class StallWatch:
         )
         if not self.count(stall):
             return result
+        dq = stalled_step(result.dq, progress.dq, result.p)
+        if dq is not progress.dq:  # blended with the exact step
+            progress = progress_result(problem.q0, dq, problem.J, problem.dw, before, 0.0, None,
+                                       progress.solve_time, progress.path)  # fmt: skip
         return dataclasses.replace(progress, binding=result.binding)  # what stopped the direction
