@@ -12,7 +12,7 @@ from lpik.paper.scenarios import PLANAR, get_scenario
 from lpik.paper.setup import PAPER_COMMAND
 from lpik.problem import Problem
 from lpik.result import OFF_DIRECTION, OPTIMAL, STATUSES
-from lpik.tolerances import STALL_KEEP_SHARE, STALL_P, STALL_SHARE
+from lpik.tolerances import STALL_BLEND_P, STALL_KEEP_SHARE, STALL_P, STALL_SHARE
 
 
 def blocked() -> Problem:
@@ -75,13 +75,15 @@ def test_the_stall_watch_waits_for_its_steps() -> None:
 
 def test_once_engaged_the_stall_stage_keeps_the_progress_step_within_a_band() -> None:
     """Entering the progress step takes an exact step gaining less than STALL_SHARE of it;
-    keeping it, less than STALL_KEEP_SHARE (without acceleration limits every flip between
-    the two laws is a jump of the velocities). The same step asked again is judged as the
-    first time."""
+    keeping it, less than STALL_KEEP_SHARE, and up to p = STALL_BLEND_P (without
+    acceleration limits every flip between the two laws is a jump of the velocities).
+    The same step asked again is judged as the first time."""
     assert STALL_SHARE < STALL_KEEP_SHARE
     share = (STALL_SHARE + STALL_KEEP_SHARE) / 2
     assert not is_stall(STALL_P / 2, share, 1.0) and is_stall(STALL_P / 2, share, 1.0, keeping=True)
-    assert not is_stall(2 * STALL_P, 0.0, 1.0, keeping=True)  # no band for p
+    # within the band p may stall up to STALL_BLEND_P (blended there: stalled_step)
+    assert is_stall(2 * STALL_P, 0.0, 1.0, keeping=True) and not is_stall(2 * STALL_P, 0.0, 1.0)
+    assert not is_stall(2 * STALL_BLEND_P, 0.0, 1.0, keeping=True)
     watch = StallWatch(2)
     q = np.zeros(3)
     watch.count(True)

@@ -276,11 +276,12 @@ def test_under_acceleration_limits_the_stall_stage_is_alike_on_both_paths() -> N
 
 def test_the_stalled_step_is_continuous_in_p() -> None:
     """The exact step's weight in a stalled step rises linearly from 0 at STALL_P to 1 at
-    STALL_BLEND_P; a step solved around the arm's motion stalls only up to STALL_P."""
+    STALL_BLEND_P; only a step judged within the band after a progress step (no
+    acceleration limits) may stall above STALL_P."""
     assert exact_weight(STALL_P) == 0.0 and exact_weight(0.0) == 0.0
     assert exact_weight(STALL_BLEND_P) == 1.0 and exact_weight(1.0) == 1.0
     assert exact_weight(0.5 * (STALL_P + STALL_BLEND_P)) == pytest.approx(0.5, abs=1e-15)
-    assert stall_limit(moving=True) == STALL_P and stall_limit(moving=False) == STALL_BLEND_P
+    assert stall_limit(keeping=False) == STALL_P and stall_limit(keeping=True) == STALL_BLEND_P
     exact, progress = np.array([1.0, -2.0]), np.array([0.0, 4.0])
     assert stalled_step(exact, progress, STALL_P) is progress
     p = STALL_P + 0.25 * (STALL_BLEND_P - STALL_P)

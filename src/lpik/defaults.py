@@ -10,9 +10,10 @@ read them from here.
 DEFAULT_METHOD = "lp2s"
 
 #: Steps that stall (:func:`lpik.methods.progress.is_stall`: no step along the command,
-#: or one with ``p <= STALL_P`` that gains far less than the progress step, a start from
-#: rest excepted) in a row before the progress step (:mod:`lpik.methods.progress`) is
-#: taken; ``None``: never (the paper's strict step: the direction or no motion). On by
+#: or one with ``p <= STALL_P`` (``STALL_BLEND_P`` right after a progress step) that
+#: gains far less than the progress step, a start from rest excepted) in a row before the
+#: progress step (:mod:`lpik.methods.progress`) is taken; ``None``: never (the paper's
+#: strict step: the direction or no motion). On by
 #: default, so that an arm with a target it could still come nearer to does not freeze.
 #: The paper's runs name ``None`` (:data:`lpik.paper.setup.PAPER_COMMAND`).
 DEFAULT_ON_STALL: int | None = 1

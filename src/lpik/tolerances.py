@@ -93,17 +93,20 @@ STALL_SHARE = 0.5
 #: the band cut it from 1,394 rad/s to 930). A band for ``p`` as well (up to 0.05) cut it
 #: to 480 but held an arm pushed beyond reach back from coming home.
 STALL_KEEP_SHARE = 1.0
-#: Where no acceleration limit bounds the change of the joint velocities, a step with
-#: ``STALL_P < p <= STALL_BLEND_P`` may stall too, and a stalled step there is not the
-#: progress step alone but ``w dq_exact + (1 - w) dq_progress``, the exact step's weight
-#: ``w`` growing linearly from 0 at ``STALL_P`` to 1 here
-#: (:func:`lpik.methods.progress.exact_weight`): the law is continuous in ``p``. With the
-#: switch at ``STALL_P`` alone, four progress steps lifted a joint off its end-stop, the
-#: fifth was an exact step with ``p = 0.012`` that drove it back, a cycle of two jumps
-#: of 4.6 rad/s (the quality suite's scenario 2, leg -x: 480 rad/s of jitter, 36 with
-#: the blend; the whole scenario 924 and 480, every excursion recovered). Under
-#: acceleration limits the limits bound those jumps and the switch stays at ``STALL_P``:
-#: there the blend gave scenario 8's third move 29 mm of overshoot against 2.9.
+#: After a progress step, where no acceleration limit bounds the change of the joint
+#: velocities (the band of STALL_KEEP_SHARE), a step with ``STALL_P < p <= STALL_BLEND_P``
+#: may stall too, and a stalled step there is not the progress step alone but
+#: ``w dq_exact + (1 - w) dq_progress``, the exact step's weight ``w`` growing linearly
+#: from 0 at ``STALL_P`` to 1 here (:func:`lpik.methods.progress.exact_weight`): the way
+#: back to the exact step is continuous in ``p``. With the switch at ``STALL_P`` alone,
+#: four progress steps lifted a joint off its end-stop, the fifth was an exact step with
+#: ``p = 0.012`` that drove it back, a cycle of two jumps of 4.6 rad/s (the quality
+#: suite's scenario 2, leg -x: 480 rad/s of jitter, 36 with the blend; the whole
+#: scenario 924 and 480, every excursion recovered). Under acceleration limits the
+#: limits bound those jumps and the switch stays at ``STALL_P``: there the blend gave
+#: scenario 8's third move 29 mm of overshoot against 2.9. Without a progress step
+#: before it, an exact step with ``p`` up to here is not weighed against the progress LP
+#: (on scenario 4's step inputs that cost a median 32 us per step against 11).
 STALL_BLEND_P = 5e-2
 #: Weight of the joint motion ``sum |dq_i|`` against the task error in the progress step
 #: (:mod:`lpik.methods.progress`) and in the fading motion's stop (:mod:`lpik.continuation`)

@@ -715,8 +715,8 @@ class Lp2Controller:
                 code = self._run(q0, target, q_prev)
         if code == OK and self._out.item(self._outside) < 0:
             p = self._out.item(self._p)
-            moving = STALL_P < p <= STALL_BLEND_P and self._moving(q0, q_prev)
-            if not self._watch_stall or p > STALL_BLEND_P or moving:  # stall_limit: no stall
+            band = STALL_P < p <= STALL_BLEND_P and self._within_band(q0, q_prev)
+            if not self._watch_stall or (p > STALL_P and not band):  # stall_limit: no stall
                 self.stepper.stall_watch.clear()
                 self._last_code = code
                 out[...] = self._q_view
@@ -790,7 +790,7 @@ class Lp2Controller:
             prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
             moving = may_stall and continues(self._state, q, prev)  # the stepper's last motion
             keeping = count and may_stall and watch.keeping(q, moving)  # the band
-            may_stall = may_stall and stall_candidate(result.p, result.binding, moving)
+            may_stall = may_stall and stall_candidate(result.p, result.binding, moving, keeping)
         if not (may_stall or further):
             if count:
                 watch.clear()
@@ -821,9 +821,16 @@ class Lp2Controller:
                                    perf_counter() - start, "compiled")  # fmt: skip
         return progress if progress.status == OFF_DIRECTION else result
 
-    def _moving(self, q0: Any, q_prev: Any) -> bool:
-        """Whether the step is solved around the arm's motion (the stall stage's ``moving``)."""
-        return self.stepper.continues and q_prev is not None and not np.array_equal(q0, q_prev)
+    def _within_band(self, q0: Any, q_prev: Any) -> bool:
+        """Whether the stall stage may judge a step within its band after a progress step.
+
+        :meth:`StallWatch.keeping <lpik.methods.progress.StallWatch.keeping>`'s rule
+        without its memory: the last step was the progress step, and the step is not
+        solved around the arm's motion. Only such a step with ``p`` above ``STALL_P``
+        needs the stall stage (:func:`lpik.methods.progress.stall_limit`).
+        """
+        moving = self.stepper.continues and q_prev is not None and not np.array_equal(q0, q_prev)
+        return self.stepper.stall_watch.engaged and not moving
 
     def _on_floor(self, q: FloatArray) -> FloatArray:
         """The bound's floor as the progress step's row, where the step's motion reached it.
@@ -940,7 +947,7 @@ class Lp2Controller:
         if self._further:  # mode="progress": every row with p < 1 gets the second stage
             again |= outs[:, self._p] < 1.0
         elif self.stepper.stall_watch.after == 1:  # a row that may stall: the stall stage
-            again |= outs[:, self._p] <= STALL_BLEND_P  # (stall_limit decides per row)
+            again |= outs[:, self._p] <= STALL_P  # (a row has no progress step before it)
         return again
 
     def _batch_result(

@@ -24,10 +24,13 @@ Two uses, one LP (:func:`least_error_lp` here through HiGHS,
   ``p = 0``, so that the operator knows that the tool moved but not along the
   command. After a progress step, without acceleration limits, the next step is
   judged within a band (:meth:`StallWatch.keeping`), so that the steps do not flip
-  between the two laws (each flip is a jump of the joint velocities). Its cost,
-  measured on the quality suite (``docs/quality.md``): with targets beyond reach and
-  no acceleration limits the progress steps between exact ones add joint jitter
-  (scenario 2);
+  between the two laws (each flip is a jump of the joint velocities): it stalls
+  while the exact step gains less than the progress step, and up to ``p =
+  STALL_BLEND_P``, where the stalled step blends the progress step with the exact
+  one (:func:`stalled_step`), so that the way back to the exact step is
+  continuous in ``p``. Its cost, measured on the quality suite
+  (``docs/quality.md``): with targets beyond reach and no acceleration limits the
+  progress steps between exact ones add joint jitter (scenario 2);
 - **``mode="progress"``**: after every exact step with ``p < 1``,
   :func:`further_step` spends what the limits leave on the error that remains
   (status ``off_direction``, ``p`` the exact step's).
@@ -101,23 +104,26 @@ def l1_error(J: FloatArray, dw: FloatArray, dq: FloatArray) -> float:
 STALLS = (OPTIMAL, INFEASIBLE)
 
 
-def stall_limit(moving: bool) -> float:
+def stall_limit(keeping: bool) -> float:
     """The largest ``p`` at which a step may stall.
 
-    :data:`~lpik.tolerances.STALL_P` for a step solved around the arm's motion
-    (``moving``: under acceleration limits, ``q_prev != q0``), whose acceleration
-    limits bound the jump of a switch between the exact and the progress step;
-    :data:`~lpik.tolerances.STALL_BLEND_P` otherwise, where :func:`exact_weight`
-    blends the two steps so that the law does not jump (its comment says why).
+    :data:`~lpik.tolerances.STALL_BLEND_P` for a step judged within the band after
+    a progress step (``keeping``: :meth:`StallWatch.keeping`, only where no
+    acceleration limit bounds the change of the joint velocities), where
+    :func:`exact_weight` blends the two steps so that the way back to the exact
+    step does not jump (the constant's comment says why);
+    :data:`~lpik.tolerances.STALL_P` otherwise, so that an exact step with a
+    small ``p`` that follows no progress step needs no progress LP.
     """
-    return STALL_P if moving else STALL_BLEND_P
+    return STALL_BLEND_P if keeping else STALL_P
 
 
 def exact_weight(p: float) -> float:
     """The exact step's weight ``w`` in a stalled step ``w dq_exact + (1 - w) dq_progress``.
 
     0 at ``p <= STALL_P`` (the progress step alone), 1 at ``p >= STALL_BLEND_P``,
-    linear in between, so that the stall stage's step is continuous in ``p``. Both
+    linear in between, so that the stall stage's step is continuous in ``p`` where
+    ``p`` rises back above ``STALL_P`` after progress steps (:func:`stall_limit`). Both
     steps keep every bound, row and acceleration band, all of them convex, so
     their blend does too.
     """
@@ -132,17 +138,20 @@ def stalled_step(exact_dq: FloatArray, progress_dq: FloatArray, p: float) -> Flo
     return weight * np.asarray(exact_dq, dtype=np.float64) + (1.0 - weight) * progress_dq
 
 
-def stall_candidate(p: float, binding: object = None, moving: bool = True) -> bool:
+def stall_candidate(
+    p: float, binding: object = None, moving: bool = True, keeping: bool = False
+) -> bool:
     """Whether a step may stall (:func:`is_stall`), from its ``p``, binding limit and motion.
 
-    ``p`` at most :func:`stall_limit`, and not a start from rest: a step of an arm
+    ``p`` at most :func:`stall_limit` (``keeping``: within the band after a
+    progress step), and not a start from rest: a step of an arm
     at rest (``moving`` False) with ``p > 0`` (above
     :data:`~lpik.tolerances.NO_CHANGE_P`) held by an acceleration limit
     (``binding.kind == "acceleration"``) has its direction and takes it as fast as
     the arm can speed up, and ``p`` grows as it does. Only a candidate needs the
     progress step's LP.
     """
-    if p > stall_limit(moving):
+    if p > stall_limit(keeping):
         return False
     if p <= NO_CHANGE_P or moving:
         return True
@@ -175,7 +184,7 @@ def is_stall(
     Where no motion brings the target nearer the stall stage keeps the step all the
     same: the progress step gains nothing (:func:`progress_result`, ``no progress``).
     """
-    if not stall_candidate(p, binding, moving):
+    if not stall_candidate(p, binding, moving, keeping):
         return False
     share = STALL_KEEP_SHARE if keeping else STALL_SHARE
     return p <= NO_CHANGE_P or exact_gain < share * progress_gain
@@ -359,7 +368,7 @@ class StallWatch:
         problem = problem_of()
         moving = problem.last is not None  # under acceleration limits, q_prev != q0
         keeping = self.keeping(problem.q0, moving)  # after a progress step: the band
-        if not stall_candidate(result.p, result.binding, moving):
+        if not stall_candidate(result.p, result.binding, moving, keeping):
             self.run = 0
             return result
         progress = progress_step(problem)
