@@ -336,13 +336,15 @@ MISSED_BECAUSE = {
     "no LP, and on a quieter run of this machine the p99 was 45 us",
     "beyond/jitter": "the stall stage flips between the exact and the progress step, each "
     "flip a jump of the joint velocities: without a band the flips (162 each way) were "
-    "1,134 of 1,394 rad/s and the exact steps alone 248, below Drake's; the band after a "
-    "progress step (STALL_KEEP_SHARE) leaves about 930, 480 of it in leg -x, 452 of that from "
-    "flips: four "
-    "progress steps lift joint 2 off its lower end-stop by 0.43 mrad each, the fifth is an "
-    "exact step with p = 0.012 (above STALL_P, so not weighed against the progress step) "
-    "that drives it back, a cycle of two jumps of 4.6 rad/s; a band for p as well (up to "
-    "0.05) left 480 but held an arm pushed beyond reach back from coming home",
+    "1,134 of 1,394 rad/s; the band after a progress step (STALL_KEEP_SHARE) left 930, and "
+    "within it the blend of the two steps up to p = STALL_BLEND_P "
+    "(lpik.methods.progress.stalled_step) took leg -x from 480 to 38 (a cycle across "
+    "STALL_P: four progress steps lifted joint 2 off its end-stop, an exact step with "
+    "p = 0.012 drove it back); of what is left, 350 rad/s are the legs +y and -y (175 "
+    "each, 83 of it from some 20 flips each): there the exact step, p below STALL_P with "
+    "joint 3 at its velocity limit, and the progress step, the least motion that gains "
+    "twice as much, take turns, each turn a jump of up to 8.9 rad/s, which no blend in p "
+    "smooths; blending by the ratio of the two gains as well raised those legs to 245",
     "beyond/frozen": "all in leg -x, with joints 2 and 6 at their lower end-stops, 269 mm "
     "from a target that is reachable on another branch of the inverse kinematics only (a "
     "bounded least-squares solve started from the arm's own configuration ends 93 mm off "

@@ -107,7 +107,7 @@ STALL_KEEP_SHARE = 1.0
 #: scenario 8's third move 29 mm of overshoot against 2.9. Without a progress step
 #: before it, an exact step with ``p`` up to here is not weighed against the progress LP
 #: (on scenario 4's step inputs that cost a median 32 us per step against 11).
-STALL_BLEND_P = 5e-2
+STALL_BLEND_P = 2e-2
 #: Weight of the joint motion ``sum |dq_i|`` against the task error in the progress step
 #: (:mod:`lpik.methods.progress`) and in the fading motion's stop (:mod:`lpik.continuation`)
 #: [m (or rad) of error per rad of motion]: a joint moves only where each radian buys at
