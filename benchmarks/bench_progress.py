@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/bench_progress.py [--calls N]
 
-Two timings, each the median, 99th and 99.9th percentile of one call [us]:
+Three timings, each the median, 99th and 99.9th percentile of one call [us]:
 
 - **the LP** (:func:`lpik.fast.progress.least_error_step`) on random stalled
   states: the pose task's Jacobian (6 x 7) at a random configuration, a command
@@ -11,7 +11,10 @@ Two timings, each the median, 99th and 99.9th percentile of one call [us]:
   (one side of their bound 0);
 - **the stall stage** (:func:`lpik.fast.progress.progress_in_state`): the bounds
   recomputed from the state and the LP, on the states of the scenario
-  ``pull-in`` on the Panda where the exact step stalls (the controller's call).
+  ``pull-in`` on the Panda where the exact step stalls (the controller's call);
+- **the whole step** (:meth:`lpik.Lp2Controller.step`, the stall stage on) on
+  those states: the exact kernel, the stall stage and the Python between them
+  that builds the Result, what a control loop waits for on a stalled step.
 
 The section "Progress step" of ``docs/benchmarks.md`` is rewritten. A 1 kHz
 loop has 1000 us per step; the target is p99.9 <= 50 us.
@@ -81,20 +84,28 @@ def stalled_states() -> tuple[list[tuple], object]:
     return found, controller
 
 
-def stage_times(repeat: int) -> np.ndarray:
-    """The stall stage's call on each stalled state of pull-in, ``repeat`` times over."""
+def stage_times(repeat: int) -> tuple[np.ndarray, np.ndarray]:
+    """On each stalled state of pull-in, ``repeat`` times over: the stall stage's call,
+    and the whole step of a controller with the stage on (after ``reset``: no band)."""
     found, controller = stalled_states()
-    state, target = controller._state, get_scenario("pull-in").setup("panda").target
+    setup = get_scenario("pull-in").setup("panda")
+    state, target, whole = controller._state, setup.target, setup.controller(saturate=False)
     dq = np.empty(len(found[0][0]))
-    times = []
+    stage, step = [], []
     clock = time.perf_counter_ns
     for _ in range(repeat):
         for q, prev in found:
             controller.step(q, target, prev, watch=False)  # the state holds this step
+            floor = controller._on_floor(q)  # the controller's own argument
             start = clock()
-            progress_in_state(state, q, prev, dq)
-            times.append(clock() - start)
-    return np.array(times[len(found) :]) / 1e3  # the first round warms up
+            progress_in_state(state, q, prev, dq, floor)
+            stage.append(clock() - start)
+            whole.reset()
+            start = clock()
+            whole.step(q, target, prev)
+            step.append(clock() - start)
+    warm = len(found)  # the first round warms up
+    return np.array(stage[warm:]) / 1e3, np.array(step[warm:]) / 1e3
 
 
 def row(name: str, t: np.ndarray) -> str:
@@ -102,19 +113,22 @@ def row(name: str, t: np.ndarray) -> str:
     return f"| {name} | {len(t)} | {p50:.1f} | {p99:.1f} | {p999:.1f} | {t.max():.1f} |"
 
 
-def section(lp: np.ndarray, stage: np.ndarray, command: str) -> str:
+def section(lp: np.ndarray, stage: np.ndarray, step: np.ndarray, command: str) -> str:
     return "\n".join([
         *section_head(HEADING, "benchmarks/bench_progress.py", command),
         "- The progress step (status `off_direction`) replaces a stalled step: the least-L1 "
         "task error within every limit, compiled (`lpik.fast.progress`, an exact simplex). "
         "LP: random Panda states (pose task, 1 kHz bounds, 1-3 joints on an end-stop); "
-        "stall stage: the controller's call on the stalled steps of `pull-in` on the Panda. "
+        "stall stage: the controller's call on the stalled steps of `pull-in` on the Panda; "
+        "whole step: `Lp2Controller.step` on those states with the stall stage on (the "
+        "exact kernel, the stage and the Python that builds the Result between them). "
         "Target: p99.9 <= 50 us. On a shared machine under load the tail (p99.9, max) is "
         "the scheduler's (a process preempted for milliseconds), not the step's: compare "
         "the load average; a control loop runs on a reserved core.", "",
         "| call | calls | median [us] | p99 [us] | p99.9 [us] | max [us] |",
         "|---|---|---|---|---|---|",
         row("LP (`least_error_step`)", lp), row("stall stage (`progress_in_state`)", stage),
+        row("whole step (`Lp2Controller.step`)", step),
         "", "",
     ])  # fmt: skip
 
@@ -125,11 +139,11 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=20, help="rounds over pull-in's stalls")
     args = parser.parse_args()
     lp = timed(lambda *a: least_error_step(*a, np.empty(7)), random_states(args.calls))
-    stage = stage_times(args.repeat)
+    stage, step = stage_times(args.repeat)
     command = "python benchmarks/bench_progress.py"
     command += f" --calls {args.calls}" if args.calls != 20000 else ""
     command += f" --repeat {args.repeat}" if args.repeat != 20 else ""
-    text = section(lp, stage, command)
+    text = section(lp, stage, step, command)
     print(text)
     page = OUT.read_text(encoding="utf-8")
     OUT.write_text(replace_section(page, HEADING, text), encoding="utf-8")
