@@ -817,8 +817,8 @@ class Lp2Controller:
             p, binding = result.p, result.binding
         if code != SOLVED:
             return result
-        progress = progress_result(q, dq, J.copy(), dw.copy(), before, p, binding,
-                                   perf_counter() - start, "compiled")  # fmt: skip
+        progress = progress_result(q, dq, J, dw, before, p, binding, perf_counter() - start,
+                                   "compiled")  # fmt: skip
         return progress if progress.status == OFF_DIRECTION else result
 
     def _within_band(self, q0: Any, q_prev: Any) -> bool:
