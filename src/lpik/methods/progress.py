@@ -361,9 +361,11 @@ class StallWatch:
         """``result``, or the progress step (HiGHS) once the step has stalled ``after`` times.
 
         ``problem_of()`` builds the step's :class:`~lpik.problem.Problem` (only when
-        needed: a step with ``p <= STALL_BLEND_P`` under a watch).
+        needed: a step with ``p <= STALL_P`` under a watch, or up to ``STALL_BLEND_P``
+        right after a progress step, where the band may apply: :func:`stall_limit`).
         """
-        if self.after is None or result.status not in STALLS or result.p > STALL_BLEND_P:
+        if (self.after is None or result.status not in STALLS
+                or result.p > stall_limit(self.engaged)):  # fmt: skip
             self.run = 0
             return result
         problem = problem_of()
