@@ -16,7 +16,7 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
@@ -154,12 +154,26 @@ def planar_problems(draw: st.DrawFn) -> Problem:
     )  # fmt: skip
 
 
+#: A draw that failed once: the arm stretched along an axis, J's first row 1e-10.
+STRETCHED = Problem(
+    J=np.array([[-1e-10, -1e-10, -1e-10], [3.0, 2.0, 1.0]]), dw=np.zeros(2),
+    q0=np.array([0.0, 0.0, 1e-10]), q_min=np.full(3, -1.6), q_max=np.full(3, 1.6),
+    dq_min=np.full(3, -0.125), dq_max=np.full(3, 0.125), Lambda=np.full(3, 1.0),
+    q_ref=np.array([0.0, 0.0, 1.0]), lam_min=np.full(2, -np.inf), lam_max=np.full(2, np.inf),
+)  # fmt: skip
+
+
 @settings(max_examples=150, deadline=None)
 @given(planar_problems())
+@example(STRETCHED)
 def test_compiled_and_numpy_agree_and_a_pull_that_fits_is_whole(problem: Problem) -> None:
     numpy_result, compiled = lp2(problem), lp2(problem, path="compiled")
     assert numpy_result.status == compiled.status
-    assert abs(numpy_result.pull_scale - compiled.pull_scale) <= 1e-9
+    # numpy's SVD and the compiled Jacobi SVD round apart by about cond(J) times the
+    # machine epsilon on LP2's singular path (an arm stretched along an axis: a J row of
+    # 1e-10, cond(J) 2e10, the two pull scales 5e-7 apart, as test_parity's xfails)
+    rounding = 1e-15 * float(np.linalg.cond(problem.J))
+    assert abs(numpy_result.pull_scale - compiled.pull_scale) <= 1e-9 + rounding
     assert 0.0 <= compiled.pull_scale <= 1.0
     if not compiled.moved:
         assert compiled.pull_scale == numpy_result.pull_scale == 1.0
