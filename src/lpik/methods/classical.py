@@ -73,8 +73,14 @@ def weighted(problem: Problem) -> Result:
 
 
 def yoshikawa_manipulability(J: FloatArray) -> float:
-    """Yoshikawa's manipulability measure ``sqrt(det(J J^T))`` (paper ref. [12])."""
-    return float(np.sqrt(max(0.0, np.linalg.det(J @ J.T))))
+    """Yoshikawa's manipulability measure ``sqrt(det(J J^T))`` (paper ref. [12]).
+
+    0 at a singular configuration, without the RuntimeWarning numpy's LU raises
+    there (a zero pivot).
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        determinant = np.linalg.det(J @ J.T)
+    return float(np.sqrt(max(0.0, determinant)))
 
 
 def robust(problem: Problem) -> Result:
