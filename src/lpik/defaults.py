@@ -13,8 +13,8 @@ DEFAULT_METHOD = "lp2s"
 #: or one with ``p <= STALL_P`` (``STALL_BLEND_P`` right after a progress step) that
 #: gains far less than the progress step, a start from rest excepted) in a row before the
 #: progress step (:mod:`lpik.methods.progress`) is taken; ``None``: never (the paper's
-#: strict step: the direction or no motion). On by
-#: default, so that an arm with a target it could still come nearer to does not freeze.
+#: strict step: the direction or no motion). On by default, so that an arm with a target
+#: it could still come nearer to does not freeze.
 #: The paper's runs name ``None`` (:data:`lpik.paper.setup.PAPER_COMMAND`).
 DEFAULT_ON_STALL: int | None = 1
 

@@ -85,12 +85,13 @@ from lpik.methods.progress import (
     l1_error,
     progress_result,
     stall_candidate,
+    stall_limit,
     stalled_step,
 )
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result
 from lpik.robots.base import TaskModel
-from lpik.tolerances import FULL_P, STALL_BLEND_P, STALL_P
+from lpik.tolerances import FULL_P, STALL_P
 from lpik.types import FloatArray
 
 __all__ = ["Lp2Controller", "SceneRows", "StateRows"]
@@ -715,8 +716,8 @@ class Lp2Controller:
                 code = self._run(q0, target, q_prev)
         if code == OK and self._out.item(self._outside) < 0:
             p = self._out.item(self._p)
-            band = STALL_P < p <= STALL_BLEND_P and self._within_band(q0, q_prev)
-            if not self._watch_stall or (p > STALL_P and not band):  # stall_limit: no stall
+            # no stall: the kernel's step stands (within the band the stall stage decides)
+            if not self._watch_stall or p > stall_limit(self.stepper.stall_watch.engaged):
                 self.stepper.stall_watch.clear()
                 self._last_code = code
                 out[...] = self._q_view
@@ -784,7 +785,7 @@ class Lp2Controller:
         watch, n, m = self.stepper.stall_watch, self._n, self._m
         further = self._further and result.status == OPTIMAL and result.p < 1.0
         may_stall = (watch.after is not None and result.status in STALLS
-                     and result.p <= STALL_BLEND_P)  # fmt: skip
+                     and result.p <= stall_limit(watch.engaged))  # fmt: skip
         if may_stall or further:  # else (nearly every step) nothing more to do
             q = np.ascontiguousarray(q0, dtype=np.float64)
             prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
@@ -820,17 +821,6 @@ class Lp2Controller:
         progress = progress_result(q, dq, J, dw, before, p, binding, perf_counter() - start,
                                    "compiled")  # fmt: skip
         return progress if progress.status == OFF_DIRECTION else result
-
-    def _within_band(self, q0: Any, q_prev: Any) -> bool:
-        """Whether the stall stage may judge a step within its band after a progress step.
-
-        :meth:`StallWatch.keeping <lpik.methods.progress.StallWatch.keeping>`'s rule
-        without its memory: the last step was the progress step, and the step is not
-        solved around the arm's motion. Only such a step with ``p`` above ``STALL_P``
-        needs the stall stage (:func:`lpik.methods.progress.stall_limit`).
-        """
-        moving = self.stepper.continues and q_prev is not None and not np.array_equal(q0, q_prev)
-        return self.stepper.stall_watch.engaged and not moving
 
     def _on_floor(self, q: FloatArray) -> FloatArray:
         """The bound's floor as the progress step's row, where the step's motion reached it.
