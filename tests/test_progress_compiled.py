@@ -288,6 +288,29 @@ def test_the_stalled_step_is_continuous_in_p() -> None:
     np.testing.assert_allclose(stalled_step(exact, progress, p), [0.25, 2.5], rtol=1e-14)
 
 
+@given(
+    p=st.sampled_from([0.0, 1e-10, STALL_P / 2, STALL_P, 0.015, STALL_BLEND_P, 0.5]),
+    gains=st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)),
+    flags=st.tuples(st.booleans(), st.booleans(), st.booleans()),
+)
+@settings(max_examples=examples(200), deadline=None)
+def test_the_compiled_stall_rule_is_the_numpy_rule(p, gains, flags) -> None:
+    """The compiled stall stage decides with the numpy path's own functions (one code
+    object each, compiled as it is), and they answer alike on both sides."""
+    import lpik.methods.progress as rule
+
+    twins = {"may_stall": fast._may_stall, "stalls": fast._stalls,
+             "exact_weight": fast._exact_weight, "makes_progress": fast._makes_progress,
+             "stall_limit": fast._stall_limit}  # fmt: skip
+    for name, twin in twins.items():
+        assert twin.py_func.__code__ is getattr(rule, name).__code__, name
+    held, moving, keeping = flags
+    assert fast._may_stall(p, held, moving, keeping) == rule.may_stall(p, held, moving, keeping)
+    assert fast._stalls(p, *gains, *flags) == rule.stalls(p, *gains, *flags)
+    assert fast._exact_weight(p) == rule.exact_weight(p)
+    assert fast._makes_progress(1.0, gains[0], 1.0) == rule.makes_progress(1.0, gains[0], 1.0)
+
+
 def test_a_blended_stalled_step_is_alike_on_both_paths(monkeypatch) -> None:
     """Scenario 2's leg -x of the quality suite (Panda, no acceleration limits, the command
     unclamped): the target goes 1.39 m out along -x at 1 m/s, is held 0.3 s and comes

@@ -89,7 +89,7 @@ def _controller_kernels() -> list[KernelLoad]:
     controller = Lp2Controller(panda, dt=1e-3, qdd_max=10.0, on_stall=None, compile="now")
     _ready(loads, "the stall stage's progress step (on_stall, mode=\"progress\")",
            partial(Lp2Controller, panda, dt=1e-3, qdd_max=10.0, mode="progress", compile="now"),
-           progress.progress_in_state)  # fmt: skip
+           progress.stall_stage)  # fmt: skip
     points = load_robot("panda", task="position")  # the batch compiles per target's shape
     on_points = Lp2Controller(points, dt=1e-3, qdd_max=10.0, on_stall=None, compile="now")
 

@@ -67,29 +67,23 @@ from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.outcome import compiled_result
 from lpik.fast.progress import (
+    NOT_STALLED,
     SOLVED,
-    further_in_state,
+    STALLED,
+    further_stage,
     largest_share_lp,
     least_error,
-    progress_in_state,
+    stall_stage,
     state_rows,
 )
-from lpik.fast.step import BAD_INPUT, continues
+from lpik.fast.step import BAD_INPUT
 from lpik.labels import row_label, step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
 from lpik.methods.autobound import floor_row
-from lpik.methods.progress import (
-    STALLS,
-    is_stall,
-    l1_error,
-    progress_result,
-    stall_candidate,
-    stall_limit,
-    stalled_step,
-)
+from lpik.methods.progress import STALLS, held_by_acceleration, progress_result, stall_limit
 from lpik.problem import Problem, reference_configuration
-from lpik.result import INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result
+from lpik.result import INFEASIBLE, OPTIMAL, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import FULL_P, STALL_P
 from lpik.types import FloatArray
@@ -445,12 +439,19 @@ class Lp2Controller:
         origins, axes, revolute, tip = chain_arrays(model)
         self._n, self._m = n, m
         self._floor = np.empty(n + 1)  # the bound's floor as the progress step's row (_on_floor)
+        self._residual_out = np.empty(1)  # the stall stage's residual (_stalled)
         self._labels = step_label_table(model.joint_names, m, template.row_labels)
         #: An optimal step's fields as :func:`compiled_result` decodes them; the fast
         #: path of :meth:`step` copies it and fills in the numbers.
         self._optimal_fields = dict(
             compiled_result(OK, np.empty(0), np.empty(0), 0.0, None, None, None, self.method,
                             0.0, 0.0, 1.0).__dict__
+        )  # fmt: skip
+        #: A stalled step's fields (:func:`~lpik.methods.progress.progress_result`'s
+        #: progress step); :meth:`_stalled` copies it and fills in the numbers.
+        self._progress_fields = dict(
+            progress_result(np.zeros(n), np.ones(n), np.zeros((0, n)), np.zeros(0), 1.0, 0.0,
+                            None, 0.0, "compiled").__dict__
         )  # fmt: skip
         return layout.pack(
             n, m, template.G.shape[0],
@@ -773,54 +774,56 @@ class Lp2Controller:
         return self.stepper.solve(problem, path=self._fallback_path)
 
     def _stalled(self, result: Result, q0: Any, q_prev: Any, *, count: bool) -> Result:
-        """The stall stage, compiled (:mod:`lpik.fast.progress`), on the step in the state.
+        """The stall stage, compiled (:func:`lpik.fast.progress.stall_stage`), on the step.
 
         The rule is the stepper's (:class:`~lpik.methods.progress.StallWatch`,
-        :func:`~lpik.methods.progress.is_stall`); ``count=False`` (a batch row, an
-        independent state without history) takes the progress step only where one
-        stalled step is enough (``on_stall=1``). In ``mode="progress"`` a step that did
-        not stall gets the second stage. ``J`` and ``dw`` are the step's, as the kernel
-        left them in the state; the bounds are recomputed from ``q0`` and ``q_prev``.
+        :func:`~lpik.methods.progress.stalls`), decided in one compiled call;
+        ``count=False`` (a batch row, an independent state without history) takes
+        the progress step only where one stalled step is enough (``on_stall=1``). In
+        ``mode="progress"`` a step that did not stall gets the second stage. ``J``
+        and ``dw`` are the step's, as the kernel left them in the state; the bounds
+        are recomputed from ``q0`` and ``q_prev``.
         """
-        watch, n, m = self.stepper.stall_watch, self._n, self._m
+        watch = self.stepper.stall_watch
         further = self._further and result.status == OPTIMAL and result.p < 1.0
         may_stall = (watch.after is not None and result.status in STALLS
                      and result.p <= stall_limit(watch.engaged))  # fmt: skip
-        if may_stall or further:  # else (nearly every step) nothing more to do
-            q = np.ascontiguousarray(q0, dtype=np.float64)
-            prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
-            moving = may_stall and continues(self._state, q, prev)  # the stepper's last motion
-            keeping = count and may_stall and watch.keeping(q, moving)  # the band
-            may_stall = may_stall and stall_candidate(result.p, result.binding, moving, keeping)
-        if not (may_stall or further):
+        if not (may_stall or further):  # nearly every step: nothing more to do
             if count:
                 watch.clear()
             return result
-        J = layout.matrix_at(self._state, layout.JACOBIAN, m, n)
-        dw = self._out[self._dw]
-        start, dq = perf_counter(), np.empty(n)
-        stalled = False
+        start = perf_counter()
+        q = np.ascontiguousarray(q0, dtype=np.float64)
+        prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
         if may_stall:
-            code, before, after = progress_in_state(self._state, q, prev, dq, self._on_floor(q))
-            exact_gain = before - l1_error(J, dw, result.dq)
-            stall = code == SOLVED and is_stall(
-                result.p, exact_gain, before - after, result.binding, moving, keeping
-            )
+            dq, residual = np.empty(self._n), self._residual_out
+            decision = stall_stage(
+                self._state, q, prev, np.ascontiguousarray(result.dq, dtype=np.float64),
+                result.p, held_by_acceleration(result.binding), count and watch.engaged_at(q),
+                self._on_floor(q), dq, residual,
+            )  # fmt: skip
+            stall = decision != NOT_STALLED
             stalled = watch.count(stall) if count else watch.after == 1 and stall
-            if not (stalled or further):
+            if stalled and decision == STALLED:  # p 0; binding: what stopped the direction
+                fields = self._progress_fields.copy()
+                fields["q"], fields["dq"], fields["binding"] = q + dq, dq, result.binding
+                fields["residual"], fields["solve_time"] = residual.item(0), perf_counter() - start
+                return Result.trusted(fields)
+            if stalled or not further:
                 return result
-        if stalled:  # p 0; binding: the limit that stopped the direction
-            p, binding = 0.0, result.binding
-            dq = stalled_step(result.dq, dq, result.p)
-        else:
-            dq1 = np.ascontiguousarray(result.dq, dtype=np.float64)
-            code, before, _ = further_in_state(self._state, q, prev, dq1, dq)
-            p, binding = result.p, result.binding
-        if code != SOLVED:
-            return result
-        progress = progress_result(q, dq, J, dw, before, p, binding, perf_counter() - start,
-                                   "compiled")  # fmt: skip
-        return progress if progress.status == OFF_DIRECTION else result
+        return self._further_step(result, q, prev, start)
+
+    def _further_step(self, exact: Result, q: FloatArray, prev: FloatArray, start: float) -> Result:
+        """``mode="progress"``'s second stage after the exact step (:func:`further_stage`)."""
+        dq, residual = np.empty(self._n), self._residual_out
+        dq1 = np.ascontiguousarray(exact.dq, dtype=np.float64)
+        if not further_stage(self._state, q, prev, dq1, dq, residual):
+            return exact
+        fields = self._progress_fields.copy()  # p and binding: the exact step's
+        fields["q"], fields["dq"], fields["p"] = q + dq, dq, exact.p
+        fields["binding"] = exact.binding
+        fields["residual"], fields["solve_time"] = residual.item(0), perf_counter() - start
+        return Result.trusted(fields)
 
     def _on_floor(self, q: FloatArray) -> FloatArray:
         """The bound's floor as the progress step's row, where the step's motion reached it.

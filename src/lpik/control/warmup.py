@@ -40,27 +40,28 @@ from numba import types
 from lpik.defaults import COMPILE_ENV, COMPILE_MODES, DEFAULT_COMPILE
 from lpik.fast.autobound import floor_in_state
 from lpik.fast.progress import (
-    further_in_state,
+    further_stage,
     largest_share_lp,
     least_error_step,
-    progress_in_state,
+    stall_stage,
     state_rows,
 )
 from lpik.fast.signatures import load_cached
-from lpik.fast.step import cached_step_kernel, continues, step_kernel
+from lpik.fast.step import cached_step_kernel, step_kernel
 
 _VECTOR, _MATRIX = types.float64[::1], types.float64[:, ::1]
 #: Each stage's kernels beside the fused step, each with the one signature a controller
 #: calls it with.
 STAGES = {
-    # on_stall (the stall stage; it asks `continues` whether the step was solved around
-    # the motion: loaded lazily, its first call took 4 ms)
+    # on_stall (the stall stage's rule and its progress step, one call)
     "progress": (
-        (progress_in_state, (_VECTOR,) * 5),
-        (continues, (_VECTOR,) * 3),
+        (
+            stall_stage,
+            ((_VECTOR,) * 4 + (types.float64, types.boolean, types.boolean) + (_VECTOR,) * 3),
+        ),
         (floor_in_state, (_VECTOR,) * 3),  # the bound's floor as the progress step's row
     ),
-    "further": ((further_in_state, (_VECTOR,) * 5),),  # mode="progress"'s second stage
+    "further": ((further_stage, (_VECTOR,) * 6),),  # mode="progress"'s second stage
     # a scene's recovery stage (lpik.collision.recovery.recovery_motion on the state's arrays)
     "recovery": (
         (least_error_step, (_MATRIX, *(_VECTOR,) * 3, _MATRIX, _VECTOR, _VECTOR)),

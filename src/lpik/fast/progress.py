@@ -55,6 +55,8 @@ from numba import njit
 
 from lpik.fast import layout as L
 from lpik.fast.step import continues, fading_in_state, step_bounds
+from lpik.fast.twins import compiled_twin
+from lpik.methods import progress as rule
 from lpik.tolerances import FEASIBILITY_TOL, MOTION_WEIGHT, SIMPLEX_COST_TOL, SIMPLEX_PIVOT_TOL
 
 #: :func:`least_error_step`'s outcomes.
@@ -62,6 +64,16 @@ SOLVED, INFEASIBLE, ITERATION_LIMIT = 0, 1, 2
 #: :func:`least_error_step`'s outcome when rounding left the basis singular (a pivot of
 #: 0 in its fresh factorisation): no answer, the caller keeps its own step.
 SINGULAR_BASIS = 3
+#: :func:`stall_stage`'s decisions: the exact step stands (not a stall); it stalled and
+#: ``dq`` holds the stalled step; it stalled but no motion brings the target nearer (the
+#: exact step stands all the same; a stall for ``on_stall``'s count).
+NOT_STALLED, STALLED, STALLED_NO_GAIN = 0, 1, 2
+#: The stall stage's rule (:mod:`lpik.methods.progress`), compiled as it is.
+_stall_limit = njit(cache=True)(rule.stall_limit)
+_may_stall = compiled_twin(rule.may_stall, stall_limit=_stall_limit)
+_stalls = compiled_twin(rule.stalls, may_stall=_may_stall)
+_exact_weight = njit(cache=True)(rule.exact_weight)
+_makes_progress = njit(cache=True)(rule.makes_progress)
 #: Degenerate pivots in a row after which the simplex prices by Bland's rule.
 _BLAND_AFTER = 30
 #: Fresh factorisations of the optimal basis before the answer stands.
@@ -473,6 +485,85 @@ def further_in_state(state, q0, q_prev, dq1, dq):
 
 
 @njit(cache=True)
+def stall_stage(state, q0, q_prev, exact_dq, p, held, engaged, floor, dq, residual):
+    """The stall stage's rule (:class:`lpik.methods.progress.StallWatch`) on the exact step.
+
+    The exact step (``exact_dq``, its ``p``; ``held``: its binding limit is an
+    acceleration limit) is the one a fused step left in ``state``; ``engaged``: the
+    step before it was the progress step (:meth:`~lpik.methods.progress.StallWatch.engaged_at`,
+    False for a batch row). Within the band after a progress step
+    (:meth:`~lpik.methods.progress.StallWatch.keeping`), where the step was not
+    solved around a motion, the band's rule applies. Where the step
+    :func:`~lpik.methods.progress.may_stall`, :func:`progress_in_state` solves the
+    progress step (``floor`` as there) and :func:`~lpik.methods.progress.stalls`
+    compares the two steps' gains; a stalled step is
+    :func:`~lpik.methods.progress.stalled_step`'s blend, written into ``dq``, with
+    ``max |J dq - dw|`` in ``residual[0]``. One call, so that a stalled step of a
+    control loop costs one compiled call and the Result. Returns :data:`NOT_STALLED`,
+    :data:`STALLED` or :data:`STALLED_NO_GAIN` (:func:`~lpik.methods.progress.makes_progress`).
+    """
+    moving = continues(state, q0, q_prev)
+    keeping = engaged and not moving
+    if not _may_stall(p, held, moving, keeping):
+        return NOT_STALLED
+    code, before, after = progress_in_state(state, q0, q_prev, dq, floor)
+    if code != SOLVED:
+        return NOT_STALLED
+    n, m = q0.shape[0], int(state[L.M])
+    J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
+    exact_after = _task_error(J, dw, exact_dq)[0]
+    if not _stalls(p, before - exact_after, before - after, held, moving, keeping):
+        return NOT_STALLED
+    weight = _exact_weight(p)
+    if weight != 0.0:
+        for i in range(n):
+            dq[i] = weight * exact_dq[i] + (1.0 - weight) * dq[i]
+    after, residual[0] = _task_error(J, dw, dq)
+    return STALLED if _makes_progress(before, after, _scale(dw)) else STALLED_NO_GAIN
+
+
+@njit(cache=True)
+def further_stage(state, q0, q_prev, dq1, dq, residual):
+    """``mode="progress"``'s second stage (:func:`further_in_state`) and its verdict, one call.
+
+    ``dq`` receives the step after the exact step ``dq1`` and ``residual[0]`` its
+    ``max |J dq - dw|``. Returns True where the LP answered and the step reduces the
+    L1 task error that the exact step leaves
+    (:func:`~lpik.methods.progress.makes_progress`); False: the exact step stands.
+    """
+    code, _, _ = further_in_state(state, q0, q_prev, dq1, dq)
+    if code != SOLVED:
+        return False
+    n, m = q0.shape[0], int(state[L.M])
+    J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
+    before = _task_error(J, dw, dq1)[0]
+    after, residual[0] = _task_error(J, dw, dq)
+    return _makes_progress(before, after, _scale(dw))
+
+
+@njit(cache=True)
+def _scale(dw):
+    """``max(1, max |dw|)``: the scale of :func:`~lpik.methods.progress.makes_progress`."""
+    scale = 1.0
+    for k in range(dw.shape[0]):
+        scale = max(scale, abs(dw[k]))
+    return scale
+
+
+@njit(cache=True)
+def _task_error(J, dw, dq):
+    """``(sum_k |J dq - dw|_k, max_k |J dq - dw|_k)``: the task error a step leaves."""
+    total, worst = 0.0, 0.0
+    for k in range(J.shape[0]):
+        s = -dw[k]
+        for i in range(J.shape[1]):
+            s += J[k, i] * dq[i]
+        total += abs(s)
+        worst = max(worst, abs(s))
+    return total, worst
+
+
+@njit(cache=True)
 def _motion(dq):
     """``MOTION_WEIGHT sum |dq_i|``."""
     s = 0.0
@@ -504,10 +595,12 @@ __all__ = [
     "SOLVED",
     "further_in_state",
     "further_progress",
+    "further_stage",
     "largest_share_lp",
     "least_error",
     "least_error_step",
     "least_error_value",
     "progress_in_state",
+    "stall_stage",
     "state_rows",
 ]

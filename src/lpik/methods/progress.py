@@ -138,36 +138,38 @@ def stalled_step(exact_dq: FloatArray, progress_dq: FloatArray, p: float) -> Flo
     return weight * np.asarray(exact_dq, dtype=np.float64) + (1.0 - weight) * progress_dq
 
 
-def stall_candidate(
-    p: float, binding: object = None, moving: bool = True, keeping: bool = False
-) -> bool:
-    """Whether a step may stall (:func:`is_stall`), from its ``p``, binding limit and motion.
+def held_by_acceleration(binding: object) -> bool:
+    """Whether a step's binding limit is an acceleration limit (``binding.kind``)."""
+    return getattr(binding, "kind", None) == "acceleration"
+
+
+def may_stall(p: float, held: bool, moving: bool, keeping: bool) -> bool:
+    """Whether a step may stall (:func:`stalls`), from its ``p``, binding limit and motion.
 
     ``p`` at most :func:`stall_limit` (``keeping``: within the band after a
-    progress step), and not a start from rest: a step of an arm
-    at rest (``moving`` False) with ``p > 0`` (above
-    :data:`~lpik.tolerances.NO_CHANGE_P`) held by an acceleration limit
-    (``binding.kind == "acceleration"``) has its direction and takes it as fast as
-    the arm can speed up, and ``p`` grows as it does. Only a candidate needs the
-    progress step's LP.
+    progress step), and not a start from rest: a step of an arm at rest
+    (``moving`` False) with ``p > 0`` (above :data:`~lpik.tolerances.NO_CHANGE_P`)
+    held by an acceleration limit (``held``: :func:`held_by_acceleration`) has its
+    direction and takes it as fast as the arm can speed up, and ``p`` grows as it
+    does. Only a candidate needs the progress step's LP. Scalars only: the compiled
+    stall stage runs this function itself (:func:`lpik.fast.progress.stall_stage`).
     """
     if p > stall_limit(keeping):
         return False
     if p <= NO_CHANGE_P or moving:
         return True
-    return getattr(binding, "kind", None) != "acceleration"
+    return not held
 
 
-def is_stall(
-    p: float, exact_gain: float, progress_gain: float, binding: object = None,
-    moving: bool = True, keeping: bool = False,
-) -> bool:  # fmt: skip
+def stalls(
+    p: float, exact_gain: float, progress_gain: float, held: bool, moving: bool, keeping: bool
+) -> bool:
     """Whether a step stalls: no step along the command, or one far worse than leaving it.
 
     ``exact_gain`` and ``progress_gain`` are how much the exact step and the
     progress step reduce the L1 task error, ``sum |dw| - sum |J dq - dw|``;
-    ``binding`` is the exact step's binding limit. A step stalls where it is a
-    :func:`stall_candidate` and
+    ``held``: the exact step's binding limit is an acceleration limit. A step
+    stalls where it :func:`may_stall` and
 
     - no step along the command exists at all (``p`` at most
       :data:`~lpik.tolerances.NO_CHANGE_P`: the step is the safe step, or the
@@ -179,15 +181,38 @@ def is_stall(
       flipping between the two laws.
 
     A stalled step is replaced by :func:`stalled_step` (the progress step, blended
-    with the exact one where ``p > STALL_P``).
-
-    Where no motion brings the target nearer the stall stage keeps the step all the
-    same: the progress step gains nothing (:func:`progress_result`, ``no progress``).
+    with the exact one where ``p > STALL_P``). Where no motion brings the target
+    nearer the stall stage keeps the step all the same (:func:`makes_progress`).
+    Scalars only, as :func:`may_stall`.
     """
-    if not stall_candidate(p, binding, moving, keeping):
+    if not may_stall(p, held, moving, keeping):
         return False
     share = STALL_KEEP_SHARE if keeping else STALL_SHARE
     return p <= NO_CHANGE_P or exact_gain < share * progress_gain
+
+
+def makes_progress(before: float, after: float, scale: float) -> bool:
+    """Whether a step that takes the L1 task error from ``before`` to ``after`` gains.
+
+    A gain within :data:`~lpik.tolerances.EQUALITY_RTOL` of ``scale`` (``max(1,
+    |dw|)``) is rounding, not progress. Scalars only, as :func:`may_stall`.
+    """
+    return before - after > EQUALITY_RTOL * scale
+
+
+def stall_candidate(
+    p: float, binding: object = None, moving: bool = True, keeping: bool = False
+) -> bool:
+    """:func:`may_stall` with the step's ``binding`` limit itself."""
+    return may_stall(p, held_by_acceleration(binding), moving, keeping)
+
+
+def is_stall(
+    p: float, exact_gain: float, progress_gain: float, binding: object = None,
+    moving: bool = True, keeping: bool = False,
+) -> bool:  # fmt: skip
+    """:func:`stalls` with the step's ``binding`` limit itself."""
+    return stalls(p, exact_gain, progress_gain, held_by_acceleration(binding), moving, keeping)
 
 
 def progress_step(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
@@ -291,13 +316,12 @@ def progress_result(
     """The progress step as a Result (every path): ``off_direction`` where it gains.
 
     ``before`` is the L1 task error without it (``sum |dw|``, or the exact step's).
-    A gain within :data:`~lpik.tolerances.EQUALITY_RTOL` of ``max(1, |dw|)`` is none:
-    status ``optimal``, binding ``"no progress"``, ``dq`` as given.
+    A gain that is none (:func:`makes_progress`): status ``optimal``, binding ``"no
+    progress"``, ``dq`` as given.
     """
     left = np.abs(J @ dq - dw)  # what remains of each task row (once: the step is timed)
-    after = float(left.sum())
     scale = max(1.0, float(np.abs(dw).max())) if dw.size else 1.0
-    if before - after <= EQUALITY_RTOL * scale:
+    if not makes_progress(before, float(left.sum()), scale):
         return Result(q=q0 + dq, dq=dq, p=p, lam=None, status=OPTIMAL, binding="no progress",
                       method="progress", solve_time=elapsed, path=path)  # fmt: skip
     return Result(
@@ -322,8 +346,8 @@ class StallWatch:
             )
         self.after = None if after is None else int(after)
         self.run = 0
-        self._key: bytes | None = None  # the q0 of the last step judged (keeping)
-        self._keeping = False  # and whether it was judged within the band
+        self._key: bytes | None = None  # the q0 of the last step judged (engaged_at)
+        self._engaged_at = False  # and whether the step before it was the progress step
 
     def count(self, stall: bool) -> bool:
         """Count one step (``stall``: :func:`is_stall`); True when the progress step is due."""
@@ -341,21 +365,28 @@ class StallWatch:
         """Whether the last step was the progress step."""
         return self.after is not None and self.run >= self.after
 
-    def keeping(self, q0: FloatArray, moving: bool) -> bool:
-        """Whether the step from ``q0`` is judged within the band (``keeping`` of :func:`is_stall`).
+    def engaged_at(self, q0: FloatArray) -> bool:
+        """:attr:`engaged` as it was when the step from ``q0`` was first judged.
 
-        After a progress step, where no acceleration limit carries the motion on
-        (``moving`` False): there every flip between the exact and the progress
-        step is a jump of the joint velocities. Under acceleration limits the
-        limits bound that jump, and the band would only hold back exact steps
-        (measured on the quality suite: fewer excursions recovered, more jitter).
         The same step asked again (the same ``q0``: ``step`` then ``step_into``, or
         an arm that did not move) is judged as the first time.
         """
         key = np.asarray(q0, dtype=np.float64).tobytes()
         if key != self._key:
-            self._key, self._keeping = key, self.engaged and not moving
-        return self._keeping
+            self._key, self._engaged_at = key, self.engaged
+        return self._engaged_at
+
+    def keeping(self, q0: FloatArray, moving: bool) -> bool:
+        """Whether the step from ``q0`` is judged within the band (``keeping`` of :func:`stalls`).
+
+        After a progress step (:meth:`engaged_at`), where no acceleration limit
+        carries the motion on (``moving`` False): there every flip between the
+        exact and the progress step is a jump of the joint velocities. Under
+        acceleration limits the limits bound that jump, and the band would only
+        hold back exact steps (measured on the quality suite: fewer excursions
+        recovered, more jitter).
+        """
+        return self.engaged_at(q0) and not moving
 
     def check(self, result: Result, problem_of: Callable[[], Problem]) -> Result:
         """``result``, or the progress step (HiGHS) once the step has stalled ``after`` times.
