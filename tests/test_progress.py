@@ -7,7 +7,13 @@ import pytest
 from scipy.optimize import linprog
 
 from lpik.methods import solve
-from lpik.methods.progress import MOTION_WEIGHT, StallWatch, is_stall, progress_step
+from lpik.methods.progress import (
+    MOTION_WEIGHT,
+    StallWatch,
+    is_stall,
+    progress_center,
+    progress_step,
+)
 from lpik.paper.scenarios import PLANAR, get_scenario
 from lpik.paper.setup import PAPER_COMMAND
 from lpik.problem import Problem
@@ -53,6 +59,24 @@ def test_the_progress_step_is_the_least_l1_error_of_an_independent_lp() -> None:
         value = float(np.abs(J @ res.dq - dw).sum() + MOTION_WEIGHT * np.abs(res.dq).sum())
         assert value == pytest.approx(ref.fun, abs=1e-9)
         assert np.all(res.dq >= P.q_min - 1e-9) and np.all(res.dq <= P.q_max + 1e-9)
+
+
+def test_the_progress_step_keeps_the_exact_step_where_leaving_it_buys_little() -> None:
+    """Without acceleration limits the motion term is measured from the exact step: of two
+    steps of the same error the progress step takes the one at the exact step, not the
+    least motion; under acceleration limits it is the arm's motion (progress_center)."""
+    P = Problem(J=[[1.0, 1.0]], dw=[0.01], q0=[0.0, 0.0], dq_min=[-0.1, -0.1],
+                dq_max=[0.1, 0.1])  # fmt: skip
+    exact = np.array([0.03, -0.02])  # J exact = dw: no error, as the least-motion (0.005, 0.005)
+    np.testing.assert_allclose(progress_step(P, exact=exact).dq, exact, atol=1e-12)
+    np.testing.assert_allclose(progress_step(P).dq @ [1.0, 1.0], 0.01, atol=1e-12)
+    assert np.abs(progress_step(P).dq).sum() == pytest.approx(0.01)  # the least motion
+    lower, upper = np.full(2, -0.1), np.full(2, 0.1)
+    np.testing.assert_array_equal(progress_center(None, lower, upper, np.array([0.5, 0.0])),
+                                  [0.1, 0.0])  # clipped to the bounds  # fmt: skip
+    last = np.array([0.01, 0.02])
+    np.testing.assert_array_equal(progress_center(last, lower, upper, exact), last)
+    np.testing.assert_array_equal(progress_center(None, lower, upper), 0.0)
 
 
 def test_no_progress_possible_is_said_and_moves_nothing() -> None:

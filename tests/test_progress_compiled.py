@@ -311,6 +311,40 @@ def test_the_compiled_stall_rule_is_the_numpy_rule(p, gains, flags) -> None:
     assert fast._makes_progress(1.0, gains[0], 1.0) == rule.makes_progress(1.0, gains[0], 1.0)
 
 
+def test_an_arm_unfolding_at_its_velocity_limits_keeps_its_motion() -> None:
+    """Scenario 2's leg +y of the quality suite (Panda, no acceleration limits, the command
+    unclamped): the target goes 1.12 m out along +y at 1 m/s, is held 0.3 s and comes
+    back. As it comes back the arm unfolds from its stretched pose, the exact step moving
+    joints at their velocity limits with p of 0.002 to 0.008. With the progress step's
+    motion measured from no motion, every few steps a progress step of almost no motion
+    (twice the exact step's gain in the linear model) replaced the exact step: 20 switches
+    between the two laws, most of them jumps of 8.9 rad/s. Measured from the exact step
+    (progress_center), the progress step keeps that motion: the only jump at a switch is
+    the exact step's own start, and the arm comes home."""
+    model = load_robot("panda")
+    home = home_configuration("panda")
+    start, far, hold = model.pose(home), 1.12, 0.3
+
+    def target(k: int) -> np.ndarray:
+        t = k * 1e-3
+        pose = start.copy()
+        pose[1, 3] += far * min(t / far, 1.0, max(0.0, (2 * far + hold - t) / far))
+        return pose
+
+    controller = Lp2Controller(model, dt=1e-3, v_max=1e6, w_max=1e6)
+    q = prev = home
+    before, jumps, progress_steps = OPTIMAL, [], 0
+    for k in range(3500):
+        res = controller.step(q, target(k), prev)
+        if res.status != before:  # a switch between the exact and the progress step
+            jumps.append(np.abs(res.dq - (q - prev)).sum() / 1e-3)  # [rad/s]
+        progress_steps += res.status == OFF_DIRECTION
+        before, prev, q = res.status, q, res.q
+    assert progress_steps > 100  # the stall stage took part
+    assert sum(jump > 2.0 for jump in jumps) <= 1, np.round(jumps, 2)
+    assert np.linalg.norm(model.pose(q)[:3, 3] - start[:3, 3]) < 1e-8
+
+
 def test_a_blended_stalled_step_is_alike_on_both_paths(monkeypatch) -> None:
     """Scenario 2's leg -x of the quality suite (Panda, no acceleration limits, the command
     unclamped): the target goes 1.39 m out along -x at 1 m/s, is held 0.3 s and comes

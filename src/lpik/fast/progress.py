@@ -434,7 +434,7 @@ def state_rows(state, q0, q_prev, singular_stop):
 
 
 @njit(cache=True)
-def progress_in_state(state, q0, q_prev, dq, floor):
+def progress_in_state(state, q0, q_prev, dq, floor, exact):
     """The stall stage's progress step on the step a fused step left in ``state``.
 
     ``J`` and ``dw`` are the step's (its Jacobian and command blocks), the
@@ -442,7 +442,9 @@ def progress_in_state(state, q0, q_prev, dq, floor):
     are the state's. ``floor`` (n + 1): where the arm's motion has reached the
     automatic bound's floor, its row and right-hand side
     (:func:`lpik.methods.autobound.floor_row`), which the step takes instead of
-    the stop ahead's band; ``floor[n]`` inf: none. Returns ``(outcome, error
+    the stop ahead's band; ``floor[n]`` inf: none. ``exact`` (n,): the exact step,
+    the motion term's center where the step is not solved around a motion
+    (:func:`lpik.methods.progress.progress_center`). Returns ``(outcome, error
     before, error after)``: the L1 task errors ``sum |dw|`` and ``sum |J dq - dw|``.
     """
     n = q0.shape[0]
@@ -452,11 +454,13 @@ def progress_in_state(state, q0, q_prev, dq, floor):
         G = np.vstack((G, floor[:n].copy().reshape((1, n))))
         g = np.append(g, floor[n])
     m, r = J.shape[0], G.shape[0]
-    # the motion term from the arm's motion under acceleration limits (progress_center)
-    center = np.zeros(n)
-    if continues(state, q0, q_prev):
-        for i in range(n):
-            center[i] = min(max(q0[i] - q_prev[i], lower[i]), upper[i])
+    # the motion term's center (progress_center): the arm's motion under acceleration
+    # limits, else the exact step
+    moving = continues(state, q0, q_prev)
+    center = np.empty(n)
+    for i in range(n):
+        c = q0[i] - q_prev[i] if moving else exact[i]
+        center[i] = min(max(c, lower[i]), upper[i])
     shifted, lo, hi, rhs, delta = dw.copy(), lower - center, upper - center, g.copy(), np.empty(n)
     for k in range(m):
         for i in range(n):
@@ -506,7 +510,7 @@ def stall_stage(state, q0, q_prev, exact_dq, p, held, engaged, floor, dq, residu
     keeping = engaged and not moving
     if not _may_stall(p, held, moving, keeping):
         return NOT_STALLED
-    code, before, after = progress_in_state(state, q0, q_prev, dq, floor)
+    code, before, after = progress_in_state(state, q0, q_prev, dq, floor, exact_dq)
     if code != SOLVED:
         return NOT_STALLED
     n, m = q0.shape[0], int(state[L.M])

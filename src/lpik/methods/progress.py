@@ -11,8 +11,8 @@ minimises the L1 norm of the joint step, paper sec. 2.3)::
 
 the small second term picks, among the steps of least error, one of least
 motion (without it the LP's vertex choice makes the joints jitter). The stall
-stage measures that motion from the arm's own motion under acceleration limits
-(``|dq - c|``, :func:`progress_center`).
+stage measures that motion from the arm's own motion under acceleration limits,
+else from the exact step it replaces (``|dq - c|``, :func:`progress_center`).
 
 Two uses, one LP (:func:`least_error_lp` here through HiGHS,
 :func:`lpik.fast.progress.least_error_step` compiled, held equal by tests):
@@ -215,12 +215,16 @@ def is_stall(
     return stalls(p, exact_gain, progress_gain, held_by_acceleration(binding), moving, keeping)
 
 
-def progress_step(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
+def progress_step(
+    problem: Problem, *, solver: HighsSolver | None = None, exact: FloatArray | None = None
+) -> Result:
     """The step of least L1 task error ``sum |J dq - dw|`` within every limit (an LP).
 
     Args:
         problem: The step; ``dw`` is the command whose error is reduced.
         solver: A :class:`~lpik.highs.HighsSolver` to reuse across steps.
+        exact: The exact step it replaces: the motion term's center where the step
+            is not solved around a motion (:func:`progress_center`; None: 0).
 
     Returns:
         Status ``off_direction`` and ``p = 0`` (the direction is not kept) when the
@@ -231,7 +235,7 @@ def progress_step(problem: Problem, *, solver: HighsSolver | None = None) -> Res
     """
     start = time.perf_counter()
     lower, upper = problem.step_bounds()[:2]
-    center = progress_center(problem.last, lower, upper)
+    center = progress_center(problem.last, lower, upper, exact)
     J, G = problem.J, problem.G
     status, delta = least_error_lp(J, problem.dw - J @ center, lower - center, upper - center, G,
                                    problem.h - G @ (problem.q0 + center), solver)  # fmt: skip
@@ -240,22 +244,34 @@ def progress_step(problem: Problem, *, solver: HighsSolver | None = None) -> Res
     return _checked(problem, status, dq, before, 0.0, None, start)
 
 
-def progress_center(last: FloatArray | None, lower: FloatArray, upper: FloatArray) -> FloatArray:
-    """Where the progress step's motion term is measured from: the arm's motion, within bounds.
+def progress_center(
+    last: FloatArray | None, lower: FloatArray, upper: FloatArray, exact: FloatArray | None = None
+) -> FloatArray:
+    """Where the progress step's motion term is measured from, within the step's bounds.
 
-    The stall stage minimises ``|J dq - dw|_1 + MOTION_WEIGHT |dq - c|_1``. Under
-    acceleration limits (the step solved around the motion, ``last = q0 -
-    q_prev``, :mod:`lpik.continuation`) ``c`` is that motion clipped to the step's
-    bounds: the step keeps the motion the arm has unless changing it buys less
-    error, so that stalled and exact steps in turn do not throw the joints one
-    way and back. Otherwise (``last`` ``None``) ``c`` is 0, the least motion:
-    measured on the quality suite's scenario 2 without acceleration limits, the
-    arm's motion there carried the arm into a pose it could not leave (2 of 6
-    excursions recovered, against 6 of 6).
+    The stall stage minimises ``|J dq - dw|_1 + MOTION_WEIGHT |dq - c|_1``:
+
+    - under acceleration limits (the step solved around the motion, ``last = q0 -
+      q_prev``, :mod:`lpik.continuation`) ``c`` is that motion: the step keeps the
+      motion the arm has unless changing it buys clearly less error, so that
+      stalled and exact steps in turn do not throw the joints one way and back;
+    - otherwise (``last`` ``None``) ``c`` is the exact step ``exact`` (0 where none
+      is given): the progress step is the exact step but where leaving it buys
+      clearly less error. Measured on the quality suite's scenario 2 without
+      acceleration limits: with ``c`` 0 (the least motion) an arm unfolding from a
+      stretched pose at its velocity limits (``p`` 0.002 to 0.008) took, every few
+      steps, a progress step of almost no motion, which gained twice as much in the
+      linear model: two jumps of 8.9 rad/s each time; with ``c`` the exact step
+      the scenario's jitter fell from 482 to 311 rad/s and its largest orientation
+      error from 0.38 to 0.27 mrad (the progress steps take back the curvature's
+      error that the exact step adds), every excursion recovered. ``c`` the arm's
+      last motion instead carried the arm into a pose it could not leave (2 of 6
+      excursions recovered).
     """
-    if last is None:
+    center = last if last is not None else exact
+    if center is None:
         return np.zeros(lower.shape[0])
-    return np.clip(np.asarray(last, dtype=np.float64), lower, upper)
+    return np.clip(np.asarray(center, dtype=np.float64), lower, upper)
 
 
 def further_step(problem: Problem, exact: Result, *, solver: HighsSolver | None = None) -> Result:
@@ -405,7 +421,7 @@ class StallWatch:
         if not stall_candidate(result.p, result.binding, moving, keeping):
             self.run = 0
             return result
-        progress = progress_step(problem)
+        progress = progress_step(problem, exact=result.dq)
         before = float(np.abs(problem.dw).sum())
         gains = (before - l1_error(problem.J, problem.dw, result.dq),
                  before - l1_error(problem.J, problem.dw, progress.dq))  # fmt: skip
