@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -311,6 +313,21 @@ def test_the_compiled_stall_rule_is_the_numpy_rule(p, gains, flags) -> None:
     assert fast._makes_progress(1.0, gains[0], 1.0) == rule.makes_progress(1.0, gains[0], 1.0)
 
 
+def out_and_back(
+    start: np.ndarray, axis: np.ndarray, far: float, hold: float = 0.3
+) -> Callable[[int], np.ndarray]:
+    """The quality suite's scenario 2 leg along ``axis`` at 1 kHz: the pose ``start``
+    moved out at 1 m/s to ``far`` [m], held ``hold`` [s] and brought back; step -> pose."""
+
+    def target(k: int) -> np.ndarray:
+        t = k * 1e-3
+        pose = start.copy()
+        pose[:3, 3] += axis * far * min(t / far, 1.0, max(0.0, (2 * far + hold - t) / far))
+        return pose
+
+    return target
+
+
 def test_an_arm_unfolding_at_its_velocity_limits_keeps_its_motion() -> None:
     """Scenario 2's leg +y of the quality suite (Panda, no acceleration limits, the command
     unclamped): the target goes 1.12 m out along +y at 1 m/s, is held 0.3 s and comes
@@ -323,14 +340,8 @@ def test_an_arm_unfolding_at_its_velocity_limits_keeps_its_motion() -> None:
     the exact step's own start, and the arm comes home."""
     model = load_robot("panda")
     home = home_configuration("panda")
-    start, far, hold = model.pose(home), 1.12, 0.3
-
-    def target(k: int) -> np.ndarray:
-        t = k * 1e-3
-        pose = start.copy()
-        pose[1, 3] += far * min(t / far, 1.0, max(0.0, (2 * far + hold - t) / far))
-        return pose
-
+    start = model.pose(home)
+    target = out_and_back(start, np.array([0.0, 1.0, 0.0]), far=1.12)
     controller = Lp2Controller(model, dt=1e-3, v_max=1e6, w_max=1e6)
     q = prev = home
     before, jumps, progress_steps = OPTIMAL, [], 0
@@ -358,14 +369,7 @@ def test_a_blended_stalled_step_is_alike_on_both_paths(monkeypatch) -> None:
     monkeypatch.setattr(progress, "exact_weight", lambda p: weights.append(weight(p)) or weight(p))
     model = load_robot("panda")
     home = home_configuration("panda")
-    start, far, hold = model.pose(home), 1.39, 0.3
-
-    def target(k: int) -> np.ndarray:
-        t = k * 1e-3
-        pose = start.copy()
-        pose[0, 3] -= far * min(t / far, 1.0, max(0.0, (2 * far + hold - t) / far))
-        return pose
-
+    target = out_and_back(model.pose(home), np.array([-1.0, 0.0, 0.0]), far=1.39)
     options = dict(dt=1e-3, v_max=1e6, w_max=1e6)
     controller, stepper = Lp2Controller(model, **options), Stepper(model, **options)
     q = prev = home

@@ -796,33 +796,39 @@ class Lp2Controller:
         q = np.ascontiguousarray(q0, dtype=np.float64)
         prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
         if may_stall:
-            dq, residual = np.empty(self._n), self._residual_out
+            dq = np.empty(self._n)
             decision = stall_stage(
                 self._state, q, prev, np.ascontiguousarray(result.dq, dtype=np.float64),
                 result.p, held_by_acceleration(result.binding), count and watch.engaged_at(q),
-                self._on_floor(q), dq, residual,
+                self._on_floor(q), dq, self._residual_out,
             )  # fmt: skip
             stall = decision != NOT_STALLED
             stalled = watch.count(stall) if count else watch.after == 1 and stall
             if stalled and decision == STALLED:  # p 0; binding: what stopped the direction
-                fields = self._progress_fields.copy()
-                fields["q"], fields["dq"], fields["binding"] = q + dq, dq, result.binding
-                fields["residual"], fields["solve_time"] = residual.item(0), perf_counter() - start
-                return Result.trusted(fields)
+                return self._progress_step(q, dq, 0.0, result.binding, start)
             if stalled or not further:
                 return result
         return self._further_step(result, q, prev, start)
 
     def _further_step(self, exact: Result, q: FloatArray, prev: FloatArray, start: float) -> Result:
         """``mode="progress"``'s second stage after the exact step (:func:`further_stage`)."""
-        dq, residual = np.empty(self._n), self._residual_out
+        dq = np.empty(self._n)
         dq1 = np.ascontiguousarray(exact.dq, dtype=np.float64)
-        if not further_stage(self._state, q, prev, dq1, dq, residual):
+        if not further_stage(self._state, q, prev, dq1, dq, self._residual_out):
             return exact
-        fields = self._progress_fields.copy()  # p and binding: the exact step's
-        fields["q"], fields["dq"], fields["p"] = q + dq, dq, exact.p
-        fields["binding"] = exact.binding
-        fields["residual"], fields["solve_time"] = residual.item(0), perf_counter() - start
+        return self._progress_step(q, dq, exact.p, exact.binding, start)  # the exact step's p
+
+    def _progress_step(
+        self, q: FloatArray, dq: FloatArray, p: float, binding: Any, start: float
+    ) -> Result:
+        """The stage's step from ``q`` as a Result (status ``off_direction``).
+
+        Its residual is the one the stage's kernel left in ``self._residual_out``.
+        """
+        fields = self._progress_fields.copy()
+        fields["q"], fields["dq"], fields["p"], fields["binding"] = q + dq, dq, p, binding
+        fields["residual"] = self._residual_out.item(0)
+        fields["solve_time"] = perf_counter() - start
         return Result.trusted(fields)
 
     def _on_floor(self, q: FloatArray) -> FloatArray:

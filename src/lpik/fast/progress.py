@@ -42,8 +42,8 @@ not the pivots' rounding. Sizes: ``m + r`` rows (a handful), ``2 n + 2 m +
 LP; :func:`largest_share_lp` is collision recovery's first LP (the largest share
 of the distance rows' demand the bounds allow) on the same simplex.
 :func:`state_rows` reads a fused step's LP inputs from its state buffer
-(:mod:`lpik.fast.layout`) after the step; :func:`progress_in_state` and
-:func:`further_in_state` solve on them.
+(:mod:`lpik.fast.layout`) after the step; :func:`progress_in_state`,
+:func:`stall_stage` and :func:`further_stage` solve on them.
 """
 
 from __future__ import annotations
@@ -476,19 +476,6 @@ def progress_in_state(state, q0, q_prev, dq, floor, exact):
 
 
 @njit(cache=True)
-def further_in_state(state, q0, q_prev, dq1, dq):
-    """``mode="progress"``'s second stage after the exact step ``dq1``, over ``state``'s step.
-
-    ``dq`` receives the step; returns ``(outcome, error before, error after)``, the
-    L1 task errors of the exact step and of ``dq``.
-    """
-    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev, True)
-    code = further_progress(J, dw, lower, upper, G, g, dq1, dq)
-    before = least_error_value(J, dw, dq1) - _motion(dq1)
-    return code, before, least_error_value(J, dw, dq) - _motion(dq)
-
-
-@njit(cache=True)
 def stall_stage(state, q0, q_prev, exact_dq, p, held, engaged, floor, dq, residual):
     """The stall stage's rule (:class:`lpik.methods.progress.StallWatch`) on the exact step.
 
@@ -528,18 +515,16 @@ def stall_stage(state, q0, q_prev, exact_dq, p, held, engaged, floor, dq, residu
 
 @njit(cache=True)
 def further_stage(state, q0, q_prev, dq1, dq, residual):
-    """``mode="progress"``'s second stage (:func:`further_in_state`) and its verdict, one call.
+    """``mode="progress"``'s second stage after the exact step ``dq1`` and its verdict, one call.
 
-    ``dq`` receives the step after the exact step ``dq1`` and ``residual[0]`` its
-    ``max |J dq - dw|``. Returns True where the LP answered and the step reduces the
-    L1 task error that the exact step leaves
-    (:func:`~lpik.methods.progress.makes_progress`); False: the exact step stands.
+    :func:`further_progress` over ``state``'s step (:func:`state_rows`). ``dq``
+    receives the step and ``residual[0]`` its ``max |J dq - dw|``. Returns True where
+    the LP answered and the step reduces the L1 task error that the exact step
+    leaves (:func:`~lpik.methods.progress.makes_progress`); False: the exact step stands.
     """
-    code, _, _ = further_in_state(state, q0, q_prev, dq1, dq)
-    if code != SOLVED:
+    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev, True)
+    if further_progress(J, dw, lower, upper, G, g, dq1, dq) != SOLVED:
         return False
-    n, m = q0.shape[0], int(state[L.M])
-    J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
     before = _task_error(J, dw, dq1)[0]
     after, residual[0] = _task_error(J, dw, dq)
     return _makes_progress(before, after, _scale(dw))
@@ -597,7 +582,6 @@ __all__ = [
     "ITERATION_LIMIT",
     "SINGULAR_BASIS",
     "SOLVED",
-    "further_in_state",
     "further_progress",
     "further_stage",
     "largest_share_lp",
