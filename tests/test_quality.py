@@ -384,3 +384,34 @@ def test_the_obstacle_scenario_starts_inside_d_s_and_measures_the_clearance(suit
         assert starts[0] < 0 and starts[1] == pytest.approx(OBSTACLE["inside"] * 1e3), name
         assert all(c.min_mm <= c.start_mm and c.final_mm >= 0 for c in m.clearances), name
         assert m.deeper >= 0 and (m.out_after == math.inf or m.out_after >= 1), name
+
+
+def _run_of_steps(steps: list[float], status: list[str]) -> LegRun:
+    """A one-joint run from rest at 0 with these joint steps [rad] and statuses."""
+    q = np.concatenate([[0.0], np.cumsum(steps)]).reshape(-1, 1)
+    n = len(steps)
+    return LegRun(q, np.ones(n, dtype=np.int64), p=np.zeros(n), status=status,
+                  binding=[None] * n)  # fmt: skip
+
+
+def test_law_changes_counts_the_jitter_where_the_status_changes() -> None:
+    from lpik_bench.flips import law_changes, step_lines
+
+    # velocities 1, 1, 2, 2, 1 rad/s from rest: changes 1, 0, 1, 0, 1
+    run = _run_of_steps(
+        [1e-3, 1e-3, 2e-3, 2e-3, 1e-3],
+        ["optimal", "optimal", "off_direction", "off_direction", "optimal"],
+    )
+    c = law_changes(run, dt=1e-3, qdd_max=10.0)
+    assert math.isclose(c.jitter, 3.0) and math.isclose(c.at_changes, 2.0)
+    assert (c.changes, c.reversals, c.steps) == (2, 0, 5)  # no change of sign back to back
+    # accelerations +, +, -, +: two reversals; the same status throughout: no change of law
+    run = _run_of_steps([1e-3, 2e-3, 1e-3, 2e-3], ["optimal"] * 4)
+    c = law_changes(run, dt=1e-3, qdd_max=10.0)
+    assert (c.changes, c.at_changes, c.reversals) == (0, 0.0, 2)
+    # below half the acceleration limit a change of sign is no reversal
+    assert law_changes(run, dt=1e-3, qdd_max=3000.0).reversals == 0
+    lines = step_lines(run, 1, 3, dt=1e-3)
+    assert len(lines) == 2 and "1000.0" in lines[0] and "-1000.0" in lines[1]
+    with pytest.raises(ValueError, match="statuses"):
+        law_changes(LegRun(run.q, run.step_ns))

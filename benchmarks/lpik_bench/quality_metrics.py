@@ -91,6 +91,17 @@ class LegRun:
     first_failure: str | None = None
 
 
+def step_changes(q: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """A run's joint steps ``dq`` (N, n) and their changes ``ddq`` (N, n), from rest."""
+    dq = np.diff(q, axis=0)
+    return dq, np.diff(np.vstack([np.zeros(q.shape[1]), dq]), axis=0)
+
+
+def velocity_changes(q: FloatArray, dt: float) -> FloatArray:
+    """The jitter's terms: per step ``|qdot(k) - qdot(k-1)|`` summed over the joints [rad/s]."""
+    return np.abs(step_changes(q)[1]).sum(axis=1) / dt
+
+
 @dataclass(frozen=True)
 class Recovery:
     """One leg's recovery: recovered, in how long [ms], jitter out of reach [rad/s], final error."""
@@ -274,15 +285,14 @@ def scenario_metrics(
     bindings: Counter[str] = Counter()
     for leg, run in zip(legs, runs):
         q = run.q
-        dq = np.diff(q, axis=0)
-        ddq = np.diff(np.vstack([np.zeros(q.shape[1]), dq]), axis=0)
+        dq, ddq = step_changes(q)
         poses = np.array([model.pose(qk) for qk in q])
         before = errors(model, poses[:-1], leg.targets)  # q(k) against target k
         after = errors(model, poses[1:], leg.targets)  # q(k + 1) against target k
         ok = leg.reachable
         pos_all.append(after[0][ok])
         ori_all.append(after[1][ok])
-        change = np.abs(ddq).sum(axis=1) / dt  # |qdot(k) - qdot(k-1)| summed over joints
+        change = velocity_changes(q, dt)
         m.jitter += float(change.sum())
         m.acc_max = max(m.acc_max, float(np.abs(ddq).max()) / (dt * dt))
         h, t = high_energy(dq / dt, dt)
