@@ -35,7 +35,7 @@ from lpik.fast.autobound import singular_steps as compiled_singular_steps
 from lpik.limits import build_problem
 from lpik.methods.autobound import singular_steps
 from lpik.robots.registry import home_configuration, load_robot
-from lpik.tolerances import MOTION_WEIGHT
+from lpik.tolerances import FADING_HOLD_SHARE, MOTION_WEIGHT
 from lpik_bench.excursions import DT, targets
 
 QDD = 10.0
@@ -64,11 +64,12 @@ def test_a_joint_keeps_the_room_to_stop_at_the_fading_point(
     last: float, steps: float, width: float
 ) -> None:
     """Within its acceleration band, braking at the limit from the band's edge stops within
-    ``steps * last`` (or the band's other edge, the least it can move, is taken)."""
+    ``steps * last`` (or the band's other edge, the least it can move, is taken); near the
+    stop (FADING_HOLD_SHARE) the edge is at most the joint's step now."""
     decel = QDD * DT * DT
     lo, hi = last - decel, last + decel
     lo, hi = min(lo, last - width), max(hi, last + width)
-    new_lo, new_hi, lo_fades, hi_fades = fading_band(last, steps, lo, hi, -QDD, QDD, DT)
+    new_lo, new_hi, lo_fades, hi_fades = fading_band(last, steps, lo, hi, -QDD, QDD, DT, steps)
     assert lo <= new_lo <= new_hi <= hi
     room = steps * abs(last)
     edge = new_hi if last > 0 else -new_lo
@@ -78,9 +79,33 @@ def test_a_joint_keeps_the_room_to_stop_at_the_fading_point(
         travelled += speed
         speed -= decel
     assert travelled <= room + 1e-15 or edge == pytest.approx(least, abs=1e-15)
-    assert edge == pytest.approx(max(min(braking_room(room, decel), edge), least), abs=1e-15)
+    expected = braking_room(room, decel)
+    if braking_room(FADING_HOLD_SHARE * room, decel) < abs(last):
+        expected = min(expected, abs(last))  # near the stop: no speeding up
+    given_edge = hi if last > 0 else -lo
+    assert edge == pytest.approx(max(min(expected, given_edge), least), abs=1e-15)
     assert (hi_fades if last > 0 else lo_fades) == (edge < (hi if last > 0 else -lo))
     assert not (lo_fades if last > 0 else hi_fades)
+
+
+def test_near_the_fading_stop_a_joint_does_not_speed_up_towards_it() -> None:
+    """1 rad/s under 10 rad/s^2 stops within 0.05 rad: with the motion's own stop 0.06 rad
+    ahead the band lets the joint coast or slow down, with it 0.2 rad ahead speed up as
+    well, and so does a stop before a singular configuration 0.06 rad ahead (``hold``
+    infinite: its own rule holds there); the same for a joint moving the other way."""
+    last, decel = 1e-3, QDD * DT * DT
+    lo, hi = last - decel, last + decel
+    assert braking_room(0.06, decel) > hi  # the stop alone would let it speed up
+    for sign in (1.0, -1.0):
+        band = (*sorted((sign * lo, sign * hi)), -QDD, QDD, DT)
+        near = fading_band(sign * last, 60.0, *band, 60.0)
+        far = fading_band(sign * last, 200.0, *band, 200.0)
+        singular = fading_band(sign * last, 60.0, *band)
+        edge_near, edge_far, edge_singular = (b[1] if sign > 0 else -b[0]
+                                              for b in (near, far, singular))  # fmt: skip
+        assert edge_near == pytest.approx(last, abs=1e-18) and edge_far == pytest.approx(hi)
+        assert edge_singular == pytest.approx(hi)
+        assert near[3 if sign > 0 else 2] and not far[2] and not far[3]
 
 
 def excursion(model, q0, axis, steps=None):  # type: ignore[no-untyped-def]

@@ -370,17 +370,6 @@ MISSED_BECAUSE = {
     "command (lpik.command.second_order_term) is scaled by p with the rest of the command "
     "(J dq = p (dw - rho)); compensating it whatever p is (J dq = p dw - rho) would make "
     "dq = 0 infeasible at p = 0, a change to every path of the LP not made yet",
-    "beyond-acc/jitter": "the stall stage flips between the exact and the progress step, "
-    "nearly all in the legs +y and -y while the target is out of reach (leg +y: 67 of its "
-    "137 rad/s on 1,530 flips, python -m lpik_bench.flips): the exact step speeds up at "
-    "the acceleration limits for p of about 0.0015 until the stop ahead of a motion that "
-    "pays less each step (lpik.continuation.fading_steps) pins three joints to full "
-    "braking, the four left cannot keep the task motion (p = 0), and the progress step "
-    "brakes for 5 to 8 steps; keeping the progress step after one gave 279 rad/s and "
-    "dropping its stop ahead 218, but benchmarks/excursions.py then brought back 65 and "
-    "48 of the Panda's 70 excursions (68 now): not kept (docs/concepts.md); drake +acc "
-    "holds still on its failed steps, in leg +y 540 mm off from step 2,400 on, and "
-    "recovers none of the six",
     "beyond-acc/step_p99": "as in scenario 2, the slowest 1 % are the stall stage's "
     "steps (the progress LP, and the exact steps it weighed against it before keeping "
     "them); the same rows run alone (python -m lpik_bench.quality --peers --variants "

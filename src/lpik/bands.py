@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 
-from lpik.tolerances import FEASIBILITY_TOL, SLACK_TOL
+from lpik.tolerances import FADING_HOLD_SHARE, FEASIBILITY_TOL, SLACK_TOL
 
 #: :func:`yield_to`'s verdicts: the bands meet, or the soft band's lower or upper
 #: bound had to give way (the state is outside it on that side).
@@ -168,8 +168,9 @@ def rate_band(
 
 
 def fading_band(
-    last: float, steps: float, lo: float, hi: float, qdd_min: float, qdd_max: float, dt: float
-) -> tuple:
+    last: float, steps: float, lo: float, hi: float, qdd_min: float, qdd_max: float, dt: float,
+    hold: float = math.inf,
+) -> tuple:  # fmt: skip
     """One joint's band where the arm's motion stops paying in ``steps`` steps: a stop ahead.
 
     Under acceleration limits a joint cannot stop at once. Where the arm's
@@ -178,7 +179,14 @@ def fading_band(
     there: the point ``steps * last`` ahead is taken as an end-stop
     (:func:`braking_room`, decelerating at the limit on the braking side), and
     the band's edge in the direction of motion is at most the step after which it
-    can still stop there, never below the band's other edge.
+    can still stop there, never below the band's other edge. Near the stop of
+    the motion's own gain, ``hold`` steps ahead (it could not keep its speed were
+    that stop :data:`~lpik.tolerances.FADING_HOLD_SHARE` of the distance away),
+    the joint does not speed up towards it either: it coasts or slows down,
+    instead of speeding up to brake at the limit a few steps later (the
+    constant's comment says what that cost). ``steps`` may be nearer, the stop
+    before a singular configuration (:func:`lpik.methods.autobound.singular_steps`),
+    which has its own rule at the floor; ``hold`` infinite: no such stop.
 
     Returns:
         ``(lo, hi, lo_fades, hi_fades)``: the bounds, and whether the stop ahead
@@ -189,10 +197,14 @@ def fading_band(
     dt2 = dt * dt
     if last > 0.0:
         allowed = braking_room(steps * last, -qdd_min * dt2)
+        if braking_room(FADING_HOLD_SHARE * hold * last, -qdd_min * dt2) < last:
+            allowed = min(allowed, last)  # near the stop: no speeding up towards it
         if hi > allowed:
             return lo, max(allowed, lo), False, True
         return lo, hi, False, False
     allowed = braking_room(-steps * last, qdd_max * dt2)
+    if braking_room(-FADING_HOLD_SHARE * hold * last, qdd_max * dt2) < -last:
+        allowed = min(allowed, -last)
     if lo < -allowed:
         return min(-allowed, hi), hi, True, False
     return lo, hi, False, False

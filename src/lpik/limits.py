@@ -435,13 +435,14 @@ def _fading_bands(
     :func:`lpik.bands.fading_band`; a bound that the stop ahead sets is labelled
     as the acceleration limit's.
     """
-    steps = min(fading_steps(J, dw, last, before), singular_steps)
+    own = fading_steps(J, dw, last, before)
+    steps = min(own, singular_steps)
     if not steps < np.inf:
         return
     for i in range(last.size):
         lo, hi, lo_fades, hi_fades = bands.fading_band(
             float(last[i]), steps, float(stack.dq_min[i]), float(stack.dq_max[i]),
-            float(stack.qdd_min[i]), float(stack.qdd_max[i]), dt,
+            float(stack.qdd_min[i]), float(stack.qdd_max[i]), dt, own,
         )  # fmt: skip
         stack.dq_min[i], stack.dq_max[i] = lo, hi
         if lo_fades:

@@ -128,6 +128,21 @@ STALL_BLEND_P = 2e-2
 #: least-squares step towards the goal first lowers ``sigma_min`` (the goal is across the
 #: singular configuration), and the self-motion changes it by under 0.1 % (the iiwa).
 MOTION_WEIGHT = 1e-2
+#: Under acceleration limits a joint moving towards the stop ahead of a motion that stops
+#: paying (:func:`lpik.bands.fading_band`) does not speed up towards it once it could not
+#: keep its speed were that stop this share of its distance away (within about twice its
+#: braking distance): it coasts or slows down. Without it the exact step sped the joints up
+#: at their limits for p ~ 0.0015 until the stop pinned three of them to full braking,
+#: p fell to 0 and the progress step braked for 5 to 8 steps, over and over (the quality
+#: suite's scenario 10, leg +y: 67 of its 137 rad/s of jitter on 1,530 changes of law).
+#: Measured against no such rule: scenario 10's jitter 384 -> 218 rad/s (Drake with the
+#: same limits 349), orientation error RMS 7.3 -> 0.9 mrad; excursions under acceleration
+#: limits (benchmarks/excursions.py) 69, 70 and 69 of 70 (Panda, UR5e, iiwa; 68, 70, 70);
+#: random goals with them 24, 25 and 26 of 30 (24, 25, 25) with 2,059, 1,340 and 890
+#: acceleration reversals (1,917, 3,438, 1,545); scenario 11's jitter 620 -> 624. At 0.25:
+#: scenario 10 187 rad/s, but scenario 11 651 (more changes of law near the goals). The
+#: stop before a singular configuration keeps its own rule (the floor's row).
+FADING_HOLD_SHARE = 0.5
 #: Where the arm's motion has reached the automatic multiplier bound's floor under
 #: acceleration limits, the stall stage's progress step may take ``sigma_min / sigma_max``
 #: below the floor only as fast as from the floor to 0 in this time [s]

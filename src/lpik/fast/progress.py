@@ -420,9 +420,10 @@ def state_rows(state, q0, q_prev, singular_stop):
     lower, upper, kinds = np.empty(n), np.empty(n), np.empty((2, n))
     J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
     moving = continues(state, q0, q_prev)
-    fading = fading_in_state(state, q0, q_prev, J, dw, singular_stop) if moving else math.inf
+    fading, own = (fading_in_state(state, q0, q_prev, J, dw, singular_stop) if moving
+                   else (math.inf, math.inf))  # fmt: skip
     step_bounds(L.matrix_at(state, L.LIMITS, 6, n), state[L.DT], q0, q_prev, lower, upper, kinds,
-                fading)  # fmt: skip
+                fading, own)  # fmt: skip
     G, h = L.matrix_at(state, L.ROWS_G, r, n), L.vector(state, L.ROWS_H)
     g = np.empty(r)
     for j in range(r):

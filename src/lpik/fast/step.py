@@ -75,7 +75,7 @@ stop_band = compiled_twin(
 
 
 @njit(cache=True)
-def step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading=math.inf):
+def step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading=math.inf, hold=math.inf):
     """Bounds on ``dq`` from end-stops, velocity and acceleration limits (eqs. 13-14).
 
     The rule of :mod:`lpik.bands`, as :func:`lpik.limits.build_problem` and
@@ -83,8 +83,9 @@ def step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading=math.inf):
     q_min, q_max, qd_min, qd_max, qdd_min, qdd_max (inf when none); the last
     step is ``q0 - q_prev`` (``q_prev = q0``: at rest); ``fading``: in how many
     steps that motion stops paying (:func:`fading_in_state`; ``inf``: it does
-    not), a stop ahead that the joints keep the room to brake for
-    (:func:`lpik.bands.fading_band`). Writes ``lower`` and ``upper`` (n,) and, in
+    not), a stop ahead that the joints keep the room to brake for, and ``hold``
+    the motion's own stop without the singular one, near which they do not speed
+    up (:func:`lpik.bands.fading_band`). Writes ``lower`` and ``upper`` (n,) and, in
     ``kinds`` (2, n), which limit sets each bound (0 end-stop, 1 velocity, 2
     acceleration).
 
@@ -105,7 +106,7 @@ def step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading=math.inf):
             side = 1 if verdict > 0 else 0
             rate_outside = 3 * (2 * i + side) + (k_hi if verdict > 0 else k_lo)
         lo, hi, lo_fades, hi_fades = fading_band(
-            q0[i] - q_prev[i], fading, lo, hi, limits[4, i], limits[5, i], dt
+            q0[i] - q_prev[i], fading, lo, hi, limits[4, i], limits[5, i], dt, hold
         )  # fmt: skip
         k_lo, k_hi = 2 if lo_fades else k_lo, 2 if hi_fades else k_hi
         lo, hi, lo_stop, hi_stop, out = stop_band(q0[i], q_min, q_max, lo, hi)
@@ -154,18 +155,19 @@ def continues(state, q0, q_prev):
 def fading_in_state(state, q0, q_prev, J, dw, singular_stop):
     """In how many steps the motion ``q0 - q_prev`` is to stop: the stops ahead of the step.
 
-    The nearer of :func:`lpik.continuation.fading_steps` (``J(q_prev) last`` is the
-    ``rho`` block's row 0, :func:`last_task_motion`) and, with ``singular_stop``,
+    ``(stop, own)``: ``own`` is :func:`lpik.continuation.fading_steps` (``J(q_prev)
+    last`` is the ``rho`` block's row 0, :func:`last_task_motion`), where the
+    motion stops paying; ``stop`` the nearer of it and, with ``singular_stop``,
     the stop before a singular configuration (the ``singular`` block:
     :func:`singular_ahead`, finite only in a step solved under the automatic
-    multiplier bound).
+    multiplier bound). :func:`step_bounds` takes them as ``fading`` and ``hold``.
     """
     n, m = q0.shape[0], J.shape[0]
     last = L.vector(state, L.LAST)  # scratch here: continue_motion fills it afterwards
     for i in range(n):
         last[i] = q0[i] - q_prev[i]
-    steps = fading_steps(J, dw, last, L.matrix_at(state, L.RHO, 2, m)[0])
-    return min(steps, L.vector(state, L.SINGULAR)[0]) if singular_stop else steps
+    own = fading_steps(J, dw, last, L.matrix_at(state, L.RHO, 2, m)[0])
+    return (min(own, L.vector(state, L.SINGULAR)[0]) if singular_stop else own), own
 
 
 @njit(cache=True)
@@ -283,8 +285,10 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     kinds = L.matrix_at(state, L.KINDS, 2, n)
     dq, lam = L.vector(state, L.DQ), L.vector(state, L.LAM)
     moving = continues(state, q0, q_prev)
-    fading = fading_in_state(state, q0, q_prev, J, dw, True) if moving else math.inf
-    outside = step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading)
+    fading, own = math.inf, math.inf
+    if moving:
+        fading, own = fading_in_state(state, q0, q_prev, J, dw, True)
+    outside = step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading, own)
     origin = continue_motion(state, q0, q_prev, J, dw, lower, upper) if moving else q0
     G = L.matrix_at(state, L.ROWS_G, r, n)
     c, c_ref, g = L.vector(state, L.C), L.vector(state, L.C_REF), L.vector(state, L.G_RHS)
