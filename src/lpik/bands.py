@@ -182,9 +182,10 @@ def fading_band(
     can still stop there, never below the band's other edge. Near the stop of
     the motion's own gain, ``hold`` steps ahead (it could not keep its speed were
     that stop :data:`~lpik.tolerances.FADING_HOLD_SHARE` of the distance away),
-    the joint does not speed up towards it either: it coasts or slows down,
-    instead of speeding up to brake at the limit a few steps later (the
-    constant's comment says what that cost). ``steps`` may be nearer, the stop
+    a joint that cannot stop within one step does not speed up towards it
+    either: it coasts or slows down, instead of speeding up to brake at the
+    limit a few steps later (the constant's comment says what that cost); one
+    that can (a creeping arm) may. ``steps`` may be nearer, the stop
     before a singular configuration (:func:`lpik.methods.autobound.singular_steps`),
     which has its own rule at the floor; ``hold`` infinite: no such stop.
 
@@ -197,13 +198,19 @@ def fading_band(
     dt2 = dt * dt
     if last > 0.0:
         allowed = braking_room(steps * last, -qdd_min * dt2)
-        if braking_room(FADING_HOLD_SHARE * hold * last, -qdd_min * dt2) < last:
+        if (
+            last > -qdd_min * dt2
+            and braking_room(FADING_HOLD_SHARE * hold * last, -qdd_min * dt2) < last
+        ):
             allowed = min(allowed, last)  # near the stop: no speeding up towards it
         if hi > allowed:
             return lo, max(allowed, lo), False, True
         return lo, hi, False, False
     allowed = braking_room(-steps * last, qdd_max * dt2)
-    if braking_room(-FADING_HOLD_SHARE * hold * last, qdd_max * dt2) < -last:
+    if (
+        -last > qdd_max * dt2
+        and braking_room(-FADING_HOLD_SHARE * hold * last, qdd_max * dt2) < -last
+    ):
         allowed = min(allowed, -last)
     if lo < -allowed:
         return min(-allowed, hi), hi, True, False
