@@ -139,7 +139,7 @@ MOTION_WEIGHT = 1e-2
 #: same limits 349), orientation error RMS 7.3 -> 0.9 mrad; excursions under acceleration
 #: limits (benchmarks/excursions.py) 69, 70 and 69 of 70 (Panda, UR5e, iiwa; 68, 70, 70);
 #: random goals with them 24, 25 and 26 of 30 (24, 25, 25) with 2,059, 1,340 and 890
-#: acceleration reversals (1,917, 3,438, 1,545); scenario 11's jitter 620 -> 624. At 0.25:
+#: acceleration reversals (1,917, 3,438, 1,545); scenario 11's jitter 620 -> 626. At 0.25:
 #: scenario 10 187 rad/s, but scenario 11 651 (more changes of law near the goals). The
 #: stop before a singular configuration keeps its own rule (the floor's row).
 FADING_HOLD_SHARE = 0.5
