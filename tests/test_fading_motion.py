@@ -65,8 +65,9 @@ def test_a_joint_keeps_the_room_to_stop_at_the_fading_point(
 ) -> None:
     """Within its acceleration band, braking at the limit from the band's edge stops within
     ``steps * last`` (or the band's other edge, the least it can move, is taken); near the
-    stop (FADING_HOLD_SHARE) the edge is at most the joint's step now."""
-    decel = QDD * DT * DT
+    stop (FADING_HOLD_SHARE) the edge of a joint that cannot stop within one step is at
+    most its step now."""
+    decel = QDD * (DT * DT)  # as fading_band rounds it
     lo, hi = last - decel, last + decel
     lo, hi = min(lo, last - width), max(hi, last + width)
     new_lo, new_hi, lo_fades, hi_fades = fading_band(last, steps, lo, hi, -QDD, QDD, DT, steps)
@@ -80,8 +81,9 @@ def test_a_joint_keeps_the_room_to_stop_at_the_fading_point(
         speed -= decel
     assert travelled <= room + 1e-15 or edge == pytest.approx(least, abs=1e-15)
     expected = braking_room(room, decel)
-    if braking_room(FADING_HOLD_SHARE * room, decel) < abs(last):
-        expected = min(expected, abs(last))  # near the stop: no speeding up
+    if abs(last) > decel and braking_room(FADING_HOLD_SHARE * room, decel) < abs(last):
+        expected = min(expected, abs(last))  # near the stop: no speeding up, unless it
+        # can stop within one step
     given_edge = hi if last > 0 else -lo
     assert edge == pytest.approx(max(min(expected, given_edge), least), abs=1e-15)
     assert (hi_fades if last > 0 else lo_fades) == (edge < (hi if last > 0 else -lo))
