@@ -52,11 +52,11 @@ def law_changes(run: LegRun, dt: float = DT, qdd_max: float = QDD_MAX) -> LawCha
     """The jitter on the steps where ``run``'s status changes, and the acceleration reversals."""
     if run.status is None:
         raise ValueError("law_changes: the run has no statuses (an lpik variant's run has)")
-    change = velocity_changes(run.q, dt)
+    ddq = step_changes(run.q)[1]
+    change = velocity_changes(ddq, dt)
     status = np.asarray(run.status)
     changed = np.zeros(status.size, dtype=bool)
     changed[1:] = status[1:] != status[:-1]
-    ddq = step_changes(run.q)[1]
     big = np.abs(ddq) > REVERSAL_SHARE * qdd_max * dt * dt
     flipped = big[1:] & big[:-1] & (np.sign(ddq[1:]) != np.sign(ddq[:-1]))
     return LawChanges(

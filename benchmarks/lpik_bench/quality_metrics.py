@@ -97,9 +97,10 @@ def step_changes(q: FloatArray) -> tuple[FloatArray, FloatArray]:
     return dq, np.diff(np.vstack([np.zeros(q.shape[1]), dq]), axis=0)
 
 
-def velocity_changes(q: FloatArray, dt: float) -> FloatArray:
-    """The jitter's terms: per step ``|qdot(k) - qdot(k-1)|`` summed over the joints [rad/s]."""
-    return np.abs(step_changes(q)[1]).sum(axis=1) / dt
+def velocity_changes(ddq: FloatArray, dt: float) -> FloatArray:
+    """The jitter's terms from :func:`step_changes`' ``ddq``: per step ``|qdot(k) - qdot(k-1)|``
+    summed over the joints [rad/s]."""
+    return np.abs(ddq).sum(axis=1) / dt
 
 
 @dataclass(frozen=True)
@@ -292,7 +293,7 @@ def scenario_metrics(
         ok = leg.reachable
         pos_all.append(after[0][ok])
         ori_all.append(after[1][ok])
-        change = velocity_changes(q, dt)
+        change = velocity_changes(ddq, dt)
         m.jitter += float(change.sum())
         m.acc_max = max(m.acc_max, float(np.abs(ddq).max()) / (dt * dt))
         h, t = high_energy(dq / dt, dt)

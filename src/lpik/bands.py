@@ -199,19 +199,19 @@ def fading_band(
     if last > 0.0:
         allowed = braking_room(steps * last, -qdd_min * dt2)
         if (
-            last > -qdd_min * dt2
+            allowed > last > -qdd_min * dt2
             and braking_room(FADING_HOLD_SHARE * hold * last, -qdd_min * dt2) < last
-        ):
-            allowed = min(allowed, last)  # near the stop: no speeding up towards it
+        ):  # near the stop: no speeding up towards it
+            allowed = last
         if hi > allowed:
             return lo, max(allowed, lo), False, True
         return lo, hi, False, False
     allowed = braking_room(-steps * last, qdd_max * dt2)
     if (
-        -last > qdd_max * dt2
+        allowed > -last > qdd_max * dt2
         and braking_room(-FADING_HOLD_SHARE * hold * last, qdd_max * dt2) < -last
     ):
-        allowed = min(allowed, -last)
+        allowed = -last
     if lo < -allowed:
         return min(-allowed, hi), hi, True, False
     return lo, hi, False, False
