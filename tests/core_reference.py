@@ -1,10 +1,11 @@
 """Independent references for the tests of the lpik core.
 
-Everything here is written from the paper, in ABSOLUTE joint coordinates
-``q``, with scipy.optimize.linprog (method="highs") or numpy: nothing calls
-lpik's LP assembly, its step bounds or its checker. End-stops (eq. 13) are
-variable bounds; the per-step bounds of eq. 14 and the extra rows
-``G q <= h`` are inequality rows. Two things are taken from lpik: which joints
+Everything here is written from the paper, LP2 in ABSOLUTE joint coordinates
+``q`` (LP1 and Ho's LP in the step ``dq = q - q0``, see :func:`lp1_reference`),
+with scipy.optimize.linprog (method="highs") or numpy: nothing calls lpik's
+LP assembly, its step bounds or its checker. End-stops (eq. 13) are variable
+bounds; the per-step bounds of eq. 14 and the extra rows ``G q <= h`` are
+inequality rows. Two things are taken from lpik: which joints
 LP2 pins (:meth:`lpik.problem.Problem.pinned`, a rule tested on its own in
 ``test_recovery.py``), which the reference then fixes, dropping their
 criterion rows as eq. 18 over the free joints reads; and the scale of sec.
@@ -130,33 +131,53 @@ def lp2_reference(P: Problem, margin: float = 0.0) -> Reference:
     return Reference(True, res.x[:n], res.x[n : n + m], float(res.x[-1]), float(-res.fun))
 
 
+def _dq_rows(P: Problem, extra_cols: int, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 14 and ``G q <= h`` as rows ``A dq <= b`` in the step ``dq = q - q0``."""
+    A, b = _q_rows(P, extra_cols, margin)
+    return A, b - A[:, : P.n] @ P.q0
+
+
+def _dq_stops(P: Problem, margin: float) -> list[tuple[float | None, float | None]]:
+    """Eq. 13's end-stops as bounds on the step ``dq = q - q0``."""
+    return [_interval(lo, hi, margin) for lo, hi in zip(P.q_min - P.q0, P.q_max - P.q0)]
+
+
 def lp1_reference(P: Problem, margin: float = 0.0) -> Reference:
-    """Eqs. 11-14: max p s.t. ``J q - p dw = J q0`` and the bounds; variables (q, p)."""
+    """Eqs. 11-14: max p s.t. ``J dq = p dw`` and the bounds; variables (dq, p).
+
+    Written in the step ``dq`` rather than in ``q``: HiGHS drops matrix entries
+    below 1e-9 (its ``small_matrix_value``), which in absolute coordinates moves
+    a row by that entry times ``|q0|`` and can make a pinned arm's program
+    infeasible; in the step the same drop moves a row by at most 1e-9 ``|dq|``.
+    """
     n = P.n
     A_eq = np.hstack([P.J, -P.dw[:, None]])
-    A_ub, b_ub = _q_rows(P, 1, margin)
+    A_ub, b_ub = _dq_rows(P, 1, margin)
     c = np.zeros(n + 1)
     c[-1] = -1.0
-    res = _linprog(c, A_ub, b_ub, A_eq, P.J @ P.q0, _stops(P, margin) + [(0.0, 1.0)])
+    res = _linprog(c, A_ub, b_ub, A_eq, np.zeros(P.m), _dq_stops(P, margin) + [(0.0, 1.0)])
     if res.status != 0:
         return Reference(False)
-    return Reference(True, res.x[:n], None, float(res.x[-1]), float(-res.fun))
+    return Reference(True, P.q0 + res.x[:n], None, float(res.x[-1]), float(-res.fun))
 
 
 def l1_reference(P: Problem, p: float = 1.0, margin: float = 0.0) -> Reference:
-    """Ho's LP: min ``sum |q - q0|`` s.t. ``J q = J q0 + p dw`` and the bounds; vars (q, t)."""
+    """Ho's LP: min ``sum |dq|`` s.t. ``J dq = p dw`` and the bounds; variables (dq, t).
+
+    In the step ``dq`` for the reason :func:`lp1_reference` gives.
+    """
     n = P.n
     eye = np.eye(n)
-    A_rows, b_rows = _q_rows(P, n, margin)
+    A_rows, b_rows = _dq_rows(P, n, margin)
     A_ub = np.vstack([A_rows, np.hstack([eye, -eye]), np.hstack([-eye, -eye])])
-    b_ub = np.concatenate([b_rows, P.q0, -P.q0])
+    b_ub = np.concatenate([b_rows, np.zeros(2 * n)])
     A_eq = np.hstack([P.J, np.zeros((P.m, n))])
     c = np.concatenate([np.zeros(n), np.ones(n)])
-    bounds = _stops(P, margin) + [(0.0, None)] * n
-    res = _linprog(c, A_ub, b_ub, A_eq, P.J @ P.q0 + p * P.dw, bounds)
+    bounds = _dq_stops(P, margin) + [(0.0, None)] * n
+    res = _linprog(c, A_ub, b_ub, A_eq, p * P.dw, bounds)
     if res.status != 0:
         return Reference(False)
-    return Reference(True, res.x[:n], None, p, float(res.fun))
+    return Reference(True, P.q0 + res.x[:n], None, p, float(res.fun))
 
 
 def exactly_feasible(P: Problem, ref: Reference, *, criterion: bool = False) -> bool:
