@@ -257,3 +257,35 @@ def test_a_controller_with_a_scene_readies_its_recovery_lp_when_built() -> None:
     assert report["engine"] == "compiled"  # a scene always compiles when built
     assert report["status"] == "recovering" and report["path"] == "compiled"
     assert report["built"] == report["after"] == 1  # nothing left to compile in the step
+
+
+BOUND_START = textwrap.dedent(
+    """
+    import json
+    import numpy as np
+    from lpik import Lp2Controller
+    from lpik.fast.autobound import bound_in_state
+    from lpik.robots.registry import home_configuration, load_robot
+    panda = load_robot("panda")
+    q = home_configuration("panda")
+    controller = Lp2Controller(panda, dt=1e-3, qdd_max=10.0, compile="now")
+    built = len(bound_in_state.signatures)
+    target = panda.pose(q)
+    target[0, 3] += 0.05
+    rng = np.random.default_rng(0)
+    res = controller.step(q, target, q + rng.normal(0.0, 0.05, q.size))  # a bad velocity sample
+    print(json.dumps({"built": built, "status": res.status, "path": res.path,
+                      "after": len(bound_in_state.signatures)}))
+    """
+)
+
+
+def test_the_automatic_bounds_rule_is_readied_when_the_controller_is_built() -> None:
+    """A fresh process: the automatic multiplier bound's rule on the fused step's state
+    (lpik.fast.autobound.bound_in_state) is loaded with the fused step, not at the first
+    step that needs it (an 11 ms step, seen after a bad velocity sample in a 1 kHz loop)."""
+    done = subprocess.run([sys.executable, "-c", BOUND_START], capture_output=True, text=True,
+                          check=True, timeout=600)  # fmt: skip
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    assert report["status"] == "recovering" and report["path"] == "compiled"
+    assert report["built"] == report["after"] == 1  # nothing left to load in the step

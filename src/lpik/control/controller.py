@@ -319,6 +319,7 @@ class Lp2Controller:
             (("progress",) if self._watch_stall or self._further else ())
             + (("further",) if self._further else ())
             + (("recovery",) if scene_rows is not None else ())
+            + (("bound",) if self.automatic_bound is not None and fuses_kinematics(model) else ())
         )
         self._warmup: Warmup | None = None  # the child compiling the kernels, if one is
         # the steps go to the numpy engine: while the child compiles, and for good if it failed

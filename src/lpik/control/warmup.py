@@ -23,7 +23,7 @@ the compile at deployment with ``lpik compile`` serves both.
 
 Run as ``python -m lpik.control.warmup AXES [STAGE ...]`` this module is the child:
 it compiles the fused step for targets of ``AXES`` (``1``, ``2`` or ``1,2``) and the
-named stages (``progress``, ``further``), and exits 0.
+named stages (``progress``, ``further``, ``recovery``, ``bound``), and exits 0.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from typing import Any
 from numba import types
 
 from lpik.defaults import COMPILE_ENV, COMPILE_MODES, DEFAULT_COMPILE
-from lpik.fast.autobound import floor_in_state
+from lpik.fast.autobound import bound_in_state, floor_in_state
 from lpik.fast.progress import (
     further_stage,
     largest_share_lp,
@@ -62,6 +62,8 @@ STAGES = {
         (floor_in_state, (_VECTOR,) * 3),  # the bound's floor as the progress step's row
     ),
     "further": ((further_stage, (_VECTOR,) * 6),),  # mode="progress"'s second stage
+    # the automatic multiplier bound's rule on the fused step's state, over a SerialChain
+    "bound": ((bound_in_state, (_VECTOR,) * 3),),
     # a scene's recovery stage (lpik.collision.recovery.recovery_motion on the state's arrays)
     "recovery": (
         (least_error_step, (_MATRIX, *(_VECTOR,) * 3, _MATRIX, _VECTOR, _VECTOR)),
