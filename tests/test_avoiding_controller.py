@@ -107,3 +107,29 @@ def test_the_automatic_bound_is_applied_inside_the_avoiding_step(compiled: bool)
         np.testing.assert_allclose(got.q, ref.q, atol=1e-12, rtol=0)
         bounded += bound is not None
     assert bounded > 0
+
+
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_without_a_home_no_step_recovers_from_capsules_that_touch_by_design(engine) -> None:
+    """The Panda's capsules round joints 2, 4-5 and 6-7 overlap at every configuration; a
+    controller given a scene and no ``home`` drops those pairs (lpik.collision.robot_bodies),
+    so a free step from home is ``optimal`` (it was ``recovering`` from panda_link0 -
+    panda_link2, 12 cm deep, on every step)."""
+    from lpik.control.controller import Lp2Controller
+    from lpik.control.stepper import Stepper
+    from lpik.robots.registry import home_configuration, load_robot
+
+    panda = load_robot("panda")
+    q = home_configuration("panda")
+    scene = load_scene("panda-shelf")
+    if engine == "compiled":
+        controller = Lp2Controller(panda, dt=1e-3, scene=scene)
+    else:
+        controller = Stepper(panda, dt=1e-3, scene=scene)
+    watched = {p.label for p in controller.avoidance.proximities.at(q)}
+    assert "collision panda_link0 - panda_link2" not in watched
+    assert "collision panda_link0 - panda_link4" in watched  # apart at home: still watched
+    target = panda.pose(q)
+    target[:3, 3] += [0.0, 0.0, 0.001]
+    result = controller.step(q, target, q)
+    assert result.status == "optimal" and result.p == 1.0

@@ -19,6 +19,8 @@ from lpik.collision import (
     signed_distance,
     urdf_capsules,
 )
+from lpik.collision.bodies import RobotBodies, candidate_self_pairs
+from lpik.collision.distance import design_samples
 from lpik.collision.shapes import Obstacle, capsule_geometry
 from lpik.robots.registry import home_configuration, load_robot
 from lpik.robots.rotations import transform
@@ -165,10 +167,26 @@ def test_urdf_collision_cylinders_and_spheres_become_capsules() -> None:
 
 def test_pairs_that_touch_at_home_are_not_checked() -> None:
     model = arm()
-    capsules = frame_capsules(model, 0.6, base=False)  # fat links: 1 and 3 overlap at Q0
-    with_home = robot_bodies(model, capsules, Q0)
+    capsules = frame_capsules(model, 0.3, base=False)
+    folded = np.array([0.0, 2.6, 2.6, 0.0])  # links 1 and 3 overlap here, not everywhere
+    with_home = robot_bodies(model, capsules, folded)
     without = robot_bodies(model, capsules, None)
+    assert set(without.self_pairs) == set(candidate_self_pairs(capsules))
     assert set(with_home.self_pairs) < set(without.self_pairs)
+
+
+def test_pairs_that_touch_everywhere_are_not_checked_even_without_a_home() -> None:
+    """Fat links: capsules 1 and 3 (and 2 and 4) overlap round the joint between them at
+    every configuration, so no step moves them apart; capsules 1 and 4 do not."""
+    model = arm()
+    capsules = frame_capsules(model, 0.6, base=False)
+    kept = robot_bodies(model, capsules, None).self_pairs
+    assert set(kept) == {(0, 3)}
+    for i, j in set(candidate_self_pairs(capsules)) - set(kept):  # at every drawn configuration
+        for q in design_samples(model):
+            a, b, _ = RobotBodies(model.kinematics, tuple(capsules)).world_capsules(q)
+            placed = [capsule_geometry(a[k], b[k], capsules[k].radius) for k in (i, j)]
+            assert signed_distance(*placed)[0] <= 0.0
 
 
 GOOD = {

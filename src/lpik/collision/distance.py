@@ -182,6 +182,11 @@ class Proximities:
         return best.distance, best.pair
 
 
+#: Configurations drawn (uniformly within the end-stops, fixed seed) to find the capsule
+#: pairs that touch by design (:func:`touching_everywhere`).
+DESIGN_SAMPLES = 128
+
+
 def robot_bodies(
     model: Any,
     capsules: Sequence[Any],
@@ -192,24 +197,59 @@ def robot_bodies(
 ) -> RobotBodies:
     """A :class:`RobotBodies` with the documented self-collision pair filter.
 
+    Of the capsule pairs on links at least ``SELF_COLLISION_GAP`` joints apart,
+    those closer than ``touching`` at every one of :data:`DESIGN_SAMPLES`
+    configurations are dropped: they touch by design (two capsules round one
+    joint housing), no step can move them apart, and their rows would keep the
+    arm recovering from a contact it is built with (the "always in collision"
+    pairs of a motion planner's allowed-collision matrix). With a ``home``,
+    the pairs closer than ``touching`` there are dropped too.
+
     Args:
         model: The chain or a task on it.
         capsules: Its capsules (:func:`~lpik.collision.bodies.frame_capsules`,
             :func:`~lpik.collision.bodies.urdf_capsules`).
         home: The home configuration; pairs closer than ``touching`` there are
-            dropped (they touch by design). ``None``: no pair is dropped so.
+            dropped (they touch by design). ``None``: only the pairs that touch
+            everywhere are dropped.
         self_collision: Whether to check self-collision at all.
-        touching: Distance under which a pair counts as touching at home [m].
+        touching: Distance under which a pair counts as touching [m].
     """
     chain = getattr(model, "kinematics", model)
     bodies = RobotBodies(chain, tuple(capsules))
     if not self_collision:
         return bodies
     pairs = candidate_self_pairs(bodies.capsules)
-    if home is not None and pairs:
-        ends_a, ends_b, _ = bodies.world_capsules(np.asarray(home, dtype=np.float64))
-        placed = [capsule_geometry(ends_a[i], ends_b[i], c.radius) for i, c in enumerate(capsules)]
-        pairs = tuple(
-            (i, j) for i, j in pairs if signed_distance(placed[i], placed[j])[0] > touching
-        )
-    return RobotBodies(chain, bodies.capsules, pairs)
+    dropped = touching_everywhere(bodies, pairs, design_samples(chain), touching)
+    if home is not None:
+        dropped |= touching_everywhere(bodies, pairs, [np.asarray(home, float)], touching)
+    return RobotBodies(chain, bodies.capsules, tuple(p for p in pairs if p not in dropped))
+
+
+def design_samples(chain: Any) -> list[FloatArray]:
+    """:data:`DESIGN_SAMPLES` configurations uniform within the end-stops (a fixed seed)."""
+    low = np.clip(np.asarray(chain.q_min, dtype=np.float64), -np.pi, np.pi)
+    high = np.clip(np.asarray(chain.q_max, dtype=np.float64), -np.pi, np.pi)
+    draws = np.random.default_rng(0).random((DESIGN_SAMPLES, low.size))
+    return list(low + (high - low) * draws)
+
+
+def touching_everywhere(
+    bodies: RobotBodies, pairs: Sequence[tuple[int, int]], configurations: Sequence[FloatArray],
+    touching: float,
+) -> set[tuple[int, int]]:  # fmt: skip
+    """The ``pairs`` of ``bodies``' capsules closer than ``touching`` at every configuration."""
+    left = set(pairs)
+    request = distance_request()
+    for q in configurations:
+        if not left:
+            break
+        ends_a, ends_b, _ = bodies.world_capsules(q)
+        placed = {}
+        for i, j in tuple(left):
+            for k in (i, j):
+                if k not in placed:
+                    placed[k] = capsule_geometry(ends_a[k], ends_b[k], bodies.capsules[k].radius)
+            if signed_distance(placed[i], placed[j], request)[0] > touching:
+                left.discard((i, j))
+    return left

@@ -98,7 +98,8 @@ def collision_avoidance(
         model: A chain or a task on one (planar or 3-D).
         scene: The obstacles, ``d_s`` and ``d_i``.
         home: Configuration at which touching self-collision pairs are dropped
-            (:func:`lpik.collision.distance.robot_bodies`); None: none dropped.
+            (:func:`lpik.collision.distance.robot_bodies`); None: only the pairs
+            that touch everywhere are.
         mechanism: ``"rows"`` (Faverjon and Tournassoud), ``"field"`` (Khatib, the paper) or both.
         radii: Link radii (see :func:`default_capsules`).
         capsules: The capsules themselves (e.g. from the URDF); overrides ``radii``.
@@ -126,7 +127,7 @@ def as_avoidance(model: Any, scene: Any, home: Sequence[float] | None) -> Collis
     """``scene`` as collision avoidance for ``model``.
 
     None stays None, a :class:`~lpik.collision.shapes.Scene` gets the velocity damper's
-    rows (self-collision pairs dropped where they touch at ``home``), a
+    rows (self-collision pairs dropped where they touch everywhere or at ``home``), a
     :class:`CollisionAvoidance` stays as it is.
 
     Raises:

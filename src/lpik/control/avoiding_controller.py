@@ -43,7 +43,8 @@ class AvoidingLp2Controller(Lp2Controller):
         scene: A :class:`~lpik.collision.Scene` (the damper's rows) or a
             :class:`~lpik.collision.CollisionAvoidance` (rows, field or both).
         home: Configuration at which touching self-collision pairs are dropped
-            (used when ``scene`` is a Scene); None: none dropped.
+            (used when ``scene`` is a Scene); None: only the pairs that touch
+            everywhere are.
         dt: Control period [s].
         compiled_distances: With the damper alone, compute the distances and rows inside
             the compiled step (False: through coal in Python, as with the field).

@@ -243,8 +243,9 @@ class Lp2Controller:
             :class:`~lpik.collision.Scene` (the velocity damper's rows) or a
             :class:`~lpik.collision.CollisionAvoidance` (rows, field or both). Not
             with ``G``, ``h``, ``row_labels``: the rows are the scene's.
-        home: With a Scene: the configuration at which touching self-collision
-            pairs are dropped; None: none dropped.
+        home: With a Scene: a configuration at which touching self-collision
+            pairs are dropped; None: only the pairs that touch everywhere are
+            (:func:`lpik.collision.distance.robot_bodies`).
         compiled_distances: With the damper alone, compute the distances and rows
             inside the compiled step (``False``: through coal in Python, as with the field).
         compile: When the kernels compile (:mod:`lpik.control.warmup`): ``"background"``

@@ -121,7 +121,8 @@ class Stepper:
         rows: Extra rows ``(G, h, row_labels)`` of ``G q <= h``, or None.
         scene: Obstacles to keep clear of: a :class:`~lpik.collision.Scene` (the
             velocity damper's rows) or a :class:`~lpik.collision.CollisionAvoidance`.
-        home: Configuration at which touching self-collision pairs are dropped.
+        home: Configuration at which touching self-collision pairs are dropped (beyond
+            those that touch everywhere, :func:`lpik.collision.distance.robot_bodies`).
         second_order: Take off each command the last step's second-order term
             (:func:`lpik.command.second_order_term`); ``False``: the law alone.
         on_stall: The progress step (:mod:`lpik.methods.progress`) after this many
