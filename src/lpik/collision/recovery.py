@@ -71,9 +71,13 @@ def inside_pairs(labels, distances, safety: float) -> dict[str, float]:  # type:
     of several capsules), its distance is the smallest.
     """
     inside: dict[str, float] = {}
-    for label, d in zip(labels, distances):  # the label itself kept: a Binding names the pair
-        if d < safety - FEASIBILITY_TOL:
-            inside[label] = min(float(d), inside.get(label, math.inf))
+    distances = np.asarray(distances, dtype=np.float64)
+    limit = safety - FEASIBILITY_TOL
+    if not distances.size or distances.min() >= limit:  # most steps: none (a step's cost)
+        return inside
+    for k in (distances < limit).nonzero()[0]:
+        label = labels[k]  # the label itself kept: a Binding names the pair
+        inside[label] = min(float(distances[k]), inside.get(label, math.inf))
     return inside
 
 

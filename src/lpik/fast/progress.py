@@ -337,8 +337,14 @@ def _two_phases(A, b, lo, up, cost, r, g, x):
 
 @njit(cache=True)
 def least_error_step(J, target, lower, upper, G, g, dq):
-    """The progress LP of the module docstring: writes ``dq``, returns the outcome."""
+    """The progress LP of the module docstring: writes ``dq``, returns the outcome.
+
+    A row ``0 dq <= g`` with ``g >= 0`` (a scene's reserved row with no pair in
+    reach, ``INACTIVE_RHS``) holds whatever the step and is left out: its slack
+    would stay basic and never price, and a scene reserves one row per pair.
+    """
     n = J.shape[1]
+    G, g = _binding_rows(G, g)
     A, b, lo, up, cost = _columns(J, target, lower, upper, G, g)
     for i in range(n):
         dq[i] = min(max(0.0, lower[i]), upper[i])
@@ -348,6 +354,29 @@ def least_error_step(J, target, lower, upper, G, g, dq):
         for i in range(n):
             dq[i] = min(max(x[i] - x[n + i], lower[i]), upper[i])
     return code
+
+
+@njit(cache=True)
+def _binding_rows(G, g):
+    """The rows of ``G dq <= g`` that can bind: those with a coefficient, or with ``g < 0``."""
+    r, n = G.shape
+    keep = np.zeros(r, dtype=np.bool_)
+    for j in range(r):
+        keep[j] = g[j] < 0.0
+        for i in range(n):
+            if G[j, i] != 0.0:
+                keep[j] = True
+    count = int(keep.sum())
+    if count == r:
+        return G, g
+    G_kept, g_kept = np.empty((count, n)), np.empty(count)
+    k = 0
+    for j in range(r):
+        if keep[j]:
+            G_kept[k] = G[j]
+            g_kept[k] = g[j]
+            k += 1
+    return G_kept, g_kept
 
 
 @njit(cache=True)
