@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import pytest
 
+from lpik_bench.closed_loops import run
 from lpik_bench.soak import soak
 
 pytest.importorskip("numba")
@@ -41,3 +42,33 @@ def test_the_long_soak_is_in_the_reliability_page() -> None:
         cells = [c.strip() for c in row.strip("|").split("|")]
         assert cells[2].startswith("0 (") and cells[3] == "0 / 0"  # acceleration, stops/speed
         assert cells[4:7] == ["0", "0", "0"]  # further out, NaN, p outside [0, 1]
+
+
+@pytest.mark.parametrize(("robot", "setting", "steps"), [
+    ("ur5e", "unclamped, qdd_max=10", 3_000),
+    ("iiwa14", 'mode="progress", qdd_max=5', 2_000),
+    ("panda", "the shelf scene, qdd_max=10", 1_500),
+])  # fmt: skip
+def test_closed_loops_over_other_arms_and_settings_break_no_limit(robot, setting, steps) -> None:
+    """lpik_bench.closed_loops, sized for CI: a bad velocity sample at step 246 (seed 3), the
+    walk often out of reach; every step checked, also against the shelf's d_s."""
+    report = run(robot, setting, steps, seed=3)
+    assert report.broken() == 0, report
+    assert report.glitches >= 1 and report.statuses.get("recovering", 0) >= 1
+    assert report.steps == steps and report.statuses.get("optimal", 0) > 0
+
+
+def test_the_closed_loops_are_in_the_reliability_page() -> None:
+    """docs/reliability.md holds the generated table: every arm and setting, nothing broken."""
+    from pathlib import Path
+
+    from lpik_bench.closed_loops import BEGIN, END, SETTINGS
+
+    text = (Path(__file__).parent.parent / "docs" / "reliability.md").read_text(encoding="utf-8")
+    block = text.split(BEGIN, 1)[1].split(END, 1)[0]
+    assert "python -m lpik_bench.closed_loops --steps 40000" in block
+    rows = [line for line in block.splitlines() if line.startswith("| ") and "steps |" not in line]
+    assert len(rows) == 3 * (len(SETTINGS) - 1) + 1  # the scene on the Panda alone
+    for row in rows:
+        broken = row.strip("|").split("|")[2].strip()
+        assert broken == "0 / 0 / 0 / 0 / 0 / 0 / 0", row

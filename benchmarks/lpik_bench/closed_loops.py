@@ -1,0 +1,179 @@
+"""Closed loops over the three bundled arms and six controller settings, every step checked.
+
+The soak (:mod:`lpik_bench.soak`) runs one arm with one setting for a million
+steps. This runs each bundled arm (Panda, UR5e, iiwa14: pose task, dt = 1 ms,
+the URDFs' end-stops and velocity limits) under each of :data:`SETTINGS` for
+fewer steps: a setting a user picks may reach code the default never does (the
+progress mode's second stage, a kernel loaded only after a fault, a command
+left unclamped as the peers' benchmarks give it). The target is the soak's
+random walk, kept within :data:`RADIUS` of the tool's home position (often out
+of reach), and now and then one ``q_prev`` sample is off by about 0.05 rad per
+joint: a speed of up to some 50 rad/s that no drive can make (a bad velocity
+sample). Each step is checked by :func:`lpik_bench.soak.check_step` (no
+acceleration, end-stop or velocity limit broken, never further out while
+recovering, no NaN, ``p`` in [0, 1]; among the shelf's obstacles, which the
+Panda alone runs, no step from outside the safety distance ending inside it),
+and its time is taken: a step above 1 ms misses a 1 kHz period (a kernel
+loaded from numba's cache inside the loop once cost 11 ms after the first bad
+sample).
+
+Run it from the repository root (``--write`` puts the table into
+``docs/reliability.md``, between its markers)::
+
+    PYTHONPATH=benchmarks python -m lpik_bench.closed_loops --steps 40000 \\
+        --write docs/reliability.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lpik_bench.soak import DT, SoakReport, Walk, check_step
+
+#: The arms, by their names in lpik's registry.
+ROBOTS = ("panda", "ur5e", "iiwa14")
+#: The controller settings: a label and ``Lp2Controller``'s keyword arguments.
+SETTINGS: dict[str, dict[str, Any]] = {
+    "default, qdd_max=10": {"qdd_max": 10.0},
+    "unclamped, qdd_max=10": {"qdd_max": 10.0, "v_max": 1e6, "w_max": 1e6},
+    'mode="progress", qdd_max=5': {"qdd_max": 5.0, "mode": "progress"},
+    "unclamped, no acceleration limits": {"v_max": 1e6, "w_max": 1e6},
+    "lambda_bound=None, qdd_max=50": {"qdd_max": 50.0, "lambda_bound": None},
+    "the shelf scene, qdd_max=10": {"qdd_max": 10.0, "scene": "panda-shelf"},
+}
+#: The settings with a scene run on the arm the scene is laid out for only.
+SCENE_ARM = "panda"
+#: A step from at or above the safety distance may end below it by this much [m]: the
+#: rows hold the distance to first order, and the walk's steps are small.
+SECOND_ORDER = 1e-4
+#: The walk stays within this distance of the tool's home position [m].
+RADIUS = 0.8
+#: On average one bad ``q_prev`` sample in this many steps.
+BAD_SAMPLE_EVERY = 5000
+#: Standard deviation of a bad sample's offset per joint [rad].
+BAD_SAMPLE_SIZE = 0.05
+#: A step slower than this misses a 1 kHz period [s].
+PERIOD = 1e-3
+#: Markers of the generated block in docs/reliability.md.
+BEGIN, END = "<!-- loops:begin -->", "<!-- loops:end -->"
+
+
+def run(robot: str, setting: str, steps: int, seed: int = 0) -> SoakReport:
+    """``robot``'s compiled controller under ``SETTINGS[setting]`` for ``steps`` steps."""
+    from lpik.collision import load_scene
+    from lpik.control.controller import Lp2Controller
+    from lpik.robots.registry import home_configuration, load_robot
+
+    model = load_robot(robot)
+    options = dict(SETTINGS[setting])
+    scene = None if "scene" not in options else load_scene(options.pop("scene"))
+    controller = Lp2Controller(model, dt=DT, compile="now", scene=scene, **options)
+    rng = np.random.default_rng(seed)
+    q = home_configuration(robot)
+    q_prev = q.copy()
+    start = model.pose(q)
+    walk = Walk(start, rng, center=start[:3, 3], radius=RADIUS)
+    report = SoakReport(path=f"{robot}, {setting}")
+    times = np.empty(steps)
+    run_length = 0
+    for k in range(steps):
+        target = walk.next()
+        if rng.random() < 1.0 / BAD_SAMPLE_EVERY:
+            q_prev = q_prev + rng.normal(0.0, BAD_SAMPLE_SIZE, q.size)
+            report.glitches += 1
+        t0 = time.perf_counter()
+        result = controller.step(q, target, q_prev)
+        times[k] = time.perf_counter() - t0
+        report.statuses[result.status] = report.statuses.get(result.status, 0) + 1
+        check_step(report, model, q, q_prev, result.q, result.p, result.status,
+                   options.get("qdd_max"))  # fmt: skip
+        if scene is not None:
+            report.below_safety += below_safety(controller.avoidance.proximities, q, result.q,
+                                                scene.safety_distance)  # fmt: skip
+        run_length = run_length + 1 if result.p == 0.0 else 0
+        report.p_zero_steps += result.p == 0.0
+        report.longest_p_zero_run = max(report.longest_p_zero_run, run_length)
+        q_prev, q = q, np.array(result.q, dtype=np.float64)
+    report.steps = steps
+    report.step_times = [float(np.median(times)), float(np.percentile(times, 99)),
+                         float(np.percentile(times, 99.9)), float(times.max()),
+                         float((times > PERIOD).sum())]  # fmt: skip
+    return report
+
+
+def below_safety(proximities: Any, q0: Any, q: Any, safety: float) -> bool:
+    """Whether the step from ``q0`` to ``q`` took the closest pair from ``safety`` or more
+    to below it (by more than :data:`SECOND_ORDER`)."""
+    return bool(proximities.closest(q0)[0] >= safety
+                and proximities.closest(q)[0] < safety - SECOND_ORDER)  # fmt: skip
+
+
+def render(reports: list[SoakReport], command: str) -> str:
+    """The Markdown block for docs/reliability.md."""
+    rows = [
+        "| arm, setting | steps | broken: acceleration / end-stop / velocity / further out / "
+        "NaN / p / below d_s | bad samples | off_direction / infeasible / recovering steps | "
+        "longest p = 0 run | step time median / p99 / p99.9 / max [us] | steps over 1 ms |",
+        "|" + "---|" * 8,
+    ]
+    for r in reports:
+        med, p99, p999, worst = (1e6 * t for t in r.step_times[:4])
+        s = r.statuses
+        rows.append(
+            f"| {r.path} | {r.steps:,} | {r.acceleration_violations} / {r.end_stop_violations} / "
+            f"{r.velocity_violations} / {r.further_out} / {r.non_finite} / {r.p_outside_unit} / "
+            f"{r.below_safety} | "
+            f"{r.glitches} | {s.get('off_direction', 0):,} / {s.get('infeasible', 0):,} / "
+            f"{s.get('recovering', 0):,} | {r.longest_p_zero_run:,} | "
+            f"{med:.1f} / {p99:.1f} / {p999:.1f} / {worst:.0f} | {int(r.step_times[4])} |"
+        )
+    load = "/".join(f"{x:.1f}" for x in os.getloadavg())
+    machine = (f"{platform.machine()}, {os.cpu_count()} cores, Python "
+               f"{platform.python_version()}, load average {load} at the end")  # fmt: skip
+    return "\n".join([BEGIN, "", f"Produced by `{command}` ({machine}).", "", *rows, "", END])
+
+
+def write_block(doc: Path, block: str) -> None:
+    """Replace the block between this module's markers in ``doc``."""
+    text = doc.read_text(encoding="utf-8")
+    head, rest = text.split(BEGIN, 1)
+    _, tail = rest.split(END, 1)
+    doc.write_text(head + block + tail, encoding="utf-8")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: every arm under every setting; print (or write) the table."""
+    parser = argparse.ArgumentParser(prog="python -m lpik_bench.closed_loops",
+                                     description=__doc__.splitlines()[0])  # fmt: skip
+    parser.add_argument("--steps", type=int, default=40_000, help="steps per arm and setting")
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--write", type=Path, help="the Markdown file with the markers")
+    args = parser.parse_args(argv)
+    if args.steps < 1:
+        parser.error(f"--steps: must be at least 1, got {args.steps}")
+    reports = []
+    for robot in ROBOTS:
+        for setting in SETTINGS:
+            if "scene" in SETTINGS[setting] and robot != SCENE_ARM:
+                continue
+            reports.append(run(robot, setting, args.steps, args.seed))
+            print(reports[-1].path, "broken:", reports[-1].broken(), flush=True)
+    command = "PYTHONPATH=benchmarks python -m lpik_bench.closed_loops " + " ".join(
+        sys.argv[1:] if argv is None else argv)  # fmt: skip
+    block = render(reports, command.strip())
+    print(block)
+    if args.write is not None:
+        write_block(args.write, block)
+    return 1 if any(r.broken() for r in reports) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
