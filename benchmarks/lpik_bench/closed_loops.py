@@ -1,9 +1,9 @@
-"""Closed loops over the three bundled arms and six controller settings, every step checked.
+"""Closed loops over the three bundled arms and seven controller settings, every step checked.
 
 The soak (:mod:`lpik_bench.soak`) runs one arm with one setting for a million
-steps. This runs each bundled arm (Panda, UR5e, iiwa14: pose task, dt = 1 ms,
-the URDFs' end-stops and velocity limits) under each of :data:`SETTINGS` for
-fewer steps: a setting a user picks may reach code the default never does (the
+steps. This runs each bundled arm (Panda, UR5e, iiwa14: a pose task but in
+one setting, dt = 1 ms, the URDFs' end-stops and velocity limits) under each
+of :data:`SETTINGS` for fewer steps: a setting a user picks may reach code the default never does (the
 progress mode's second stage, a kernel loaded only after a fault, a command
 left unclamped as the peers' benchmarks give it). The target is the soak's
 random walk, kept within :data:`RADIUS` of the tool's home position (often out
@@ -47,6 +47,7 @@ SETTINGS: dict[str, dict[str, Any]] = {
     'mode="progress", qdd_max=5': {"qdd_max": 5.0, "mode": "progress"},
     "unclamped, no acceleration limits": {"v_max": 1e6, "w_max": 1e6},
     "lambda_bound=None, qdd_max=50": {"qdd_max": 50.0, "lambda_bound": None},
+    "position task, qdd_max=10": {"qdd_max": 10.0, "task": "position"},
     "the shelf scene, qdd_max=10": {"qdd_max": 10.0, "scene": "panda-shelf"},
 }
 #: The settings with a scene run on the arm the scene is laid out for only.
@@ -72,20 +73,21 @@ def run(robot: str, setting: str, steps: int, seed: int = 0) -> SoakReport:
     from lpik.control.controller import Lp2Controller
     from lpik.robots.registry import home_configuration, load_robot
 
-    model = load_robot(robot)
     options = dict(SETTINGS[setting])
+    task = options.pop("task", "pose")  # the walk is a pose; a position task follows its point
+    model = load_robot(robot, task=task)
     scene = None if "scene" not in options else load_scene(options.pop("scene"))
     controller = Lp2Controller(model, dt=DT, compile="now", scene=scene, **options)
     rng = np.random.default_rng(seed)
     q = home_configuration(robot)
     q_prev = q.copy()
-    start = model.pose(q)
+    start = load_robot(robot).pose(q)
     walk = Walk(start, rng, center=start[:3, 3], radius=RADIUS)
     report = SoakReport(path=f"{robot}, {setting}")
     times = np.empty(steps)
     run_length = 0
     for k in range(steps):
-        target = walk.next()
+        target = walk.next() if task == "pose" else walk.next()[:3, 3].copy()
         if rng.random() < 1.0 / BAD_SAMPLE_EVERY:
             q_prev = q_prev + rng.normal(0.0, BAD_SAMPLE_SIZE, q.size)
             report.glitches += 1
