@@ -1,21 +1,21 @@
 """Closed loops over the three bundled arms and seven controller settings, every step checked.
 
 The soak (:mod:`lpik_bench.soak`) runs one arm with one setting for a million
-steps. This runs each bundled arm (Panda, UR5e, iiwa14: a pose task but in
-one setting, dt = 1 ms, the URDFs' end-stops and velocity limits) under each
-of :data:`SETTINGS` for fewer steps: a setting a user picks may reach code the default never does (the
-progress mode's second stage, a kernel loaded only after a fault, a command
-left unclamped as the peers' benchmarks give it). The target is the soak's
-random walk, kept within :data:`RADIUS` of the tool's home position (often out
-of reach), and now and then one ``q_prev`` sample is off by about 0.05 rad per
-joint: a speed of up to some 50 rad/s that no drive can make (a bad velocity
-sample). Each step is checked by :func:`lpik_bench.soak.check_step` (no
-acceleration, end-stop or velocity limit broken, never further out while
-recovering, no NaN, ``p`` in [0, 1]; among the shelf's obstacles, which the
-Panda alone runs, no step from outside the safety distance ending inside it),
-and its time is taken: a step above 1 ms misses a 1 kHz period (a kernel
-loaded from numba's cache inside the loop once cost 11 ms after the first bad
-sample).
+steps. This runs each bundled arm (Panda, UR5e, iiwa14: a pose task but in one
+setting, dt = 1 ms, the URDFs' end-stops and velocity limits) under each of
+:data:`SETTINGS` for fewer steps: a setting a user picks may reach code the
+default never does (the progress mode's second stage, a kernel loaded only
+after a fault, a command left unclamped as the peers' benchmarks give it). The
+target is the soak's random walk, kept within :data:`RADIUS` of the tool's
+home position (often out of reach), and now and then one ``q_prev`` sample is
+off by about 0.05 rad per joint: a speed of up to some 50 rad/s that no drive
+can make (a bad velocity sample). Each step is checked by
+:func:`lpik_bench.soak.check_step` (no acceleration, end-stop or velocity
+limit broken, never further out while recovering, no NaN, ``p`` in [0, 1];
+among the shelf's obstacles, which the Panda alone runs, no step from outside
+the safety distance ending inside it), and its time is taken: a step above 1
+ms misses a 1 kHz period (a kernel loaded from numba's cache inside the loop
+once cost 11 ms after the first bad sample).
 
 Run it from the repository root (``--write`` puts the table into
 ``docs/reliability.md``, between its markers)::
