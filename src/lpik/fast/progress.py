@@ -74,6 +74,7 @@ _may_stall = compiled_twin(rule.may_stall, stall_limit=_stall_limit)
 _stalls = compiled_twin(rule.stalls, may_stall=_may_stall)
 _exact_weight = njit(cache=True)(rule.exact_weight)
 _makes_progress = njit(cache=True)(rule.makes_progress)
+_in_band = njit(cache=True)(rule.in_band)
 #: Degenerate pivots in a row after which the simplex prices by Bland's rule.
 _BLAND_AFTER = 30
 #: Fresh factorisations of the optimal basis before the answer stands.
@@ -524,7 +525,7 @@ def stall_stage(state, q0, q_prev, exact_dq, p, held, engaged, floor, dq, residu
     :data:`STALLED` or :data:`STALLED_NO_GAIN` (:func:`~lpik.methods.progress.makes_progress`).
     """
     moving = continues(state, q0, q_prev)
-    keeping = engaged and not moving
+    keeping = _in_band(engaged, moving)
     if not _may_stall(p, held, moving, keeping):
         return NOT_STALLED
     code, before, after = progress_in_state(state, q0, q_prev, dq, floor, exact_dq)
