@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik_bench.soak import DT, SoakReport, Walk, check_step
+from lpik_bench.soak import DT, SoakReport, Walk, check_step, write_block
 
 #: The arms, by their names in lpik's registry.
 ROBOTS = ("panda", "ur5e", "iiwa14")
@@ -143,14 +143,6 @@ def render(reports: list[SoakReport], command: str) -> str:
     return "\n".join([BEGIN, "", f"Produced by `{command}` ({machine}).", "", *rows, "", END])
 
 
-def write_block(doc: Path, block: str) -> None:
-    """Replace the block between this module's markers in ``doc``."""
-    text = doc.read_text(encoding="utf-8")
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    doc.write_text(head + block + tail, encoding="utf-8")
-
-
 def main(argv: list[str] | None = None) -> int:
     """Command line: every arm under every setting; print (or write) the table."""
     parser = argparse.ArgumentParser(prog="python -m lpik_bench.closed_loops",
@@ -173,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
     block = render(reports, command.strip())
     print(block)
     if args.write is not None:
-        write_block(args.write, block)
+        write_block(args.write, block, BEGIN, END)
     return 1 if any(r.broken() for r in reports) else 0
 
 

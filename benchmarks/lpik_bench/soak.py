@@ -240,11 +240,11 @@ def render(reports: list[SoakReport], command: str) -> str:
     return "\n".join([BEGIN, "", f"Produced by `{command}` ({machine}).", "", *rows, "", END])
 
 
-def write_block(doc: Path, block: str) -> None:
-    """Replace the block between the soak markers of ``doc``."""
+def write_block(doc: Path, block: str, begin: str = BEGIN, end: str = END) -> None:
+    """Replace the block between the markers ``begin`` and ``end`` (the soak's) of ``doc``."""
     text = doc.read_text(encoding="utf-8")
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
     doc.write_text(head + block + tail, encoding="utf-8")
 
 
