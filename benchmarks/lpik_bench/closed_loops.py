@@ -1,4 +1,4 @@
-"""Closed loops over the three bundled arms and seven controller settings, every step checked.
+"""Closed loops over the three bundled arms and nine controller settings, every step checked.
 
 The soak (:mod:`lpik_bench.soak`) runs one arm with one setting for a million
 steps. This runs each bundled arm (Panda, UR5e, iiwa14: a pose task but in one
@@ -47,6 +47,8 @@ SETTINGS: dict[str, dict[str, Any]] = {
     'mode="progress", qdd_max=5': {"qdd_max": 5.0, "mode": "progress"},
     "unclamped, no acceleration limits": {"v_max": 1e6, "w_max": 1e6},
     "lambda_bound=None, qdd_max=50": {"qdd_max": 50.0, "lambda_bound": None},
+    "on_stall=None (strict), qdd_max=10": {"qdd_max": 10.0, "on_stall": None},
+    "saturate=False, qdd_max=10": {"qdd_max": 10.0, "saturate": False},
     "position task, qdd_max=10": {"qdd_max": 10.0, "task": "position"},
     "the shelf scene, qdd_max=10": {"qdd_max": 10.0, "scene": "panda-shelf"},
 }
