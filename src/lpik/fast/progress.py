@@ -359,25 +359,35 @@ def least_error_step(J, target, lower, upper, G, g, dq):
 
 @njit(cache=True)
 def _binding_rows(G, g):
-    """The rows of ``G dq <= g`` that can bind: those with a coefficient, or with ``g < 0``."""
+    """The rows of ``G dq <= g`` that can bind: those with a coefficient, or with ``g < 0``.
+
+    ``G`` and ``g`` themselves where every row can (no copy on the common path).
+    """
     r, n = G.shape
-    keep = np.zeros(r, dtype=np.bool_)
+    count = 0
     for j in range(r):
-        keep[j] = g[j] < 0.0
-        for i in range(n):
-            if G[j, i] != 0.0:
-                keep[j] = True
-    count = int(keep.sum())
+        count += _can_bind(G, g, j)
     if count == r:
         return G, g
     G_kept, g_kept = np.empty((count, n)), np.empty(count)
     k = 0
     for j in range(r):
-        if keep[j]:
+        if _can_bind(G, g, j):
             G_kept[k] = G[j]
             g_kept[k] = g[j]
             k += 1
     return G_kept, g_kept
+
+
+@njit(cache=True)
+def _can_bind(G, g, j):
+    """Whether row ``j`` of ``G dq <= g`` can bind: a coefficient, or ``g_j < 0``."""
+    if g[j] < 0.0:
+        return True
+    for i in range(G.shape[1]):
+        if G[j, i] != 0.0:
+            return True
+    return False
 
 
 @njit(cache=True)
