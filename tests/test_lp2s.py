@@ -81,6 +81,34 @@ def test_the_condition_of_a_later_pass_is_bounded_not_estimated() -> None:
     assert condition_bound(S, np.linalg.cholesky(S), np.empty(3)) >= np.linalg.cond(S)
 
 
+def test_a_singular_jacobian_with_rows_of_different_scale_is_singular_on_both_paths() -> None:
+    """A planar arm at -pi, stretched (J of rank 1, its rows 1000 times apart), with sec. 3.1's
+    pull: the Schur complement is singular (condition 7e18), but the ratio of its Cholesky
+    factor's diagonal reads about 4.5e9, under MAX_SCHUR_CONDITION, and rounding put numpy's
+    factor on the regular side and the compiled one on the singular side: steps 4e-3 apart
+    (a CI find). The shared test, kkt.ill_conditioned, sends both to the singular path."""
+    import scipy.linalg as sla
+
+    from lpik.methods.kkt import affine_solution, ill_conditioned
+
+    J = np.array([[1.9999996666667081e-03, 9.9999983333335404e-04],
+                  [-1.9999990000000833e00, -9.9999950000004167e-01]])  # fmt: skip
+    q0 = [-3.1405926535897932, 0.0]
+    P = Problem(J=J, dw=[0.0, 0.0], q0=q0, q_min=[q0[0], -np.inf], q_max=[q0[0] + 1.0, 0.0],
+                dq_min=[-0.125, -0.125], dq_max=[0.125, 0.125], Lambda=np.diag([1.0, 0.0]),
+                q_ref=[q0[0] + 0.5, 0.0], lam_min=[0.0, -1.0], lam_max=[1.0, 0.0])  # fmt: skip
+    S = J @ np.diag([0.5, 1.0]) @ J.T  # J H^-1 J^T with H = M + Lambda
+    S = 0.5 * (S + S.T)
+    L = np.tril(sla.cho_factor(S, lower=True)[0])  # LAPACK's factor, as the numpy path's
+    assert (L[0, 0] / L[1, 1]) ** 2 < 1e10 < np.linalg.cond(S)  # the diagonal ratio misreads
+    assert ill_conditioned(S, L, np.empty(2), 1e10)
+    assert affine_solution(P) is None
+    a, b = lp2s(P), lp2s(P, path="compiled")
+    assert a.path == "singular" and b.path == "compiled"
+    np.testing.assert_allclose(a.q, b.q, atol=SATURATION_ROUNDING, rtol=0)
+    assert a.status == b.status and abs(a.p - b.p) <= SATURATION_ROUNDING
+
+
 def test_an_infeasible_pass_never_names_the_joint_it_holds() -> None:
     """Every multiplier held at 0 and joint 2 held at its end-stop: the held pass is infeasible
     on every path (the force f needs a multiplier), and the conflict is the multiplier bound.

@@ -42,13 +42,14 @@ FULL_P = 1.0 - 1e-9
 NO_CHANGE_P = 1e-9
 
 # -------------------------------------------------------- LP2's ratio test
-#: Above this condition number of the Schur complement ``J H^-1 J^T`` (estimated as
-#: ``(max L_ii / min L_ii)^2`` of its Cholesky factor, alike on every path) the ratio
-#: test hands over to LP2's singular path (:mod:`lpik.methods.singular`).
+#: Above this condition number of the Schur complement ``J H^-1 J^T`` (bounded from
+#: above through its Cholesky factor by :func:`lpik.methods.kkt.ill_conditioned`, alike
+#: on every path) the ratio test hands over to LP2's singular path
+#: (:mod:`lpik.methods.singular`).
 MAX_SCHUR_CONDITION = 1e10
 #: LP2 with saturation (:mod:`lpik.methods.lp2s`) stops its passes where the next one's
 #: Schur complement (over the joints still free) has a condition above this, the same
-#: estimate as :data:`MAX_SCHUR_CONDITION`. Such a pass gains a sliver of ``p`` by racing
+#: bound as :data:`MAX_SCHUR_CONDITION`. Such a pass gains a sliver of ``p`` by racing
 #: the last free joints across their bounds, and rounding of the order of this times
 #: the machine epsilon breaks ``J dq = p dw``: at 1e8 it stays within 1e-7 of ``|dw|``.
 SATURATION_MAX_CONDITION = 1e8

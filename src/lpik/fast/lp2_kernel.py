@@ -15,8 +15,6 @@ means none (:func:`lpik.labels.code_labels` spells them).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import float64, int64, njit, prange
 
@@ -71,7 +69,10 @@ _HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
             "singularity_code")  # fmt: skip
 _loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
 _singular_helpers = {name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS}
-condition_bound = njit(cache=True)(kkt.condition_bound)  # lp2s's later passes
+# the Schur complement's one test (lpik.methods.kkt.ill_conditioned)
+ill_conditioned = compiled_twin(
+    kkt.ill_conditioned, condition_bound=njit(cache=True)(kkt.condition_bound)
+)
 # the safe step, INFEASIBLE: one signature (the kernels pass -1 and a variable alike)
 _stop = njit((float64[:], float64[:], float64[:], int64), cache=True)(singular._stop)
 singular_core = compiled_twin(
@@ -155,9 +156,8 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             numpy's LP2 takes the singular path after a failed ratio test), and
             :data:`CHECK_FAILED` where the singular path would need HiGHS.
         max_condition: :data:`~lpik.tolerances.MAX_SCHUR_CONDITION`; or, for
-            lp2s's later passes, :data:`~lpik.tolerances.SATURATION_MAX_CONDITION`,
-            checked against :func:`~lpik.methods.kkt.condition_bound` too (the
-            Cholesky estimate may fall short of the condition by orders of magnitude).
+            lp2s's later passes, :data:`~lpik.tolerances.SATURATION_MAX_CONDITION`;
+            the Schur complement is tested by :func:`~lpik.methods.kkt.ill_conditioned`.
 
     Returns:
         ``(code, p, binding, residual)``: the outcome (:data:`OK`,
@@ -239,15 +239,7 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
             return SINGULAR, 0.0, -1, 0.0
         return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam,
                              pull)  # fmt: skip
-    dmax, dmin = 0.0, np.inf
-    for a in range(m):
-        dmax = max(dmax, LS[a, a])
-        dmin = min(dmin, LS[a, a])
-    if (
-        not dmin > 0.0
-        or dmax > math.sqrt(MAX_SCHUR_CONDITION) * dmin
-        or (max_condition < MAX_SCHUR_CONDITION and condition_bound(S, LS, rhs) > max_condition)
-    ):
+    if ill_conditioned(S, LS, rhs, max_condition):
         if singular_path != SINGULAR_PATH_ALWAYS:
             return SINGULAR, 0.0, -1, 0.0
         return singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam,

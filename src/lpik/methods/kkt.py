@@ -78,11 +78,9 @@ def affine_solution(
     enter through :func:`pinned_system` (``S lam = J' H'^-1 c' + w_fixed - p dw``).
 
     Returns:
-        The affine solution, or ``None`` when ``S`` is singular or its condition
-        number, estimated from its Cholesky factor ``L`` as ``(max L_ii / min L_ii)^2``
-        (the compiled kernel's estimate), exceeds :data:`MAX_SCHUR_CONDITION`; and
-        where a stricter ``max_condition`` is given (lp2s's later passes), when
-        :func:`condition_bound` exceeds it.
+        The affine solution, or ``None`` when ``S`` is singular or
+        :func:`ill_conditioned` for ``max_condition`` (:data:`MAX_SCHUR_CONDITION`;
+        lp2s's later passes give a stricter one).
     """
     J, H, c, w_fixed = pinned_system(problem)
     c_ref = smoothing_pull(problem)
@@ -95,14 +93,7 @@ def affine_solution(
         S_factor = sla.cho_factor(S, lower=True)
     except np.linalg.LinAlgError:
         return None
-    diag = np.abs(np.diagonal(S_factor[0]))
-    # the condition estimate of the compiled kernel: (max / min of L's diagonal)^2
-    if not diag.min() > 0 or diag.max() > math.sqrt(MAX_SCHUR_CONDITION) * diag.min():
-        return None
-    if (
-        max_condition < MAX_SCHUR_CONDITION
-        and condition_bound(S, S_factor[0], np.empty(len(S))) > max_condition
-    ):
+    if ill_conditioned(S, S_factor[0], np.empty(len(S)), max_condition):
         return None
     rhs = np.column_stack([J @ Hinvc[:, 0] + w_fixed, J @ Hinvc[:, 1], -problem.dw])
     lam = sla.cho_solve(S_factor, rhs)
@@ -121,6 +112,24 @@ def affine_solution(
     s = smoothing_scale(a_q, e_q, lower, upper, (a_l, e_l, problem.lam_min, problem.lam_max))
     return AffineSolution(a_q=a_q + s * e_q, b_q=-HinvJt @ b_l, a_l=a_l + s * e_l, b_l=b_l,
                           smoothing=s)  # fmt: skip
+
+
+def ill_conditioned(S, L, x, max_condition):  # type: ignore[no-untyped-def]
+    """Whether ``S = L L^T`` counts as singular: the one test of every path.
+
+    It does where a diagonal of ``L`` is not positive, or where
+    :func:`condition_bound` is above ``max_condition``. The bound, not the cheaper
+    ``(max L_ii / min L_ii)^2``: where ``J`` loses rank with rows of different scale
+    (rows 1000 times apart: a position row in m and one in mm), that ratio of a
+    singular ``S`` is about ``1 / (1e6 eps)``, 4.5e9, just under
+    :data:`MAX_SCHUR_CONDITION`, and rounding decided on which side of it each
+    path's factor fell. The bound reads ``|S| / L_mm^2``, about ``1 / eps`` there.
+    ``x`` is a scratch vector of length ``m``; plain loops, compiled as they are.
+    """
+    for i in range(S.shape[0]):
+        if not L[i, i] > 0.0:
+            return True
+    return condition_bound(S, L, x) > max_condition
 
 
 def condition_bound(S, L, x):  # type: ignore[no-untyped-def]
