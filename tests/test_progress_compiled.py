@@ -306,13 +306,16 @@ def test_the_compiled_stall_rule_is_the_numpy_rule(p, gains, flags) -> None:
 
     twins = {"may_stall": fast._may_stall, "stalls": fast._stalls,
              "exact_weight": fast._exact_weight, "makes_progress": fast._makes_progress,
-             "stall_limit": fast._stall_limit, "in_band": fast._in_band}  # fmt: skip
+             "stall_limit": fast._stall_limit, "in_band": fast._in_band,
+             "progress_scale": fast._scale}  # fmt: skip
     for name, twin in twins.items():
         assert twin.py_func.__code__ is getattr(rule, name).__code__, name
     held, moving, keeping = flags
     assert fast._may_stall(p, held, moving, keeping) == rule.may_stall(p, held, moving, keeping)
     assert fast._stalls(p, *gains, *flags) == rule.stalls(p, *gains, *flags)
     assert fast._exact_weight(p) == rule.exact_weight(p)
+    dw = np.array([gains[0], 3.0 * gains[1], p])
+    assert fast._scale(dw) == rule.progress_scale(dw) == max(1.0, np.abs(dw).max())
     assert fast._makes_progress(1.0, gains[0], 1.0) == rule.makes_progress(1.0, gains[0], 1.0)
     assert fast._in_band(held, moving) == rule.in_band(held, moving) == (held and not moving)
 

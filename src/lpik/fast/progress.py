@@ -74,6 +74,7 @@ _may_stall = compiled_twin(rule.may_stall, stall_limit=_stall_limit)
 _stalls = compiled_twin(rule.stalls, may_stall=_may_stall)
 _exact_weight = njit(cache=True)(rule.exact_weight)
 _makes_progress = njit(cache=True)(rule.makes_progress)
+_scale = njit(cache=True)(rule.progress_scale)
 _in_band = njit(cache=True)(rule.in_band)
 #: Degenerate pivots in a row after which the simplex prices by Bland's rule.
 _BLAND_AFTER = 30
@@ -569,15 +570,6 @@ def further_stage(state, q0, q_prev, dq1, dq, residual):
     before = _task_error(J, dw, dq1)[0]
     after, residual[0] = _task_error(J, dw, dq)
     return _makes_progress(before, after, _scale(dw))
-
-
-@njit(cache=True)
-def _scale(dw):
-    """``max(1, max |dw|)``: the scale of :func:`~lpik.methods.progress.makes_progress`."""
-    scale = 1.0
-    for k in range(dw.shape[0]):
-        scale = max(scale, abs(dw[k]))
-    return scale
 
 
 @njit(cache=True)

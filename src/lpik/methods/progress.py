@@ -208,10 +208,21 @@ def in_band(engaged: bool, moving: bool) -> bool:
 def makes_progress(before: float, after: float, scale: float) -> bool:
     """Whether a step that takes the L1 task error from ``before`` to ``after`` gains.
 
-    A gain within :data:`~lpik.tolerances.EQUALITY_RTOL` of ``scale`` (``max(1,
-    |dw|)``) is rounding, not progress. Scalars only, as :func:`may_stall`.
+    A gain within :data:`~lpik.tolerances.EQUALITY_RTOL` of ``scale``
+    (:func:`progress_scale`) is rounding, not progress. Scalars only, as :func:`may_stall`.
     """
     return before - after > EQUALITY_RTOL * scale
+
+
+def progress_scale(dw):  # type: ignore[no-untyped-def]
+    """``max(1, max |dw|)``: the scale of :func:`makes_progress` for the command ``dw``.
+
+    Plain loops: the compiled stall stage (:mod:`lpik.fast.progress`) runs this code.
+    """
+    scale = 1.0
+    for k in range(dw.shape[0]):
+        scale = max(scale, abs(dw[k]))
+    return scale
 
 
 def stall_candidate(
@@ -350,8 +361,7 @@ def progress_result(
     progress"``, ``dq`` as given.
     """
     left = np.abs(J @ dq - dw)  # what remains of each task row (once: the step is timed)
-    scale = max(1.0, float(np.abs(dw).max())) if dw.size else 1.0
-    if not makes_progress(before, float(left.sum()), scale):
+    if not makes_progress(before, float(left.sum()), progress_scale(dw)):
         return Result(q=q0 + dq, dq=dq, p=p, lam=None, status=OPTIMAL, binding="no progress",
                       method="progress", solve_time=elapsed, path=path)  # fmt: skip
     return Result(
