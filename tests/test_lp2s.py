@@ -109,6 +109,42 @@ def test_a_singular_jacobian_with_rows_of_different_scale_is_singular_on_both_pa
     assert a.status == b.status and abs(a.p - b.p) <= SATURATION_ROUNDING
 
 
+@settings(max_examples=examples(150), deadline=None)
+@given(
+    lengths=st.lists(st.floats(0.2, 2.0), min_size=2, max_size=5),
+    base=st.sampled_from([0.0, np.pi / 2, np.pi, -np.pi / 2]),
+    tilt=st.sampled_from([0.0, 1e-6, 1e-4, 1e-3, -1e-3, 1e-2]),
+    data=st.data(),
+)
+def test_a_stretched_arm_takes_one_path_on_both_sides(lengths, base, tilt, data) -> None:
+    """A planar arm stretched along an axis, tilted a little: ``J`` has rank 1 and rows
+    ``tan(tilt)`` apart, the case where the Cholesky diagonal's ratio of a singular Schur
+    complement lands near MAX_SCHUR_CONDITION. Both paths take the same step, whatever
+    pull, weights, multiplier bounds and command."""
+    pytest.importorskip("numba")
+    from core_strategies import LAMBDA_BOUNDS, MARGINS, directions, vectors, weight_fields
+    from lpik.robots.planar import planar_arm
+
+    n = len(lengths)
+    arm = planar_arm(lengths)
+    q0 = np.zeros(n)
+    q0[0] = base + tilt
+    draw = data.draw
+    fields: dict[str, object] = {
+        "q_min": q0 - draw(vectors(n, MARGINS)), "q_max": q0 + draw(vectors(n, MARGINS)),
+        "dq_min": -draw(vectors(n, st.floats(1e-3, 0.2))),
+        "dq_max": draw(vectors(n, st.floats(1e-3, 0.2))),
+        "lam_min": -draw(vectors(2, LAMBDA_BOUNDS)), "lam_max": draw(vectors(2, LAMBDA_BOUNDS)),
+    }  # fmt: skip
+    fields.update(draw(weight_fields(n, q0)))
+    dw = draw(directions(2)) * draw(st.sampled_from([0.0, 1e-3, 0.1]))
+    P = Problem(J=arm.jacobian(q0), dw=dw, q0=q0, **fields)
+    a, b = lp2s(P), lp2s(P, path="compiled")
+    if b.path == "compiled" and a.path in ("ratio-test", "singular"):
+        np.testing.assert_allclose(a.q, b.q, atol=SATURATION_ROUNDING, rtol=0)
+        assert a.status == b.status and abs(a.p - b.p) <= SATURATION_ROUNDING
+
+
 def test_an_infeasible_pass_never_names_the_joint_it_holds() -> None:
     """Every multiplier held at 0 and joint 2 held at its end-stop: the held pass is infeasible
     on every path (the force f needs a multiplier), and the conflict is the multiplier bound.
