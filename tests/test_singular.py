@@ -131,6 +131,33 @@ def test_a_command_out_of_range_holds_p_at_zero_and_names_the_singularity() -> N
     np.testing.assert_allclose(along.dq, np.full(3, 0.01 / 3))  # the least-norm step
 
 
+@pytest.mark.parametrize("scale", [1e-300, 1e-200, 1e-160])
+@pytest.mark.parametrize("method", ["lp2", "lp2s"])
+def test_a_jacobian_of_vanishing_entries_cannot_move_the_task(scale: float, method: str) -> None:
+    """J's entries near 1e-300: the singular path divided by a singular value's square that
+    underflowed to 0 and returned a non-finite step (check_failed) with RuntimeWarnings.
+    Below SINGULAR_FLOOR the value counts as 0: p = 0, the singularity named, no motion,
+    and the condition bound's 0 * inf (NaN) counts as singular. Both paths, no warning."""
+    import warnings
+
+    from lpik.methods.lp2s import lp2s
+    from lpik.tolerances import SINGULAR_FLOOR
+
+    J = np.array([[scale, 0.0], [0.0, 2.0 * scale]])
+    problem = Problem(J=J, dw=[0.01, 0.01], q0=np.zeros(2), dq_min=-np.ones(2),
+                      dq_max=np.ones(2), Lambda=[0.1, 0.1], q_ref=[0.2, -0.2])  # fmt: skip
+    for path in ("auto", "compiled"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            res = (lp2 if method == "lp2" else lp2s)(problem, path=path)
+        assert res.status == OPTIMAL and np.isfinite(res.q).all(), (path, res)
+        if scale < SINGULAR_FLOOR:
+            assert (res.p, res.binding) == (0.0, SINGULARITY)
+        else:  # tiny but a normal number: the exact step
+            assert 0.0 <= res.p <= 1.0
+        np.testing.assert_allclose(J @ res.dq, res.p * problem.dw, rtol=0, atol=1e-15)
+
+
 def test_a_pinned_joint_whose_motion_is_out_of_range_is_infeasible() -> None:
     J = np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
     # joint 3 is pinned at dq = 0.01 but its motion (y) is not commanded: no p can hold it

@@ -63,6 +63,12 @@ SATURATION_MAX_PRICE = 10.0
 #: share of the largest counts as 0 (``J`` has the lower rank; what is left is rounding).
 #: Above it the decomposition solves eq. 18 exactly, however ill-conditioned.
 SINGULAR_RTOL = 1e-12
+#: A singular value of LP2's singular path, or a diagonal of the Schur complement's
+#: Cholesky factor (:func:`lpik.methods.kkt.ill_conditioned`), at or below this counts as
+#: 0 whatever the largest is: its square, which LP2 divides by, would not be a normal
+#: double (``sqrt`` of the smallest, 2.2e-308). A Jacobian of entries near 1e-300
+#: otherwise gave a non-finite step (``check_failed``) where the task cannot move.
+SINGULAR_FLOOR = 1.4916681462400413e-154
 #: A slack below zero by at most this (relative to the bound) counts as zero.
 SLACK_TOL = 1e-12
 #: A rate ``|b|`` at or below this (relative to the largest rate) counts as zero.

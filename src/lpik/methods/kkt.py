@@ -22,7 +22,7 @@ import scipy.linalg as sla
 from lpik.methods.assembly import criterion, reference_pull
 from lpik.methods.pull import pull_scale
 from lpik.problem import Problem
-from lpik.tolerances import MAX_SCHUR_CONDITION
+from lpik.tolerances import MAX_SCHUR_CONDITION, SINGULAR_FLOOR
 from lpik.types import FloatArray
 
 
@@ -117,19 +117,22 @@ def affine_solution(
 def ill_conditioned(S, L, x, max_condition):  # type: ignore[no-untyped-def]
     """Whether ``S = L L^T`` counts as singular: the one test of every path.
 
-    It does where a diagonal of ``L`` is not positive, or where
-    :func:`condition_bound` is above ``max_condition``. The bound, not the cheaper
-    ``(max L_ii / min L_ii)^2``: where ``J`` loses rank with rows of different scale
-    (rows 1000 times apart: a position row in m and one in mm), that ratio of a
-    singular ``S`` is about ``1 / (1e6 eps)``, 4.5e9, just under
-    :data:`MAX_SCHUR_CONDITION`, and rounding decided on which side of it each
-    path's factor fell. The bound reads ``|S| / L_mm^2``, about ``1 / eps`` there.
-    ``x`` is a scratch vector of length ``m``; plain loops, compiled as they are.
+    It does where a diagonal of ``L`` is at or below
+    :data:`~lpik.tolerances.SINGULAR_FLOOR` (not positive, or so small that its
+    square is not a normal double), or where :func:`condition_bound` is above
+    ``max_condition`` or not a number.
+
+    The bound, not the cheaper ``(max L_ii / min L_ii)^2``: where ``J`` loses rank
+    with rows of different scale (rows 1000 times apart: a position row in m and
+    one in mm), that ratio of a singular ``S`` is about ``1 / (1e6 eps)``, 4.5e9,
+    just under :data:`MAX_SCHUR_CONDITION`, and rounding decided on which side of
+    it each path's factor fell. The bound reads ``|S| / L_mm^2``, about ``1 / eps``
+    there. ``x`` is a scratch vector of length ``m``; plain loops, compiled as they are.
     """
     for i in range(S.shape[0]):
-        if not L[i, i] > 0.0:
+        if not L[i, i] > SINGULAR_FLOOR:  # its inverse's square would overflow
             return True
-    return condition_bound(S, L, x) > max_condition
+    return not condition_bound(S, L, x) <= max_condition  # NaN: singular too
 
 
 def condition_bound(S, L, x):  # type: ignore[no-untyped-def]

@@ -10,8 +10,8 @@ read ``y = L^-1 c - sum_i s_i mu_i v_i`` and, along each ``u_i``,
 ``e = U^T dw``. So:
 
 - along a *regular* direction (``s_i`` above :data:`~lpik.tolerances.SINGULAR_RTOL`
-  times the largest) ``mu_i`` is affine in ``p`` and so is ``dq``, as on the
-  ratio-test path;
+  times the largest, and above :data:`~lpik.tolerances.SINGULAR_FLOOR`) ``mu_i`` is
+  affine in ``p`` and so is ``dq``, as on the ratio-test path;
 - along a *singular* one (``s_i`` below it, or beyond ``J``'s rank) the row
   reads ``t_i = p e_i``: ``dw`` must lie in the range of ``J`` (then ``p`` is
   free) or ``p`` is fixed there, usually at 0, and the binding limit is
@@ -60,6 +60,7 @@ from lpik.tolerances import (
     FULL_P,
     INTERVAL_TOL,
     RATE_TOL,
+    SINGULAR_FLOOR,
     SINGULAR_RTOL,
     SLACK_TOL,
 )
@@ -238,7 +239,7 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     smax = sv[0] if k0 > 0 else 0.0
     regular = 0
     for i in range(k0):
-        if sv[i] > SINGULAR_RTOL * smax and sv[i] > 0.0:
+        if sv[i] > SINGULAR_RTOL * smax and sv[i] > SINGULAR_FLOOR:
             regular += 1
     # --- the affine parts: y = L^T dq = ay + p by, lam = al + p bl (+ free directions) ---
     jc, jr = w_fixed.copy(), np.zeros(m)
