@@ -203,6 +203,37 @@ def test_no_method_warns_at_the_largest_magnitude(method: str) -> None:
             assert np.isfinite(result.q).all(), (label, more)
 
 
+@pytest.mark.parametrize("method", PROBLEM_ONLY)
+@pytest.mark.parametrize("scale", [1e-300, 1e-200, 1e-160])
+def test_no_method_warns_at_vanishing_magnitudes(method: str, scale: float) -> None:
+    """A Jacobian whose entries' squares underflow: the task cannot move (p = 0 or a
+    singular status), never a RuntimeWarning or a non-finite step (SINGULAR_FLOOR)."""
+    J = scale * np.array([[1.0, 0.5, 0.25], [0.0, 1.0, 0.5]])
+    problem = Problem(J=J, dw=[0.01, 0.02], q0=np.zeros(3), dq_min=-np.ones(3),
+                      dq_max=np.ones(3), Lambda=[0.1] * 3, q_ref=[0.2, 0.0, -0.2])  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = solve(problem, method)
+    assert 0.0 <= result.p <= 1.0 and np.isfinite(result.q).all()
+    assert result.status != "check_failed"
+
+
+def test_the_braking_command_does_not_warn_where_a_joint_hardly_moves() -> None:
+    """A joint whose motion per unit of error is subnormal bounds neither the braking rate nor
+    the speed (its quotient would overflow): the same share on both paths, no warning (a
+    find of tests/test_recovery.py's hypothesis test in a fresh clone)."""
+    from lpik.command import braking_scale
+    from lpik.fast.command_law import braking_scale as compiled_braking_scale
+
+    motion = np.array([1e-310, 0.5, 0.0])
+    qdd_max, qd_max = np.array([10.0, 10.0, 10.0]), np.array([2.0, 2.0, 2.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        share = braking_scale(motion, qdd_max, qd_max, 1e-3)
+    assert share == compiled_braking_scale(motion, qdd_max, qd_max, 1e-3)
+    assert share == braking_scale(np.array([0.0, 0.5, 0.0]), qdd_max, qd_max, 1e-3)
+
+
 @pytest.mark.parametrize(
     ("field", "value"),
     [

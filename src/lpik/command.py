@@ -32,6 +32,7 @@ console do the same; the paper's runs command the law above alone.
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -100,6 +101,9 @@ def clamp_command(
 #: with; the rest is left for what the plan does not see (the motion's
 #: curvature, the second-order term, the redundancy's own motion).
 BRAKING_SHARE = 0.8
+#: The largest finite double: :func:`braking_scale` divides a limit by a joint's need only
+#: where the quotient stays below it.
+_LARGEST = sys.float_info.max
 
 
 #: Damping of :func:`least_motion`, relative to the largest entry of ``J J^T``.
@@ -186,10 +190,11 @@ def braking_scale(motion: FloatArray, qdd_max: FloatArray, qd_max: FloatArray, d
     rate, speed = math.inf, math.inf
     for i in range(motion.shape[0]):
         need = abs(motion[i])
+        # a need so small that the quotient would overflow bounds nothing (no overflow warning)
         if need > 0.0:
-            if qdd_max[i] < math.inf:
+            if qdd_max[i] < math.inf and need > qdd_max[i] / _LARGEST:
                 rate = min(rate, qdd_max[i] / need)
-            if qd_max[i] < math.inf:
+            if qd_max[i] < math.inf and need > qd_max[i] / _LARGEST:
                 speed = min(speed, qd_max[i] / need)
     share = speed * dt
     if rate < math.inf:

@@ -20,7 +20,7 @@ from lpik.check import task_residual, worst_violation
 from lpik.methods.assembly import criterion
 from lpik.problem import Problem
 from lpik.result import OPTIMAL, SINGULAR, VIOLATES_LIMITS, Result, safe_step
-from lpik.tolerances import FEASIBILITY_TOL, MAX_CONDITION
+from lpik.tolerances import FEASIBILITY_TOL, MAX_CONDITION, SINGULAR_FLOOR
 from lpik.types import FloatArray
 
 
@@ -34,7 +34,8 @@ def pinv(problem: Problem) -> Result:
     start = time.perf_counter()
     J = problem.J
     JJt = J @ J.T
-    if np.linalg.cond(JJt) > MAX_CONDITION:
+    # a singular value at or below SINGULAR_FLOOR is 0: J J^T would be subnormal, its solve inf
+    if np.linalg.cond(JJt) > MAX_CONDITION or _smallest_singular_value(J) <= SINGULAR_FLOOR:
         return safe_step(
             problem,
             "pinv",
@@ -45,6 +46,12 @@ def pinv(problem: Problem) -> Result:
         )
     y = np.linalg.solve(JJt, problem.dw)
     return _closed(problem, "pinv", J.T @ y, -y, 1.0, start)
+
+
+def _smallest_singular_value(J: FloatArray) -> float:
+    """``J``'s smallest singular value (0 for an empty ``J``)."""
+    sigma = np.linalg.svd(J, compute_uv=False)
+    return float(sigma.min()) if sigma.size else 0.0
 
 
 def weighted(problem: Problem) -> Result:
