@@ -230,26 +230,3 @@ def test_a_reused_solver_keeps_its_time_limit_per_solve() -> None:
     finally:
         lp_module.SOLVE_TIME_LIMIT = original
     assert statuses == {"optimal"}
-
-
-def test_rows_of_entries_below_highs_small_matrix_value_are_kept() -> None:
-    """HiGHS drops matrix entries at or below 1e-9; each row goes to it scaled by a power of
-    two (row_scale), so a task row of a Jacobian 1e-9 in size still binds: LP1 finds the
-    p = 5e-7 that joint 1's end-stop allows (it answered 0 when the row was dropped), and
-    the row duals come back for the rows as given."""
-    from lpik.highs import row_scale
-    from lpik.methods import solve
-    from lpik.problem import Problem
-
-    P = Problem(J=[[-1e-9, -1e-9], [2.0, 1.0]], dw=[0.002, 0.0], q0=[0.0, 1e-9],
-                q_min=[0.0, -np.inf], q_max=[1.0, 1e-9])  # fmt: skip
-    res = solve(P, "lp1")
-    assert res.p == pytest.approx(5e-7, rel=1e-9) and str(res.binding) == "joint 1 upper end-stop"
-    scale = row_scale(np.array([[1e-9, -3e-9], [0.0, 0.0], [3.0, 1.0]]))
-    np.testing.assert_array_equal(scale, [2.0**29, 1.0, 0.5])  # largest entries 1.61, 1.5
-    # a row scaled by 2^30 keeps the dual of the row as given: min x s.t. 1e-9 x >= 1e-9
-    lp = LinearProgram(c=np.array([1.0]), A=np.array([[1e-9]]), row_lower=np.array([1e-9]),
-                       row_upper=np.array([np.inf]), col_lower=np.array([-10.0]),
-                       col_upper=np.array([10.0]))  # fmt: skip
-    sol = HighsSolver().solve(lp)
-    assert sol.x[0] == pytest.approx(1.0) and sol.row_dual[0] == pytest.approx(1e9)

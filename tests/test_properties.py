@@ -21,9 +21,10 @@ from core_reference import (
     task_error,
 )
 from core_strategies import Case, cases, examples
+from lpik.check import worst_violation
 from lpik.methods import lp2
 from lpik.methods.kkt import smoothing
-from lpik.result import SCALED, STATUSES, Result
+from lpik.result import SCALED, SOLVER_ERROR, STATUSES, Result
 
 #: Small commands, for which the linearisation is close to the nonlinear kinematics.
 DW_SMALL = st.sampled_from([1e-3, 1e-2])
@@ -58,6 +59,10 @@ def test_lp_step_keeps_every_hard_limit(name: str, case: Case) -> None:
     if name.startswith("lp2") and not case.criterion_is_zero:
         # With f != 0 or Lambda pulling, even p = 0 may be infeasible: then a safe step.
         assert res.moved or res.status == "infeasible"
+    elif res.status == SOLVER_ERROR and res.path == "highs":
+        # HiGHS (after its retries) fails on some programs of links aligned to 1e-10 with
+        # unbounded joints (a thorough-profile find on LP1): the contract's safe step
+        assert not np.any(res.dq) and res.p == 0.0
     else:
         # q0 satisfies every limit, so (dq, p) = (0, 0) is feasible: the LP must move.
         assert res.moved, (res.status, res.binding)
@@ -77,7 +82,10 @@ def test_lp1_achieves_at_least_lp2s_dexterity(case: Case) -> None:
     # A step of more than 1e3 rad (no velocity limit, links aligned to 1e-11: LP2 moves a
     # joint 1e8 rad to keep the command) is beyond what HiGHS resolves on so ill-conditioned
     # a program; it finds p = 0 there (a thorough-profile find).
-    if exact_on_every_row(case.problem, p2) and np.abs(p2.dq).max() <= 1e3:
+    # HiGHS drops matrix entries at or below its small_matrix_value (1e-9): a task row of
+    # such entries is not in LP1's program, while LP2 keeps it (a thorough-profile find)
+    rows_kept = bool((np.abs(case.problem.J).max(axis=1) > 1e-9).all())
+    if exact_on_every_row(case.problem, p2) and np.abs(p2.dq).max() <= 1e3 and rows_kept:
         assert p1.p >= p2.p - 1e-9
 
 
@@ -187,6 +195,8 @@ def test_lp2_ratio_test_and_highs_paths_agree(case: Case) -> None:
         return  # both answers keep the contract: a tie at the tolerance (a thorough-profile find)
     fast = lp2(P, path="ratio-test")
     slow = lp2(P, path="highs")
+    if fast.status != slow.status and worst_violation(P, slow.dq).amount > 1e-9:
+        return  # HiGHS's retry at its looser 1e-7 tolerance kept a step the exact rows refuse
     assert fast.status == slow.status
     if not fast.moved:
         return

@@ -103,22 +103,6 @@ class _Highs(getattr(highspy, "_Highs", highspy.Highs)):  # type: ignore[misc]
     """
 
 
-#: The largest power of two (in size of its exponent) :func:`row_scale` scales a row by.
-ROW_SCALE_EXPONENT = 64
-
-
-def row_scale(A: FloatArray) -> FloatArray:
-    """Per row of ``A``, the power of two ``2^-e`` that brings its largest entry into [1, 2).
-
-    1 for a row of zeros; ``e`` within +-:data:`ROW_SCALE_EXPONENT`, so that no bound
-    (at most 1e12 in size) overflows. A power of two changes no digit of any entry
-    or bound.
-    """
-    largest = np.abs(A).max(axis=1) if A.size else np.zeros(A.shape[0])
-    exponent = np.frexp(np.where(largest > 0.0, largest, 1.0))[1] - 1
-    return np.ldexp(1.0, -np.clip(exponent, -ROW_SCALE_EXPONENT, ROW_SCALE_EXPONENT))
-
-
 class HighsSolver:
     """One reusable HiGHS instance.
 
@@ -136,19 +120,8 @@ class HighsSolver:
         self._A: FloatArray | None = None
 
     def solve(self, lp: LinearProgram) -> LpSolution:
-        """Solve ``lp``; never raises for solver trouble (the status says it).
-
-        Each row goes to HiGHS scaled by the power of two that brings its largest
-        entry into [1, 2) (:func:`row_scale`; exact in floating point), and the row
-        duals come back unscaled. HiGHS drops every matrix entry at or below its
-        ``small_matrix_value``, 1e-9: a task row of a Jacobian of such entries (an
-        arm 1e-9 rad from a stretched pose) lost its only coefficients, and LP1
-        answered ``p = 0`` where ``p = 5e-7`` keeps every limit (a hypothesis find).
-        """
+        """Solve ``lp``; never raises for solver trouble (the status says it)."""
         start = time.perf_counter()
-        scale = row_scale(lp.A)
-        lp = LinearProgram(lp.c, lp.A * scale[:, None], lp.row_lower * scale,
-                           lp.row_upper * scale, lp.col_lower, lp.col_upper)  # fmt: skip
         h = self._highs
         nz = lp.A != 0
         pattern = (lp.A.shape, np.packbits(nz).tobytes())
@@ -185,7 +158,6 @@ class HighsSolver:
             col_dual = np.zeros(lp.c.size)
         if row_dual.size != lp.A.shape[0]:
             row_dual = np.zeros(lp.A.shape[0])
-        row_dual = row_dual * scale  # the dual of the row as given: y = s y'
         return LpSolution(
             status,
             x,
