@@ -33,9 +33,7 @@ def pinv(problem: Problem) -> Result:
     """
     start = time.perf_counter()
     J = problem.J
-    JJt = J @ J.T
-    # a singular value at or below SINGULAR_FLOOR is 0: J J^T would be subnormal, its solve inf
-    if np.linalg.cond(JJt) > MAX_CONDITION or _smallest_singular_value(J) <= SINGULAR_FLOOR:
+    if _jjt_singular(J):
         return safe_step(
             problem,
             "pinv",
@@ -44,14 +42,23 @@ def pinv(problem: Problem) -> Result:
             solve_time=time.perf_counter() - start,
             path="closed-form",
         )
-    y = np.linalg.solve(JJt, problem.dw)
+    y = np.linalg.solve(J @ J.T, problem.dw)
     return _closed(problem, "pinv", J.T @ y, -y, 1.0, start)
 
 
-def _smallest_singular_value(J: FloatArray) -> float:
-    """``J``'s smallest singular value (0 for an empty ``J``)."""
+def _jjt_singular(J: FloatArray) -> bool:
+    """Whether ``J J^T`` is singular, from one SVD of ``J``.
+
+    Its condition ``(sigma_max / sigma_min)^2`` above ``MAX_CONDITION``, or a singular
+    value of ``J`` at or below ``SINGULAR_FLOOR`` (``J J^T`` would be subnormal, its
+    solve inf); a ``J`` with more rows than columns (or none) has a singular ``J J^T``.
+    """
+    m, n = J.shape
+    if m == 0 or m > n:
+        return True
     sigma = np.linalg.svd(J, compute_uv=False)
-    return float(sigma.min()) if sigma.size else 0.0
+    smallest = float(sigma.min())
+    return smallest <= SINGULAR_FLOOR or not (float(sigma.max()) / smallest) ** 2 <= MAX_CONDITION
 
 
 def weighted(problem: Problem) -> Result:
