@@ -415,3 +415,20 @@ def test_law_changes_counts_the_jitter_where_the_status_changes() -> None:
     assert len(lines) == 2 and "1000.0" in lines[0] and "-1000.0" in lines[1]
     with pytest.raises(ValueError, match="statuses"):
         law_changes(LegRun(run.q, run.step_ns))
+
+
+def test_the_suite_runs_on_another_arm_and_says_what_it_left_out() -> None:
+    """``--robot``: the scenarios built on that arm's home configuration; those laid out for
+    the Panda alone (the obstacle beside its link 4, the end-stop goals of its joints 7 and
+    2) are left out and named; the miss explanations, found on the Panda, are not given."""
+    from lpik_bench.quality import run_suite
+    from lpik_bench.quality_report import render
+
+    suite = run_suite(("circle", "end-stop", "obstacle"), peers=(), variants=("lp2s",),
+                      max_steps=20, robot="iiwa14")  # fmt: skip
+    assert [r.scenario.key for r in suite.scenarios] == ["circle"]
+    assert any(s.startswith("scenario end-stop: not built for iiwa14") for s in suite.skipped)
+    assert "scenario obstacle: laid out for the Panda only" in suite.skipped
+    assert suite.scenarios[0].rows["lp2s"].violation_steps == 0
+    text = render(suite, "python -m lpik_bench.quality --robot iiwa14")
+    assert "Closed-loop runs on the iiwa14" in text

@@ -413,7 +413,13 @@ for _key in ("pos_max", "ori_rms", "ori_max"):
     MISSED_BECAUSE[f"acceleration/{_key}"] = MISSED_BECAUSE["acceleration/pos_rms"]
 
 
-def _reason(scenario: str, key: str) -> str:
+#: The arms' names in the report's prose.
+ARM_NAMES = {"panda": "Panda", "iiwa14": "iiwa14", "ur5e": "UR5e"}
+
+
+def _reason(scenario: str, key: str, robot: str = "panda") -> str:
+    if robot != "panda":  # the reasons below were found on the Panda's runs
+        return "not analysed on this arm"
     return MISSED_BECAUSE.get(f"{scenario}/{key}", MISSED_BECAUSE.get(key, "not analysed yet"))
 
 
@@ -501,7 +507,8 @@ def goal_summary(suite: SuiteResult) -> list[str]:
         missed = [v for v in verdicts(result, name) if v.met is False]
         key = result.scenario.key
         said = "; ".join(
-            f"{v.metric.label} {fmt(v.value)} vs {_ref_cell(v)}: {_reason(key, v.metric.key)}"
+            f"{v.metric.label} {fmt(v.value)} vs {_ref_cell(v)}: "
+            f"{_reason(key, v.metric.key, suite.environment.get('robot', 'panda'))}"
             for v in missed
         )
         lines.append(f"- {result.scenario.title} ({name}): {said or 'nothing'}.")
@@ -540,8 +547,10 @@ def goal_text(suite: SuiteResult) -> str:
 def intro(suite: SuiteResult) -> list[str]:
     """What is measured and how, with the contenders and the skipped ones."""
     dt_ms = suite.environment["dt"] * 1e3
+    robot = suite.environment.get("robot", "panda")
     lines = [
-        f"Closed-loop runs on the Panda (arm only, 6-D pose task, dt = {dt_ms:g} ms, the URDF's "
+        f"Closed-loop runs on the {ARM_NAMES.get(robot, robot)} (arm only, 6-D pose task, "
+        f"dt = {dt_ms:g} ms, the URDF's "
         "end-stops and velocity limits). Every library starts each run at rest from the same "
         "configuration, is given its current joint coordinates and the commanded target pose "
         "of the step, and integrates its own answer (`q_next = q + dq`); every library gets "

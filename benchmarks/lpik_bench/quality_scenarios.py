@@ -158,7 +158,7 @@ def make_leg(
 
 def circle(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     """A circle in the y-z plane through the start pose, orientation held."""
-    q0 = home_configuration("panda")
+    q0 = home_configuration(model.name)
     start = model.pose(q0)
     radius, omega, ramp = CIRCLE["diameter"] / 2, 2 * np.pi / CIRCLE["period"], CIRCLE["ramp"]
 
@@ -183,7 +183,7 @@ def beyond_reach(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     Built once per model, period and length (the reach is found by bisection, some
     seconds per direction): scenario 10 runs the same legs under acceleration limits.
     """
-    q0 = home_configuration("panda")
+    q0 = home_configuration(model.name)
     start = model.pose(q0)
     legs = []
     for label, axis in AXES.items():
@@ -234,7 +234,7 @@ def _end_stop_leg(model: PoseTask, joint: int, dt: float, max_steps: int | None)
     end-stop; among seeded goal configurations within the limits, the one whose
     unlimited least-norm path passes furthest beyond that stop is taken.
     """
-    home = home_configuration("panda")
+    home = home_configuration(model.name)
     lo, hi = model.q_min, model.q_max
     upper = hi[joint] - home[joint] < home[joint] - lo[joint]
     stop, sign = (hi[joint], 1.0) if upper else (lo[joint], -1.0)
@@ -295,7 +295,7 @@ def end_stop(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
 
 def step_inputs(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     """Target jumps of 5 cm every 50 ms along +x, +y, +z, -x, -y, -z, repeated."""
-    q0 = home_configuration("panda")
+    q0 = home_configuration(model.name)
     start = model.pose(q0)
     walk = np.cumsum(
         np.array([(0, 0, 0), *list(AXES.values())[::2], *list(AXES.values())[1::2]], dtype=float),
@@ -348,7 +348,7 @@ def _singular_leg(
     note = (
         f"{label}: joint 4 swings {low:.2f} -> {high:.2f} -> {low:.2f} rad through "
         f"{a:.3f} rad, where the smallest singular value of J is {sigma(a):.1e} "
-        f"(home: {smallest_singular_value(model, home_configuration('panda')):.2f})"
+        f"(home: {smallest_singular_value(model, home_configuration(model.name)):.2f})"
     )
     return make_leg(
         model, label, q0, target, SINGULAR["period"], dt, max_steps, note=note, witness=joints
@@ -357,7 +357,7 @@ def _singular_leg(
 
 def singular(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     """The arm stretched out straight (a boundary singularity), upwards and leaning forward."""
-    home = home_configuration("panda")
+    home = home_configuration(model.name)
     forward = home.copy()
     forward[1] = 0.8
     legs = (
@@ -375,7 +375,7 @@ def singular(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
 
 def acceleration(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     """Reversals and a circle started at full speed, with every library's accelerations checked."""
-    q0 = home_configuration("panda")
+    q0 = home_configuration(model.name)
     start = model.pose(q0)
     every, jump = ACCEL["every"], ACCEL["jump"]
 
@@ -433,7 +433,7 @@ def _random_moves(model: PoseTask, q0: FloatArray) -> list[tuple[FloatArray, str
 
 def point_step(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     """The getting-started example: a pose 5 cm along +x held from rest at home."""
-    q0 = home_configuration("panda")
+    q0 = home_configuration(model.name)
     goal = moved(model.pose(q0), np.array([POINT["step"], 0.0, 0.0]))
     leg = make_leg(model, f"{POINT['step'] * 100:g} cm +x", q0, lambda t: goal,
                    POINT["step_duration"], dt, max_steps, held=True)  # fmt: skip
@@ -472,7 +472,7 @@ def _held_poses_text(draw: str, legs: list[Leg], remark: str = "") -> str:
 
 def point_to_point(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     """Step targets held from rest: the poses of random configurations about home."""
-    q0 = home_configuration("panda")
+    q0 = home_configuration(model.name)
     legs = []
     for k, (goal_q, size) in enumerate(_random_moves(model, q0)):
         least = rest_to_rest_time(goal_q - q0, model.qd_max, QDD_MAX)
@@ -499,7 +499,7 @@ def goals_anywhere(model: PoseTask, dt: float, max_steps: int | None) -> Scenari
     """
     from lpik_bench.random_goals import MIDDLE, goal_configurations
 
-    q0 = home_configuration("panda")
+    q0 = home_configuration(model.name)
     start = model.pose(q0)
     legs = []
     for k, goal_q in enumerate(goal_configurations(model, GOALS["goals"], GOALS["seed"])):
@@ -526,7 +526,7 @@ def obstacle(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     """
     from lpik_bench.quality_obstacle import OBSTACLE, closest, sphere_scene
 
-    q0 = home_configuration("panda")
+    q0 = home_configuration(model.name)
     goal = model.pose(q0)
     goal[:3, 3] = OBSTACLE["target"]
     center = np.array(OBSTACLE["overlapping"], dtype=float)
