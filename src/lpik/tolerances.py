@@ -100,6 +100,11 @@ STALL_SHARE = 0.5
 #: the band cut it from 1,394 rad/s to 930). A band for ``p`` as well (up to 0.05) cut it
 #: to 480 but held an arm pushed beyond reach back from coming home.
 STALL_KEEP_SHARE = 1.0
+#: Two L1 gains (the exact and the progress step's) within this times the command's
+#: scale (``max(1, max |dw|)``) are a tie, rounding: the step does not stall, so that a
+#: progress step that is the exact step itself keeps the exact step's status on every
+#: path (the compiled and numpy paths sum the errors in another order).
+GAIN_RTOL = 1e-12
 #: After a progress step, where no acceleration limit bounds the change of the joint
 #: velocities (the band of STALL_KEEP_SHARE), a step with ``STALL_P < p <= STALL_BLEND_P``
 #: may stall too, and a stalled step there is not the progress step alone but
@@ -135,6 +140,16 @@ STALL_BLEND_P = 2e-2
 #: least-squares step towards the goal first lowers ``sigma_min`` (the goal is across the
 #: singular configuration), and the self-motion changes it by under 0.1 % (the iiwa).
 MOTION_WEIGHT = 1e-2
+#: After a progress step, the way each joint left the center in the arm's last step is
+#: cheaper by this share of ``MOTION_WEIGHT`` (times its share of the largest deviation:
+#: :func:`lpik.methods.progress.motion_prices`), so that two nearly tied vertices of the
+#: progress LP do not take turns at every step. The observed swing of their objectives was
+#: 1e-7, against 1.5e-6 that this share gives a deviation of 0.6 mrad per step.
+MOTION_KEEP_SHARE = 0.25
+#: ... where the last step left the center by more than this share of the motion: a
+#: deviation of 1e-12 rad (the last step was the exact step, up to rounding) once made
+#: every price a random share of the bias (a parity test between two kinematics backends).
+MOTION_KEEP_RTOL = 1e-6
 #: Under acceleration limits a joint moving towards the stop ahead of a motion that stops
 #: paying (:func:`lpik.bands.fading_band`) does not speed up towards it once it could not
 #: keep its speed were that stop this share of its distance away (within about twice its

@@ -392,14 +392,19 @@ class Stepper:
                        h=np.append(rebuilt.h, rhs + row @ problem.q0),
                        row_labels=(*rebuilt.row_labels, SINGULARITY))  # fmt: skip
 
-    def stalled(self, result: Result, problem_of: Callable[[], Problem]) -> Result:
+    def stalled(
+        self, result: Result, problem_of: Callable[[], Problem],
+        last_motion: FloatArray | None = None,
+    ) -> Result:  # fmt: skip
         """The stall stage: the progress step once the step has stalled ``on_stall`` times.
 
-        Its problem is :meth:`on_floor`'s. In ``mode="progress"`` a step that did not
+        Its problem is :meth:`on_floor`'s; ``last_motion`` is the arm's last step
+        ``q0 - q_prev`` (None: at rest). In ``mode="progress"`` a step that did not
         stall gets the second stage, :func:`lpik.methods.progress.further_step`, where
         ``p < 1``.
         """
-        checked = self.stall_watch.check(result, lambda: self.on_floor(problem_of()))
+        checked = self.stall_watch.check(result, lambda: self.on_floor(problem_of()),
+                                         last_motion)  # fmt: skip
         if self.mode != "progress" or checked is not result or result.p >= 1.0:
             return checked
         return further_step(problem_of(), result, solver=self._solver)
@@ -447,7 +452,8 @@ class Stepper:
         problem = self.problem(q, target, prev)
         start = time.perf_counter()
         problem, result = self.bounded(problem, self.solve(problem), prev)
-        result = self.recovered(problem, self.stalled(result, lambda: problem))
+        last = None if prev is None else q - prev
+        result = self.recovered(problem, self.stalled(result, lambda: problem, last))
         self.solve_time = time.perf_counter() - start
         return self.applied(problem, result)
 

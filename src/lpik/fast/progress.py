@@ -76,6 +76,7 @@ _exact_weight = njit(cache=True)(rule.exact_weight)
 _makes_progress = njit(cache=True)(rule.makes_progress)
 _scale = njit(cache=True)(rule.progress_scale)
 _in_band = njit(cache=True)(rule.in_band)
+_motion_prices = njit(cache=True)(rule.motion_prices)
 #: Degenerate pivots in a row after which the simplex prices by Bland's rule.
 _BLAND_AFTER = 30
 #: Fresh factorisations of the optimal basis before the answer stands.
@@ -98,8 +99,12 @@ def least_error_value(J, target, dq):
 
 
 @njit(cache=True)
-def _columns(J, target, lower, upper, G, g):
-    """The standard form ``A x = b``, ``lo <= x <= up`` and the costs (see the module)."""
+def _columns(J, target, lower, upper, G, g, prices):
+    """The standard form ``A x = b``, ``lo <= x <= up`` and the costs (see the module).
+
+    ``prices`` (2, n): each joint's price per radian up and down (``MOTION_WEIGHT``:
+    :func:`_even_prices`; the stall stage's: :func:`lpik.methods.progress.motion_prices`).
+    """
     m, n = J.shape
     r = G.shape[0]
     rows, cols = m + r, 2 * n + 2 * m + 2 * r
@@ -108,7 +113,7 @@ def _columns(J, target, lower, upper, G, g):
     for i in range(n):
         lo[i], up[i] = max(lower[i], 0.0), max(upper[i], 0.0)
         lo[n + i], up[n + i] = max(-upper[i], 0.0), max(-lower[i], 0.0)
-        cost[i] = cost[n + i] = MOTION_WEIGHT
+        cost[i], cost[n + i] = prices[0, i], prices[1, i]
     for k in range(m):
         for i in range(n):
             A[k, i], A[k, n + i] = J[k, i], -J[k, i]
@@ -121,6 +126,12 @@ def _columns(J, target, lower, upper, G, g):
         A[m + j, 2 * n + 2 * m + j], A[m + j, 2 * n + 2 * m + r + j] = 1.0, -1.0
         b[m + j] = g[j]
     return A, b, lo, up, cost
+
+
+@njit(cache=True)
+def _even_prices(n):
+    """``MOTION_WEIGHT`` per radian for each joint, up and down: (2, n)."""
+    return np.full((2, n), MOTION_WEIGHT)
 
 
 @njit(cache=True)
@@ -345,9 +356,15 @@ def least_error_step(J, target, lower, upper, G, g, dq):
     reach, ``INACTIVE_RHS``) holds whatever the step and is left out: its slack
     would stay basic and never price, and a scene reserves one row per pair.
     """
+    return priced_least_error_step(J, target, lower, upper, G, g, _even_prices(J.shape[1]), dq)
+
+
+@njit(cache=True)
+def priced_least_error_step(J, target, lower, upper, G, g, prices, dq):
+    """:func:`least_error_step` with each joint's motion priced by ``prices`` (2, n): up, down."""
     n = J.shape[1]
     G, g = _binding_rows(G, g)
-    A, b, lo, up, cost = _columns(J, target, lower, upper, G, g)
+    A, b, lo, up, cost = _columns(J, target, lower, upper, G, g, prices)
     for i in range(n):
         dq[i] = min(max(0.0, lower[i]), upper[i])
     x = np.empty(A.shape[1])
@@ -406,7 +423,8 @@ def largest_share_lp(G, b, demand, lower, upper):
             rows[j, i] = G[j, i]
         rows[j, n] = -demand[j]
     lo, hi = np.append(lower, 0.0), np.append(upper, 1.0)
-    A, bb, col_lo, col_up, cost = _columns(np.empty((0, n + 1)), np.empty(0), lo, hi, rows, b)
+    A, bb, col_lo, col_up, cost = _columns(np.empty((0, n + 1)), np.empty(0), lo, hi, rows, b,
+                                           _even_prices(n + 1))  # fmt: skip
     cost[:] = 0.0
     cost[n] = -1.0  # the share's column (its negative part is fixed at 0)
     x = np.empty(A.shape[1])
@@ -476,7 +494,7 @@ def state_rows(state, q0, q_prev, singular_stop):
 
 
 @njit(cache=True)
-def progress_in_state(state, q0, q_prev, dq, floor, exact):
+def progress_in_state(state, q0, q_prev, dq, floor, exact, engaged):
     """The stall stage's progress step on the step a fused step left in ``state``.
 
     ``J`` and ``dw`` are the step's (its Jacobian and command blocks), the
@@ -486,7 +504,9 @@ def progress_in_state(state, q0, q_prev, dq, floor, exact):
     (:func:`lpik.methods.autobound.floor_row`), which the step takes instead of
     the stop ahead's band; ``floor[n]`` inf: none. ``exact`` (n,): the exact step,
     the motion term's center where the step is not solved around a motion
-    (:func:`lpik.methods.progress.progress_center`). Returns ``(outcome, error
+    (:func:`lpik.methods.progress.progress_center`); ``engaged``: the last step was
+    the progress step (the motion's prices: :func:`lpik.methods.progress.motion_prices`,
+    from the last motion ``q0 - q_prev``). Returns ``(outcome, error
     before, error after)``: the L1 task errors ``sum |dw|`` and ``sum |J dq - dw|``.
     """
     n = q0.shape[0]
@@ -510,7 +530,11 @@ def progress_in_state(state, q0, q_prev, dq, floor, exact):
     for j in range(r):
         for i in range(n):
             rhs[j] -= G[j, i] * center[i]
-    code = least_error_step(J, shifted, lo, hi, G, rhs, delta)
+    last = np.empty(n)
+    for i in range(n):
+        last[i] = q0[i] - q_prev[i]
+    prices = _motion_prices(last, center, engaged, np.empty((2, n)))
+    code = priced_least_error_step(J, shifted, lo, hi, G, rhs, prices, delta)
     for i in range(n):
         dq[i] = min(max(center[i] + delta[i], lower[i]), upper[i])
     zero = np.zeros(n)
@@ -539,13 +563,13 @@ def stall_stage(state, q0, q_prev, exact_dq, p, held, engaged, floor, dq, residu
     keeping = _in_band(engaged, moving)
     if not _may_stall(p, held, moving, keeping):
         return NOT_STALLED
-    code, before, after = progress_in_state(state, q0, q_prev, dq, floor, exact_dq)
+    code, before, after = progress_in_state(state, q0, q_prev, dq, floor, exact_dq, engaged)
     if code != SOLVED:
         return NOT_STALLED
     n, m = q0.shape[0], int(state[L.M])
     J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
     exact_after = _task_error(J, dw, exact_dq)[0]
-    if not _stalls(p, before - exact_after, before - after, held, moving, keeping):
+    if not _stalls(p, before - exact_after, before - after, held, moving, keeping, _scale(dw)):
         return NOT_STALLED
     weight = _exact_weight(p)
     if weight != 0.0:
@@ -621,6 +645,7 @@ __all__ = [
     "least_error",
     "least_error_step",
     "least_error_value",
+    "priced_least_error_step",
     "progress_in_state",
     "stall_stage",
     "state_rows",
