@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 from core_reference import (
     HARD_TOL,
+    HIGHS_SMALL_MATRIX_VALUE,
     Bracket,
     bracket,
     hard_violation,
@@ -85,7 +86,7 @@ def test_lp1_achieves_at_least_lp2s_dexterity(case: Case) -> None:
     # a program; it finds p = 0 there (a thorough-profile find).
     # HiGHS drops matrix entries at or below its small_matrix_value (1e-9): a task row of
     # such entries is not in LP1's program, while LP2 keeps it (a thorough-profile find)
-    rows_kept = bool((np.abs(case.problem.J).max(axis=1) > 1e-9).all())
+    rows_kept = bool((np.abs(case.problem.J).max(axis=1) > HIGHS_SMALL_MATRIX_VALUE).all())
     if exact_on_every_row(case.problem, p2) and np.abs(p2.dq).max() <= 1e3 and rows_kept:
         assert p1.p >= p2.p - 1e-9
 

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik.robots.registry import load_robot
+from lpik.robots.registry import load_robot, robot_names
 from lpik.robots.tasks import PoseTask
 from lpik.types import FloatArray
 from lpik_bench.quality_metrics import (
@@ -58,8 +58,7 @@ UNCLAMPED = 1e6
 _OPEN = {"v_max": UNCLAMPED, "w_max": UNCLAMPED}
 #: lpik's variants: name -> keyword arguments of Lp2Controller (besides ``model`` and ``dt``).
 #: ``mode="progress"`` (the progress mode) is skipped with a note where lpik lacks it.
-#: The arms the suite can run (``--robot``), and the scenarios laid out for the Panda alone.
-ROBOTS = ("panda", "iiwa14", "ur5e")
+#: The scenarios laid out for the Panda alone (``--robot`` takes any bundled arm).
 PANDA_ONLY = ("obstacle",)
 VARIANTS: dict[str, dict[str, Any]] = {
     "lp2s": {**_OPEN},
@@ -432,7 +431,7 @@ def main(argv: list[str] | None = None, command: str | None = None) -> int:
     parser.add_argument("--variants", nargs="+", choices=list(VARIANTS), default=list(VARIANTS))
     parser.add_argument("--max-steps", type=int, help="cut every leg to this many steps")
     parser.add_argument(
-        "--robot", default="panda", choices=ROBOTS,
+        "--robot", default="panda", choices=robot_names(),
         help="the bundled arm (the suite is laid out for the Panda; see run_suite)",
     )  # fmt: skip
     parser.add_argument(
