@@ -14,7 +14,13 @@ from cli_documents import LPIK
 from lpik.command import ClampedTarget, task_rows
 from lpik.control.simulate import simulate
 from lpik.limits import AutomaticMultiplierBounds, standard_limits
-from lpik.methods.autobound import automatic_bound, bound_for_step, clearly_regular, parameters
+from lpik.methods.autobound import (
+    automatic_bound,
+    bound_for_step,
+    clearly_regular,
+    parameters,
+    singular_memo,
+)
 from lpik.paper.scenarios import get_scenario
 from lpik.result import Result
 
@@ -112,7 +118,7 @@ def _rule(J, rows, dq=None, jacobian=None):  # type: ignore[no-untyped-def]
     dq = np.zeros(J.shape[1]) if dq is None else dq
     settings = parameters(AutomaticMultiplierBounds())
     found = automatic_bound(settings, J, np.asarray(rows, float), 0.01, np.zeros(J.shape[1]), dq,
-                            jacobian, bound)  # fmt: skip
+                            jacobian, bound, singular_memo())  # fmt: skip
     return bound if found else None
 
 

@@ -33,7 +33,7 @@ from lpik.control.stepper import Stepper
 from lpik.fast import layout
 from lpik.fast.autobound import singular_steps as compiled_singular_steps
 from lpik.limits import build_problem
-from lpik.methods.autobound import singular_steps
+from lpik.methods.autobound import singular_memo, singular_steps
 from lpik.robots.registry import home_configuration, load_robot
 from lpik.tolerances import FADING_HOLD_SHARE, MOTION_WEIGHT
 from lpik_bench.excursions import DT, targets
@@ -171,12 +171,16 @@ def test_the_fading_motion_s_stop_is_alike_on_both_paths() -> None:
 def test_the_steps_to_the_singular_floor_are_the_linear_extrapolation() -> None:
     """``sigma_min`` 0.011 a step ago, 0.010 now (``sigma_max`` 1): 9 steps to the floor
     0.001; none far from singular, where ``sigma_min`` grows, or without the rule."""
+
+    def steps(J, before, activation=0.05):  # type: ignore[no-untyped-def]
+        return singular_steps(J, before, activation, 1e-3, singular_memo())
+
     J, before = np.diag([1.0, 0.010]), np.diag([1.0, 0.011])
-    assert singular_steps(J, before, 0.05, 1e-3) == pytest.approx(9.0, rel=1e-12)
-    assert singular_steps(before, J, 0.05, 1e-3) == math.inf  # it leaves the singularity
-    assert singular_steps(np.diag([1.0, 0.1]), np.diag([1.0, 0.2]), 0.05, 1e-3) == math.inf
-    assert singular_steps(J, before, 0.0, 1e-3) == math.inf  # no automatic bound
-    assert singular_steps(np.diag([1.0, 5e-4]), np.diag([1.0, 6e-4]), 0.05, 1e-3) == 0.0
+    assert steps(J, before) == pytest.approx(9.0, rel=1e-12)
+    assert steps(before, J) == math.inf  # it leaves the singularity
+    assert steps(np.diag([1.0, 0.1]), np.diag([1.0, 0.2])) == math.inf
+    assert steps(J, before, 0.0) == math.inf  # no automatic bound
+    assert steps(np.diag([1.0, 5e-4]), np.diag([1.0, 6e-4])) == 0.0
 
 
 @settings(max_examples=examples(100), deadline=None)
@@ -195,8 +199,8 @@ def test_the_singular_floor_is_alike_compiled(seed: int, exponent: float, change
     # a change below the two SVDs' rounding (1e-16 of sigma_max) has no sign to agree on: one
     # may find sigma_min falling (0 steps, at the floor), the other not (inf; a CI draw: 1e-17)
     assume(gap > 1e-14)
-    expected = singular_steps(J, before, 0.05, 1e-3)
-    found = compiled_singular_steps(J, before, 0.05, 1e-3)
+    expected = singular_steps(J, before, 0.05, 1e-3, singular_memo())
+    found = compiled_singular_steps(J, before, 0.05, 1e-3, singular_memo())
     # the steps divide by sigma_min's change: the two SVDs' rounding (1e-16 of sigma_max)
     # over a change of 3e-11 (change 1e-9) differed by 5e-6 of the steps
     rel = 1e-6 + 1e-14 / gap
@@ -247,3 +251,38 @@ def test_the_singular_stop_is_alike_on_both_paths() -> None:
             acted += bool(bounded and layout.vector(state, layout.SINGULAR)[0] < math.inf)
         prev, q = q, res.q
     assert acted > 10
+
+
+def test_the_fused_step_reads_j_before_s_sigma_min_from_the_last_step() -> None:
+    """The fused step keeps ``sigma_min`` of ``J`` (the ``sigma`` block) for the next
+    step, whose ``J_before`` it is: the stop ahead decomposes one Jacobian instead of two.
+    Each step of the approach to the stretched pose equals the step of a copy of the state
+    that knows nothing (no kinematics or singular values at ``q_prev``), to the bit; a
+    ``q_prev`` other than the last ``q0`` is decomposed anew."""
+    model, q0 = load_robot("panda"), home_configuration("panda")
+    controller = Lp2Controller(model, dt=DT, qdd_max=QDD, v_max=1e6, w_max=1e6)
+    state = controller._state
+    forgetful = Lp2Controller(model, dt=DT, qdd_max=QDD, v_max=1e6, w_max=1e6)
+    sigma = layout.vector(state, layout.SIGMA)
+    q, prev = q0.copy(), q0.copy()
+    reused = 0
+    for k, target in enumerate(targets(model.pose(q0), np.array([1.0, 0.0, 0.0]), 1.0)):
+        if k >= 1300:
+            break
+        if k >= 1000:
+            forgetful._state[:] = state
+            layout.vector(forgetful._state, layout.SECOND_ORDER)[1] = 0.0  # prev_* not held
+            layout.vector(forgetful._state, layout.SIGMA)[:] = np.nan
+            known = not math.isnan(sigma[2])
+            jolted = prev + 1e-7 if k % 7 == 0 else prev  # not the last q0: no memo
+            ref = forgetful.step(q, target, jolted)
+            res = controller.step(q, target, jolted)
+            np.testing.assert_array_equal(res.q, ref.q)
+            assert (res.status, res.binding) == (ref.status, ref.binding)
+            reused += known and jolted is prev and state[int(state[layout.BOUNDED])] > 0
+            if k % 7 == 0:
+                continue  # the loop goes on from the step not taken
+        else:
+            res = controller.step(q, target, prev)
+        prev, q = q, res.q
+    assert reused > 10

@@ -61,7 +61,7 @@ from lpik.limits import (
     Limit,
     build_problem,
 )
-from lpik.methods.autobound import bound_for_step, floor_row, singular_steps
+from lpik.methods.autobound import bound_for_step, floor_row, singular_memo, singular_steps
 from lpik.methods.progress import StallWatch, further_step, least_error_lp
 from lpik.methods.registry import DEFAULT_METHOD, MethodSpec, get_method
 from lpik.problem import Problem
@@ -272,7 +272,8 @@ class Stepper:
         limit = self.automatic_bound
         if limit is None or bound is None or J_before is None or not self.continues:
             return math.inf
-        return float(singular_steps(np.atleast_2d(J), J_before, limit.activation, limit.floor))
+        return float(singular_steps(np.atleast_2d(J), J_before, limit.activation, limit.floor,
+                                    singular_memo()))  # fmt: skip
 
     def problem(
         self,

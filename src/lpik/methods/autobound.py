@@ -48,12 +48,16 @@ from lpik.tolerances import FLOOR_CREEP_TIME, FULL_P
 from lpik.types import FloatArray
 
 __all__ = [
+    "MEMO_SIZE",
     "PARAMETERS",
     "automatic_bound",
     "bound_for_step",
+    "extreme_singular_values",
     "floor_row",
     "parameters",
+    "singular_memo",
     "singular_steps",
+    "smallest_singular_value_before",
 ]
 
 #: The parameters of :class:`~lpik.limits.AutomaticMultiplierBounds` in the order
@@ -119,9 +123,49 @@ def clearly_regular(J, activation):  # type: ignore[no-untyped-def]
     return True
 
 
+#: Entries of a memo of the singular values the rule reads (:func:`singular_memo`):
+#: ``sigma_min`` and ``sigma_max`` of ``J`` (``inf`` and 0 where :func:`clearly_regular`
+#: decides without them), then ``sigma_min`` of ``J_before``; NaN where not known yet.
+MEMO_SIZE = 3
+
+
+def singular_memo() -> FloatArray:
+    """A memo that knows nothing yet, for one step's :func:`automatic_bound` and stop ahead.
+
+    The fused step keeps its memo in its state (the ``sigma`` block of
+    :mod:`lpik.fast.layout`): the rule and the stop ahead of one step share one
+    decomposition of ``J``, and in a loop the next step reads ``J``'s
+    ``sigma_min`` as that of ``J_before``, the same Jacobian.
+    """
+    return np.full(MEMO_SIZE, np.nan)
+
+
+def extreme_singular_values(J, activation, memo):  # type: ignore[no-untyped-def]
+    """``(sigma_min, sigma_max)`` of ``J``; ``(inf, 0)`` where :func:`clearly_regular` holds.
+
+    Read from ``memo`` (:func:`singular_memo`) where it knows them, else
+    computed and written there. Plain loops; compiled as it is.
+    """
+    if math.isnan(memo[0]):
+        if clearly_regular(J, activation):
+            memo[0], memo[1] = math.inf, 0.0
+        else:
+            s = _singular_values(J)
+            memo[0], memo[1] = s[s.size - 1], s[0]
+    return memo[0], memo[1]
+
+
+def smallest_singular_value_before(J_before, memo):  # type: ignore[no-untyped-def]
+    """``sigma_min`` of ``J_before``, from ``memo`` where it knows it (else written there)."""
+    if math.isnan(memo[2]):
+        s = _singular_values(J_before)
+        memo[2] = s[s.size - 1]
+    return memo[2]
+
+
 def automatic_bound(
     settings: FloatArray, J: FloatArray, rows: FloatArray, dt: float, q0: FloatArray,
-    dq: FloatArray, jacobian: Any, bound: FloatArray,
+    dq: FloatArray, jacobian: Any, bound: FloatArray, memo: FloatArray,
 ) -> bool:  # fmt: skip
     """Steps 1-3 (module docstring) after an unbounded step that moved with ``p < 1``.
 
@@ -140,6 +184,7 @@ def automatic_bound(
         jacobian: What gives the task Jacobian at the probe's configuration
             (the task model's ``jacobian``; compiled: the state buffer).
         bound: Receives ``B_k`` of step 3, (m,), when the step is to be bounded.
+        memo: ``J``'s extreme singular values where known (:func:`singular_memo`).
 
     Returns:
         True when the multipliers are to be bounded by ``bound`` (sec. 3.2),
@@ -147,10 +192,9 @@ def automatic_bound(
     """
     approach_time, activation, floor, probe = settings[0], settings[1], settings[2], settings[3]
     m, n = J.shape
-    if m == 0 or clearly_regular(J, activation):
-        return False  # (and far from a singularity: exact tracking)
-    s = _singular_values(J)
-    s_max, s_min = s[0], s[s.size - 1]
+    if m == 0:
+        return False
+    s_min, s_max = extreme_singular_values(J, activation, memo)
     if s_min > activation * s_max:
         return False  # far from a singularity: exact tracking
     size = 0.0
@@ -183,7 +227,9 @@ def automatic_bound(
     return True
 
 
-def singular_steps(J: FloatArray, J_before: FloatArray, activation: float, floor: float) -> float:
+def singular_steps(
+    J: FloatArray, J_before: FloatArray, activation: float, floor: float, memo: FloatArray
+) -> float:
     """In how many steps the arm's motion reaches the bound's floor near a singularity.
 
     Under acceleration limits the step is solved around the arm's motion
@@ -207,19 +253,19 @@ def singular_steps(J: FloatArray, J_before: FloatArray, activation: float, floor
         J_before: The task Jacobian at ``q_prev``, (m, n).
         activation: Below this ``sigma_min / sigma_max`` the rule acts (the bound's).
         floor: The stop is at ``sigma_min = floor sigma_max`` (the bound's).
+        memo: The singular values of ``J`` and ``J_before`` where known
+            (:func:`singular_memo`).
 
     Returns:
         The steps to the floor (0 at or past it); ``inf`` where ``J`` is far from
         singular or ``sigma_min`` does not fall.
     """
-    if J.shape[0] == 0 or not activation > 0.0 or clearly_regular(J, activation):
+    if J.shape[0] == 0 or not activation > 0.0:
         return math.inf
-    s = _singular_values(J)
-    s_max, s_min = s[0], s[s.size - 1]
+    s_min, s_max = extreme_singular_values(J, activation, memo)
     if s_min > activation * s_max:
         return math.inf
-    s_before = _singular_values(J_before)
-    before = s_before[s_before.size - 1]
+    before = smallest_singular_value_before(J_before, memo)
     if not before > s_min:
         return math.inf
     return max(s_min - floor * s_max, 0.0) / (before - s_min)
@@ -311,5 +357,6 @@ def bound_for_step(
         return None
     bound = np.empty(J.shape[0])
     q, dq = np.asarray(q0, dtype=np.float64), np.asarray(unbounded.dq, dtype=np.float64)
-    found = automatic_bound(parameters(limit), J, rows, float(dt), q, dq, jacobian, bound)
+    found = automatic_bound(parameters(limit), J, rows, float(dt), q, dq, jacobian, bound,
+                            singular_memo())  # fmt: skip
     return bound if found else None
