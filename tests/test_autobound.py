@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
+import functools
 import subprocess
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from numba import njit
 
 from cli_documents import LPIK
 from lpik.command import ClampedTarget, task_rows
@@ -20,11 +20,10 @@ from lpik.methods.autobound import (
     clearly_regular,
     parameters,
     singular_memo,
+    smallest_singular_value_grows,
 )
 from lpik.paper.scenarios import get_scenario
 from lpik.result import Result
-
-compiled_clearly_regular = njit(cache=False)(clearly_regular)
 
 
 def jitter(log) -> float:  # type: ignore[no-untyped-def]
@@ -172,14 +171,59 @@ def test_the_command_line_takes_auto_and_refuses_other_words(tmp_path) -> None: 
     st.floats(1e-3, 0.9), st.floats(-6, 1),
 )  # fmt: skip
 def test_the_cheap_regularity_test_never_says_regular_wrongly(m, n, seed, activation, scale):  # type: ignore[no-untyped-def]
-    """clearly_regular (no SVD) implies step 1's sigma_min > activation sigma_max, compiled too."""
+    """clearly_regular (no SVD) implies step 1's sigma_min > activation sigma_max (of the
+    min(m, n) singular values), compiled too."""
+    pytest.importorskip("numba")
+    from lpik.fast.autobound import _clearly_regular as compiled_clearly_regular
+
     rng = np.random.default_rng(seed)
     J = rng.normal(size=(m, n)) * 10.0 ** rng.uniform(scale, 1, size=(m, 1))  # rows of mixed scale
     if rng.random() < 0.3 and m > 1:
         J[-1] = J[0] * (1 + 10.0 ** rng.uniform(-9, -1))  # nearly singular
     s = np.linalg.svd(J, compute_uv=False)
-    regular = s[min(m, n) - 1] > activation * s[0] if m <= n else False
+    regular = s[min(m, n) - 1] > activation * s[0]
     says = clearly_regular(J, activation)
     assert says == compiled_clearly_regular(J, activation)
     if says:
         assert regular
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.integers(1, 6), st.integers(1, 8), st.integers(0, 2**32 - 1), st.floats(-5, -0.5),
+    st.floats(-12, -3), st.booleans(),
+)  # fmt: skip
+def test_the_probe_s_gram_test_answers_as_the_svd(m, n, seed, smallest, change, grows):  # type: ignore[no-untyped-def]
+    """Step 2's probe (``sigma_min`` of the Jacobian a probe along the step away, at least
+    ``J``'s?) by two Cholesky tests of the Gram matrix: the SVD's answer wherever the change
+    of ``sigma_min`` lies beyond the SVD's rounding, numpy and compiled alike."""
+    pytest.importorskip("numba")
+    rng = np.random.default_rng(seed)
+    k = min(m, n)
+    U, _ = np.linalg.qr(rng.normal(size=(m, m)))
+    V, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    values = np.sort(rng.uniform(0.5, 2.0, k))[::-1]
+    values[-1] = 10.0**smallest * values[0]
+    J = (U[:, :k] * values) @ V[:, :k].T
+    probe_values = values.copy()
+    probe_values[-1] *= 1.0 + (1.0 if grows else -1.0) * 10.0**change
+    J_probe = (U[:, :k] * probe_values) @ V[:, :k].T
+    s = np.linalg.svd(J, compute_uv=False)
+    s_probe = np.linalg.svd(J_probe, compute_uv=False)
+    if abs(s_probe[-1] - s[-1]) <= 1e-13 * s[0]:
+        return  # within the SVD's own rounding: no answer to agree on
+    expected = bool(s_probe[-1] >= s[-1])
+    assert smallest_singular_value_grows(J_probe, s[-1], s[0]) == expected
+    assert _compiled_grows()(J_probe, s[-1], s[0]) == expected
+
+
+@functools.cache
+def _compiled_grows():  # type: ignore[no-untyped-def]
+    """The probe's test compiled as the fused step binds it (Jacobi SVD, compiled Cholesky)."""
+    from lpik.fast.autobound import _cholesky
+    from lpik.fast.jacobi import singular_values
+    from lpik.fast.twins import compiled_twin
+    from lpik.methods import autobound
+
+    return compiled_twin(autobound.smallest_singular_value_grows,
+                         _singular_values=singular_values, **_cholesky)  # fmt: skip

@@ -174,6 +174,16 @@ FADING_HOLD_SHARE = 0.5
 #: with no creep at all (``inf``) the UR5e's goals 0, 4, 12 and 25 had 2,591 reversals
 #: against 1,548 at 1 s.
 FLOOR_CREEP_TIME = 1.0
+#: The automatic bound's probe (step 2: does ``sigma_min`` grow along the step?) decides
+#: from ``J_probe J_probe^T`` shifted by ``(sigma_min (1 +- share))^2``, two Cholesky
+#: tests instead of a singular value decomposition, where ``share`` = this times the
+#: machine epsilon times ``(sigma_max / sigma_min)^2`` lies far beyond the Gram matrix's
+#: rounding (about 2 (m + n) eps sigma_max^2 in its eigenvalues), and at most
+#: :data:`PROBE_GRAM_MAX_SHARE`; a change of ``sigma_min`` within the share goes to the SVD.
+PROBE_GRAM_SAFETY = 1e3
+#: See :data:`PROBE_GRAM_SAFETY`: the largest share (``sigma_min`` at about 5e-4 of
+#: ``sigma_max``); nearer a singular configuration the SVD decides.
+PROBE_GRAM_MAX_SHARE = 1e-6
 #: The compiled progress LP's simplex: a pivot entry of at most this size is not taken.
 SIMPLEX_PIVOT_TOL = 1e-11
 #: The compiled progress LP's simplex: a reduced cost beyond minus this improves the step

@@ -50,11 +50,17 @@ def state_jacobian(state, q):
     return J
 
 
+#: The Gram matrix and its shifted Cholesky test (:func:`lpik.methods.autobound.clearly_regular`).
+_cholesky = {
+    "_gram": inlined_twin(autobound._gram),
+    "_positive_definite": inlined_twin(autobound._positive_definite),
+}
+_clearly_regular = inlined_twin(autobound.clearly_regular, **_cholesky)
 _memo = {
     "extreme_singular_values": inlined_twin(
         autobound.extreme_singular_values,
         _singular_values=singular_values,
-        clearly_regular=inlined_twin(autobound.clearly_regular),
+        clearly_regular=_clearly_regular,
     ),
     "smallest_singular_value_before": inlined_twin(
         autobound.smallest_singular_value_before, _singular_values=singular_values
@@ -62,8 +68,15 @@ _memo = {
 }
 
 #: :func:`lpik.methods.autobound.automatic_bound`, compiled as it is.
-automatic_bound = compiled_twin(autobound.automatic_bound, _task_jacobian=state_jacobian,
-                                _singular_values=singular_values, **_memo)  # fmt: skip
+automatic_bound = compiled_twin(
+    autobound.automatic_bound,
+    _task_jacobian=state_jacobian,
+    _singular_values=singular_values,
+    smallest_singular_value_grows=inlined_twin(
+        autobound.smallest_singular_value_grows, _singular_values=singular_values, **_cholesky
+    ),
+    **_memo,
+)
 
 
 #: :func:`lpik.methods.autobound.singular_steps`, compiled as it is.
@@ -75,7 +88,7 @@ floor_row = compiled_twin(
     autobound.floor_row,
     _svd=jacobi_svd,
     _task_jacobian=state_jacobian,
-    clearly_regular=inlined_twin(autobound.clearly_regular),
+    clearly_regular=_clearly_regular,
 )
 
 

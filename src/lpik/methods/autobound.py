@@ -44,7 +44,12 @@ import numpy as np
 
 from lpik.limits import AutomaticMultiplierBounds
 from lpik.result import Result
-from lpik.tolerances import FLOOR_CREEP_TIME, FULL_P
+from lpik.tolerances import (
+    FLOOR_CREEP_TIME,
+    FULL_P,
+    PROBE_GRAM_MAX_SHARE,
+    PROBE_GRAM_SAFETY,
+)
 from lpik.types import FloatArray
 
 __all__ = [
@@ -60,6 +65,8 @@ __all__ = [
     "smallest_singular_value_before",
 ]
 
+#: The spacing of floats at 1 (numpy's ``finfo(float).eps``), for the probe's Gram test.
+MACHINE_EPSILON = float(np.finfo(np.float64).eps)
 #: The parameters of :class:`~lpik.limits.AutomaticMultiplierBounds` in the order
 #: :func:`automatic_bound` reads them (and the fused step's state holds them).
 PARAMETERS = ("approach_time", "activation", "floor", "probe")
@@ -91,15 +98,8 @@ def clearly_regular(J, activation):  # type: ignore[no-untyped-def]
     ``sigma_min^2 > activation^2 sigma_max^2``: step 1's test, for a tenth of an
     SVD's cost. False says nothing; the SVD decides then. Plain loops.
     """
-    m, n = J.shape
-    G = np.empty((m, m))
-    for a in range(m):
-        for b in range(a + 1):
-            s = 0.0
-            for i in range(n):
-                s += J[a, i] * J[b, i]
-            G[a, b] = s
-            G[b, a] = s
+    G = _gram(J)
+    m = G.shape[0]
     top = 0.0  # sigma_max^2 <= the largest Gershgorin row sum of J J^T (and <= its trace)
     trace = 0.0
     for a in range(m):
@@ -108,8 +108,32 @@ def clearly_regular(J, activation):  # type: ignore[no-untyped-def]
             row += abs(G[a, b])
         top = max(top, row)
         trace += G[a, a]
-    shift = activation * activation * min(top, trace)
-    for a in range(m):  # Cholesky of G - shift I, in place (lower triangle)
+    return _positive_definite(G, activation * activation * min(top, trace))
+
+
+def _gram(J):  # type: ignore[no-untyped-def]
+    """``J J^T`` (m, m), or ``J^T J`` where ``J`` has fewer columns than rows."""
+    m, n = J.shape
+    k, rows = (m, True) if m <= n else (n, False)
+    G = np.empty((k, k))
+    for a in range(k):
+        for b in range(a + 1):
+            s = 0.0
+            if rows:
+                for i in range(n):
+                    s += J[a, i] * J[b, i]
+            else:
+                for i in range(m):
+                    s += J[i, a] * J[i, b]
+            G[a, b] = s
+            G[b, a] = s
+    return G
+
+
+def _positive_definite(G, shift):  # type: ignore[no-untyped-def]
+    """Whether ``G - shift I`` is positive definite: its Cholesky factorisation, in ``G``."""
+    m = G.shape[0]
+    for a in range(m):  # lower triangle, in place
         for b in range(a + 1):
             s = G[a, b] - (shift if a == b else 0.0)
             for k in range(b):
@@ -121,6 +145,30 @@ def clearly_regular(J, activation):  # type: ignore[no-untyped-def]
             else:
                 G[a, b] = s / G[b, b]
     return True
+
+
+def smallest_singular_value_grows(J_probe, s_min, s_max):  # type: ignore[no-untyped-def]
+    """Step 2's probe: whether ``sigma_min`` of ``J_probe`` is at least ``s_min`` (``J``'s).
+
+    Decided by two Cholesky tests of ``J_probe``'s Gram matrix, shifted by
+    ``(s_min (1 + share))^2`` (positive definite: it grows) and
+    ``(s_min (1 - share))^2`` (not: it falls), where ``share``
+    (:data:`~lpik.tolerances.PROBE_GRAM_SAFETY`) lies far beyond their rounding;
+    a change within the share (near a singular configuration, or a tie) goes to
+    the singular values themselves. Either way the answer the SVD gives, at a
+    tenth of its cost. Plain loops.
+    """
+    if s_min > 0.0:
+        share = PROBE_GRAM_SAFETY * MACHINE_EPSILON * (s_max / s_min) ** 2
+        if share <= PROBE_GRAM_MAX_SHARE:
+            above = s_min * (1.0 + share)
+            if _positive_definite(_gram(J_probe), above * above):
+                return True
+            below = s_min * (1.0 - share)
+            if not _positive_definite(_gram(J_probe), below * below):
+                return False
+    s = _singular_values(J_probe)
+    return s[s.size - 1] >= s_min
 
 
 #: Entries of a memo of the singular values the rule reads (:func:`singular_memo`):
@@ -205,8 +253,7 @@ def automatic_bound(
         q = np.empty(n)
         for i in range(n):
             q[i] = q0[i] + probe * dq[i] / size
-        s_probe = _singular_values(_task_jacobian(jacobian, q))
-        if s_probe[s_probe.size - 1] >= s_min:
+        if smallest_singular_value_grows(_task_jacobian(jacobian, q), s_min, s_max):
             return False
     shrink = max(0.0, 1.0 - (floor * s_max / s_min) ** 2) if s_min > 0.0 else 0.0
     count = 0  # the lever arm L: the largest singular value of J's position rows
