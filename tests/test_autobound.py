@@ -227,3 +227,10 @@ def _compiled_grows():  # type: ignore[no-untyped-def]
 
     return compiled_twin(autobound.smallest_singular_value_grows,
                          _singular_values=singular_values, **_cholesky)  # fmt: skip
+
+
+def test_the_machine_epsilon_is_numpy_s() -> None:
+    """tolerances.MACHINE_EPSILON, a plain literal for the kernels, is numpy's float eps."""
+    from lpik.tolerances import MACHINE_EPSILON
+
+    assert MACHINE_EPSILON == np.finfo(np.float64).eps

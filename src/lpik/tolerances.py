@@ -9,6 +9,9 @@ new folder) so that the kernels compile again.
 
 from __future__ import annotations
 
+#: The spacing of floats at 1 (numpy's ``finfo(float).eps``), 2^-52: rounding's scale.
+MACHINE_EPSILON = 2.220446049250313e-16
+
 # ----------------------------------------------------------------- problems
 #: Relative tolerance on the symmetry of M and Lambda (and of a batch's H).
 SYMMETRY_RTOL = 1e-9
@@ -176,8 +179,8 @@ FADING_HOLD_SHARE = 0.5
 FLOOR_CREEP_TIME = 1.0
 #: The automatic bound's probe (step 2: does ``sigma_min`` grow along the step?) decides
 #: from ``J_probe J_probe^T`` shifted by ``(sigma_min (1 +- share))^2``, two Cholesky
-#: tests instead of a singular value decomposition, where ``share`` = this times the
-#: machine epsilon times ``(sigma_max / sigma_min)^2`` lies far beyond the Gram matrix's
+#: tests instead of a singular value decomposition, where ``share`` = this times
+#: :data:`MACHINE_EPSILON` times ``(sigma_max / sigma_min)^2`` lies far beyond the Gram matrix's
 #: rounding (about 2 (m + n) eps sigma_max^2 in its eigenvalues), and at most
 #: :data:`PROBE_GRAM_MAX_SHARE`; a change of ``sigma_min`` within the share goes to the SVD.
 PROBE_GRAM_SAFETY = 1e3

@@ -41,8 +41,10 @@ import math
 
 from numba import njit
 
+from lpik.tolerances import MACHINE_EPSILON
+
 #: coal's threshold for a degenerate segment or parallel segments (capsule - capsule).
-SEGMENT_EPSILON = 100.0 * 2.220446049250313e-16
+SEGMENT_EPSILON = 100.0 * MACHINE_EPSILON
 #: coal's threshold below which a direction counts as perpendicular to a capsule's axis.
 SUPPORT_PRECISION = 1e-12
 #: How many floats a kernel writes: distance, point on the capsule, other point, normal.
@@ -77,7 +79,7 @@ def capsule_sphere(a, b, radius, center, sphere_radius, out):
     nx, ny, nz = sx - center[0], sy - center[1], sz - center[2]
     norm = math.sqrt(nx * nx + ny * ny + nz * nz)
     d = norm - sphere_radius - radius
-    if norm > 2.220446049250313e-16:
+    if norm > MACHINE_EPSILON:
         nx, ny, nz = nx / norm, ny / norm, nz / norm
     else:
         nx, ny, nz = 1.0, 0.0, 0.0

@@ -47,6 +47,7 @@ from lpik.result import Result
 from lpik.tolerances import (
     FLOOR_CREEP_TIME,
     FULL_P,
+    MACHINE_EPSILON,
     PROBE_GRAM_MAX_SHARE,
     PROBE_GRAM_SAFETY,
 )
@@ -65,8 +66,6 @@ __all__ = [
     "smallest_singular_value_before",
 ]
 
-#: The spacing of floats at 1 (numpy's ``finfo(float).eps``), for the probe's Gram test.
-MACHINE_EPSILON = float(np.finfo(np.float64).eps)
 #: The parameters of :class:`~lpik.limits.AutomaticMultiplierBounds` in the order
 #: :func:`automatic_bound` reads them (and the fused step's state holds them).
 PARAMETERS = ("approach_time", "activation", "floor", "probe")
