@@ -480,6 +480,7 @@ class Lp2Controller:
         self._dw = fields["dw"]
         self._q_view = self._out[self._q]  # the kernel's q, for step_into
         self._vector_shape = (self._n,)
+        self._singular_at = int(self._state[layout.SINGULAR])  # the stop ahead, for _on_floor
 
     def _compile_distances(self, avoidance: CollisionAvoidance) -> None:
         """The fused step with the scene's distances and rows inside (lpik.fast.avoiding_step)."""
@@ -845,7 +846,7 @@ class Lp2Controller:
         n, floor = self._n, self._floor
         floor[n] = math.inf
         limit = self.automatic_bound
-        if limit is None or layout.vector(self._state, layout.SINGULAR)[0] != 0.0:
+        if limit is None or self._state.item(self._singular_at) != 0.0:
             return floor
         if fuses_kinematics(self.model):
             floor[n] = floor_in_state(self._state, q, floor)
