@@ -205,7 +205,9 @@ def pack(
         n, m, r, float(h_diag), dt, v_max, w_max, float(saturate))  # fmt: skip
     state[REVOLUTE:END] = offsets
     state[END] = offset
-    state[offsets[-1] : offset] = np.nan  # the sigma block: no singular value known yet
+    sigma = next(block for block in BLOCKS if block.slot == SIGMA)  # no singular value known
+    start = int(state[SIGMA])
+    state[start : start + int(np.prod(block_shape(sigma, n, m, r)))] = np.nan
     for block in BLOCKS:
         if block.name in arrays:
             shape = block_shape(block, n, m, r)
