@@ -32,6 +32,7 @@ from numba import njit
 from lpik.fast.kinematics import POSE_ERROR_SCRATCH
 from lpik.fast.lp2_kernel import workspace_size
 from lpik.fast.views import matrix, tensor3
+from lpik.methods.autobound import MEMO_SIZE
 from lpik.types import FloatArray
 
 # ------------------------------------------------------------------ header: sizes and scalars
@@ -154,7 +155,7 @@ BLOCKS = (
     Block(
         SIGMA,
         "sigma",
-        (3,),
+        (MEMO_SIZE,),
         "sigma_min, sigma_max of J at q0, sigma_min at prev_q (NaN: not known; autobound's memo)",
     ),
 )
@@ -205,9 +206,8 @@ def pack(
         n, m, r, float(h_diag), dt, v_max, w_max, float(saturate))  # fmt: skip
     state[REVOLUTE:END] = offsets
     state[END] = offset
-    sigma = next(block for block in BLOCKS if block.slot == SIGMA)  # no singular value known
     start = int(state[SIGMA])
-    state[start : start + int(np.prod(block_shape(sigma, n, m, r)))] = np.nan
+    state[start : start + MEMO_SIZE] = np.nan  # no singular value known yet
     for block in BLOCKS:
         if block.name in arrays:
             shape = block_shape(block, n, m, r)

@@ -160,11 +160,12 @@ def smallest_singular_value_grows(J_probe, s_min, s_max):  # type: ignore[no-unt
     if s_min > 0.0:
         share = PROBE_GRAM_SAFETY * MACHINE_EPSILON * (s_max / s_min) ** 2
         if share <= PROBE_GRAM_MAX_SHARE:
+            G = _gram(J_probe)
             above = s_min * (1.0 + share)
-            if _positive_definite(_gram(J_probe), above * above):
+            if _positive_definite(G.copy(), above * above):  # (it factorises in place)
                 return True
             below = s_min * (1.0 - share)
-            if not _positive_definite(_gram(J_probe), below * below):
+            if not _positive_definite(G, below * below):
                 return False
     s = _singular_values(J_probe)
     return s[s.size - 1] >= s_min
