@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from lpik.fast.progress import least_error_step, stall_stage
-from lpik.methods.progress import held_by_acceleration
+from lpik.methods.progress import held_by_acceleration, held_by_velocity
 from lpik.paper.scenarios import get_scenario
 from lpik.robots.registry import load_robot
 from lpik.tolerances import STALL_P
@@ -100,9 +100,10 @@ def stage_times(repeat: int) -> tuple[np.ndarray, np.ndarray]:
         for q, prev in found:
             exact = controller.step(q, target, prev, watch=False)  # the state holds this step
             held = held_by_acceleration(exact.binding)
+            speed = held_by_velocity(exact.binding)
             floor = controller._on_floor(q)  # the controller's own arguments
             start = clock()
-            stall_stage(state, q, prev, exact.dq, exact.p, held, False, floor, dq, residual)
+            stall_stage(state, q, prev, exact.dq, exact.p, held, speed, False, floor, dq, residual)
             stage.append(clock() - start)
             whole.reset()
             start = clock()

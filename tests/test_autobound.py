@@ -174,7 +174,7 @@ def test_the_cheap_regularity_test_never_says_regular_wrongly(m, n, seed, activa
     """clearly_regular (no SVD) implies step 1's sigma_min > activation sigma_max (of the
     min(m, n) singular values), compiled too."""
     pytest.importorskip("numba")
-    from lpik.fast.autobound import _clearly_regular as compiled_clearly_regular
+    from lpik.fast.autobound import clearly_regular as compiled_clearly_regular
 
     rng = np.random.default_rng(seed)
     J = rng.normal(size=(m, n)) * 10.0 ** rng.uniform(scale, 1, size=(m, 1))  # rows of mixed scale

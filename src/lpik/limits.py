@@ -31,7 +31,7 @@ import numpy as np
 from lpik import bands, labels
 from lpik.continuation import fading_steps
 from lpik.problem import Problem
-from lpik.tolerances import MAX_MAGNITUDE
+from lpik.tolerances import MAX_MAGNITUDE, SINGULAR_ACTIVATION
 from lpik.types import FloatArray
 
 
@@ -189,7 +189,7 @@ class AutomaticMultiplierBounds:
     """
 
     approach_time: float = 0.05
-    activation: float = 0.05
+    activation: float = SINGULAR_ACTIVATION
     floor: float = 1e-3
     probe: float = 1e-7
 

@@ -95,6 +95,24 @@ STALL_P = 1e-2
 #: reduces the L1 task error by less than this share of what the progress step (the
 #: least error within the same limits) achieves (:func:`lpik.methods.progress.is_stall`).
 STALL_SHARE = 0.5
+#: Below this ``sigma_min / sigma_max`` of the task Jacobian a configuration counts as near a
+#: singular one: the automatic multiplier bound acts there (its default ``activation``,
+#: :class:`lpik.limits.AutomaticMultiplierBounds`), and there only, without acceleration
+#: limits, may an exact step with ``0 < p <= STALL_P`` held by a velocity limit stall
+#: (:func:`lpik.methods.progress.at_speed`, certified by
+#: :func:`lpik.methods.autobound.clearly_regular`). Away from singular configurations such
+#: a step follows the command as fast as the joints allow, and ``p`` is small only because
+#: the command asks for more than a step can do (a target jump with the clamp off,
+#: ``V = error / dt``). Measured on the quality suite's scenario 4 on the iiwa14
+#: (``--robot iiwa14``, ``sigma_min / sigma_max`` 0.066 to 0.087): judged by the gains alone
+#: the progress step (every joint at its limit, twice the exact step's gain) took over
+#: half the steps, jitter 366 rad/s against Drake's 243. Near a singular configuration the
+#: same limit holds a direction that costs ever more joint motion (the Panda unfolding from
+#: a stretched pose in scenario 2 at 0.0018, the iiwa14 at 0.01 to 0.05), and the stall
+#: stage stays: a rule on the step's own direction instead (``|J dq| >= 0.01 |J|_F
+#: |dq|``) let the iiwa14's exact steps fold its elbow at its velocity limit while the target
+#: came back, 98 mm of position error RMS in reach against 29 (legs +-y).
+SINGULAR_ACTIVATION = 5e-2
 #: Once the stall stage has taken the progress step, and where no acceleration limit
 #: bounds the change of the joint velocities, the next step still stalls while the exact
 #: step gains less than this share of the progress step (a band above STALL_SHARE:

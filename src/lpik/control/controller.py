@@ -81,7 +81,13 @@ from lpik.labels import row_label, step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
 from lpik.methods.autobound import floor_row
-from lpik.methods.progress import STALLS, held_by_acceleration, progress_result, stall_limit
+from lpik.methods.progress import (
+    STALLS,
+    held_by_acceleration,
+    held_by_velocity,
+    progress_result,
+    stall_limit,
+)
 from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OPTIMAL, Result
 from lpik.robots.base import TaskModel
@@ -802,7 +808,8 @@ class Lp2Controller:
             dq = np.empty(self._n)
             decision = stall_stage(
                 self._state, q, prev, np.ascontiguousarray(result.dq, dtype=np.float64),
-                result.p, held_by_acceleration(result.binding), count and watch.engaged_at(q),
+                result.p, held_by_acceleration(result.binding), held_by_velocity(result.binding),
+                count and watch.engaged_at(q),
                 self._on_floor(q), dq, self._residual_out,
             )  # fmt: skip
             stall = decision != NOT_STALLED

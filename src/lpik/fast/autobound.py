@@ -26,6 +26,7 @@ from lpik.methods import autobound
 __all__ = [
     "automatic_bound",
     "bound_in_state",
+    "clearly_regular",
     "floor_in_state",
     "floor_row",
     "settings",
@@ -55,12 +56,14 @@ _cholesky = {
     "_gram": inlined_twin(autobound._gram),
     "_positive_definite": inlined_twin(autobound._positive_definite),
 }
-_clearly_regular = inlined_twin(autobound.clearly_regular, **_cholesky)
+#: :func:`lpik.methods.autobound.clearly_regular`, compiled as it is (step 1's test; the
+#: stall stage's :func:`lpik.methods.progress.at_speed`).
+clearly_regular = inlined_twin(autobound.clearly_regular, **_cholesky)
 _memo = {
     "extreme_singular_values": inlined_twin(
         autobound.extreme_singular_values,
         _singular_values=singular_values,
-        clearly_regular=_clearly_regular,
+        clearly_regular=clearly_regular,
     ),
     "smallest_singular_value_before": inlined_twin(
         autobound.smallest_singular_value_before, _singular_values=singular_values
@@ -88,7 +91,7 @@ floor_row = compiled_twin(
     autobound.floor_row,
     _svd=jacobi_svd,
     _task_jacobian=state_jacobian,
-    clearly_regular=_clearly_regular,
+    clearly_regular=clearly_regular,
 )
 
 

@@ -54,10 +54,17 @@ import numpy as np
 from numba import njit
 
 from lpik.fast import layout as L
+from lpik.fast.autobound import clearly_regular
 from lpik.fast.step import continues, fading_in_state, step_bounds
 from lpik.fast.twins import compiled_twin
 from lpik.methods import progress as rule
-from lpik.tolerances import FEASIBILITY_TOL, MOTION_WEIGHT, SIMPLEX_COST_TOL, SIMPLEX_PIVOT_TOL
+from lpik.tolerances import (
+    FEASIBILITY_TOL,
+    MOTION_WEIGHT,
+    SIMPLEX_COST_TOL,
+    SIMPLEX_PIVOT_TOL,
+    SINGULAR_ACTIVATION,
+)
 
 #: :func:`least_error_step`'s outcomes.
 SOLVED, INFEASIBLE, ITERATION_LIMIT = 0, 1, 2
@@ -542,13 +549,15 @@ def progress_in_state(state, q0, q_prev, dq, floor, exact, engaged):
 
 
 @njit(cache=True)
-def stall_stage(state, q0, q_prev, exact_dq, p, held, engaged, floor, dq, residual):
+def stall_stage(state, q0, q_prev, exact_dq, p, held, velocity, engaged, floor, dq, residual):
     """The stall stage's rule (:class:`lpik.methods.progress.StallWatch`) on the exact step.
 
-    The exact step (``exact_dq``, its ``p``; ``held``: its binding limit is an
-    acceleration limit) is the one a fused step left in ``state``; ``engaged``: the
-    step before it was the progress step (:meth:`~lpik.methods.progress.StallWatch.engaged_at`,
-    False for a batch row). Within the band after a progress step
+    The exact step (``exact_dq``, its ``p``; ``held``, ``velocity``: its binding
+    limit is an acceleration limit, a velocity limit: with the step's direction,
+    :func:`~lpik.methods.progress.at_speed`) is the one a fused step left in
+    ``state``; ``engaged``: the step before it was the progress step
+    (:meth:`~lpik.methods.progress.StallWatch.engaged_at`, False for a batch row).
+    Within the band after a progress step
     (:meth:`~lpik.methods.progress.StallWatch.keeping`), where the step was not
     solved around a motion, the band's rule applies. Where the step
     :func:`~lpik.methods.progress.may_stall`, :func:`progress_in_state` solves the
@@ -561,15 +570,18 @@ def stall_stage(state, q0, q_prev, exact_dq, p, held, engaged, floor, dq, residu
     """
     moving = continues(state, q0, q_prev)
     keeping = _in_band(engaged, moving)
-    if not _may_stall(p, held, moving, keeping):
+    n, m = q0.shape[0], int(state[L.M])
+    J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
+    at_speed = velocity and clearly_regular(J, SINGULAR_ACTIVATION)  # progress.at_speed
+    if not _may_stall(p, held, moving, keeping, at_speed):
         return NOT_STALLED
     code, before, after = progress_in_state(state, q0, q_prev, dq, floor, exact_dq, engaged)
     if code != SOLVED:
         return NOT_STALLED
-    n, m = q0.shape[0], int(state[L.M])
-    J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
     exact_after = _task_error(J, dw, exact_dq)[0]
-    if not _stalls(p, before - exact_after, before - after, held, moving, keeping, _scale(dw)):
+    if not _stalls(
+        p, before - exact_after, before - after, held, moving, keeping, _scale(dw), at_speed
+    ):
         return NOT_STALLED
     weight = _exact_weight(p)
     if weight != 0.0:

@@ -49,6 +49,7 @@ import numpy as np
 from lpik import check
 from lpik.highs import HighsSolver, LinearProgram
 from lpik.methods.assembly import solver_for
+from lpik.methods.autobound import clearly_regular
 from lpik.problem import Problem
 from lpik.result import CHECK_FAILED, INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result, safe_step
 from lpik.tolerances import (
@@ -59,6 +60,7 @@ from lpik.tolerances import (
     MOTION_KEEP_SHARE,
     MOTION_WEIGHT,
     NO_CHANGE_P,
+    SINGULAR_ACTIVATION,
     STALL_BLEND_P,
     STALL_KEEP_SHARE,
     STALL_P,
@@ -153,33 +155,51 @@ def held_by_acceleration(binding: object) -> bool:
     return getattr(binding, "kind", None) == "acceleration"
 
 
-def may_stall(p: float, held: bool, moving: bool, keeping: bool) -> bool:
+def held_by_velocity(binding: object) -> bool:
+    """Whether a step's binding limit is a velocity limit (``binding.kind``)."""
+    return getattr(binding, "kind", None) == "velocity"
+
+
+def may_stall(p: float, held: bool, moving: bool, keeping: bool, at_speed: bool = False) -> bool:
     """Whether a step may stall (:func:`stalls`), from its ``p``, binding limit and motion.
 
     ``p`` at most :func:`stall_limit` (``keeping``: within the band after a
-    progress step), and not a start from rest: a step of an arm at rest
-    (``moving`` False) with ``p > 0`` (above :data:`~lpik.tolerances.NO_CHANGE_P`)
-    held by an acceleration limit (``held``: :func:`held_by_acceleration`) has its
-    direction and takes it as fast as the arm can speed up, and ``p`` grows as it
-    does. Only a candidate needs the progress step's LP. Scalars only: the compiled
+    progress step), and not one of two motions that keep the direction where the
+    step is not solved around a motion (``moving`` False: no acceleration limits,
+    or an arm at rest), with ``p > 0`` (above :data:`~lpik.tolerances.NO_CHANGE_P`):
+
+    - a start from rest held by an acceleration limit (``held``:
+      :func:`held_by_acceleration`) has its direction and takes it as fast as
+      the arm can speed up, and ``p`` grows as it does;
+    - a step held by a velocity limit away from singular configurations
+      (``at_speed``: :func:`at_speed`) follows the command as fast as the joints
+      allow: ``p`` is small because the command asks for more than one step can
+      do, not because the direction is blocked
+      (:data:`~lpik.tolerances.SINGULAR_ACTIVATION`). Outside the band after a
+      progress step only: within it the band decides when the progress steps end
+      (the rule there too ended them midway while the Panda unfolded from a
+      stretched pose in the quality suite's scenario 2: jitter 702 rad/s against
+      313, the hand's orientation error up to 0.93 mrad against 0.23).
+
+    Only a candidate needs the progress step's LP. Scalars only: the compiled
     stall stage runs this function itself (:func:`lpik.fast.progress.stall_stage`).
     """
     if p > stall_limit(keeping):
         return False
     if p <= NO_CHANGE_P or moving:
         return True
-    return not held
+    return not (held or (at_speed and not keeping))
 
 
 def stalls(
     p: float, exact_gain: float, progress_gain: float, held: bool, moving: bool, keeping: bool,
-    scale: float,
+    scale: float, at_speed: bool = False,
 ) -> bool:  # fmt: skip
     """Whether a step stalls: no step along the command, or one far worse than leaving it.
 
     ``exact_gain`` and ``progress_gain`` are how much the exact step and the
     progress step reduce the L1 task error, ``sum |dw| - sum |J dq - dw|``;
-    ``held``: the exact step's binding limit is an acceleration limit; ``scale``:
+    ``held``, ``at_speed``: as for :func:`may_stall`; ``scale``:
     :func:`progress_scale` of the command, within :data:`~lpik.tolerances.GAIN_RTOL`
     of which the comparison below is rounding (no stall: a progress step that is the
     exact step itself). A step stalls where it :func:`may_stall` and
@@ -198,7 +218,7 @@ def stalls(
     nearer the stall stage keeps the step all the same (:func:`makes_progress`).
     Scalars only, as :func:`may_stall`.
     """
-    if not may_stall(p, held, moving, keeping):
+    if not may_stall(p, held, moving, keeping, at_speed):
         return False
     share = STALL_KEEP_SHARE if keeping else STALL_SHARE
     return p <= NO_CHANGE_P or share * progress_gain - exact_gain > GAIN_RTOL * scale
@@ -238,20 +258,32 @@ def progress_scale(dw):  # type: ignore[no-untyped-def]
     return scale
 
 
+def at_speed(binding: object, J: FloatArray) -> bool:
+    """:func:`may_stall`'s ``at_speed``: a velocity limit binds, ``J`` is far from singular.
+
+    Far from singular: ``sigma_min > SINGULAR_ACTIVATION sigma_max``, as certified by
+    :func:`lpik.methods.autobound.clearly_regular` (a Cholesky test that the compiled
+    stall stage runs as it is; it may say no a little above the threshold, never yes
+    below it).
+    """
+    return held_by_velocity(binding) and bool(clearly_regular(J, SINGULAR_ACTIVATION))
+
+
 def stall_candidate(
-    p: float, binding: object = None, moving: bool = True, keeping: bool = False
-) -> bool:
-    """:func:`may_stall` with the step's ``binding`` limit itself."""
-    return may_stall(p, held_by_acceleration(binding), moving, keeping)
+    p: float, binding: object = None, moving: bool = True, keeping: bool = False,
+    speed: bool = False,
+) -> bool:  # fmt: skip
+    """:func:`may_stall` with the step's ``binding`` limit itself (``speed``: :func:`at_speed`)."""
+    return may_stall(p, held_by_acceleration(binding), moving, keeping, speed)
 
 
 def is_stall(
     p: float, exact_gain: float, progress_gain: float, binding: object = None,
-    moving: bool = True, keeping: bool = False, scale: float = 1.0,
+    moving: bool = True, keeping: bool = False, scale: float = 1.0, speed: bool = False,
 ) -> bool:  # fmt: skip
-    """:func:`stalls` with the step's ``binding`` limit itself."""
+    """:func:`stalls` with the step's ``binding`` limit itself (``speed``: :func:`at_speed`)."""
     return stalls(p, exact_gain, progress_gain, held_by_acceleration(binding), moving, keeping,
-                  scale)  # fmt: skip
+                  scale, speed)  # fmt: skip
 
 
 def progress_step(
@@ -500,7 +532,8 @@ class StallWatch:
         problem = problem_of()
         moving = problem.last is not None  # under acceleration limits, q_prev != q0
         keeping = self.keeping(problem.q0, moving)  # after a progress step: the band
-        if not stall_candidate(result.p, result.binding, moving, keeping):
+        speed = at_speed(result.binding, problem.J)
+        if not stall_candidate(result.p, result.binding, moving, keeping, speed):
             self.run = 0
             return result
         progress = progress_step(problem, exact=result.dq, last_motion=last_motion,
@@ -509,7 +542,7 @@ class StallWatch:
         gains = (before - l1_error(problem.J, problem.dw, result.dq),
                  before - l1_error(problem.J, problem.dw, progress.dq))  # fmt: skip
         stall = progress.status == OFF_DIRECTION and is_stall(
-            result.p, *gains, result.binding, moving, keeping, progress_scale(problem.dw)
+            result.p, *gains, result.binding, moving, keeping, progress_scale(problem.dw), speed
         )
         if not self.count(stall):
             return result
