@@ -3,11 +3,13 @@
 Run it with the Python of an environment where lpik and the peers are
 installed (``pip install -e ".[bench]"``), from the repository root::
 
-    /tmp/benchvenv/bin/python benchmarks/quality.py
+    python benchmarks/quality.py                  # the Panda: docs/quality.md
+    python benchmarks/quality.py --robot iiwa14   # docs/quality-iiwa14.md
+    python benchmarks/quality.py --robot ur5e     # docs/quality-ur5e.md
 
 It runs :mod:`lpik_bench.quality` (every scenario, every lpik variant, every
-installed peer) and writes ``docs/quality.md``, which names this command and
-the machine. Extra arguments go to ``lpik_bench.quality``, e.g.
+installed peer) and writes the arm's page, which names this command and the
+machine. Extra arguments go to ``lpik_bench.quality``, e.g.
 ``--max-steps 300 --out /tmp/quick.md`` for a quick look.
 """
 
@@ -20,13 +22,19 @@ ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "quality.md"
 
 
+def page(robot: str) -> Path:
+    """The page of ``robot``'s suite: :data:`DOC` for the Panda, ``quality-<robot>.md`` else."""
+    return DOC if robot == "panda" else DOC.with_name(f"quality-{robot}.md")
+
+
 def main() -> int:
     from lpik_bench.quality import main as run
 
     args = sys.argv[1:]
     command = " ".join([sys.executable, "benchmarks/quality.py", *args])
     if "--out" not in args:
-        args = [*args, "--out", str(DOC)]
+        robot = args[args.index("--robot") + 1] if "--robot" in args[:-1] else "panda"
+        args = [*args, "--out", str(page(robot))]
     return run(args, command=command)
 
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from lpik.robots.registry import home_configuration, load_robot
-from lpik_bench.quality_metrics import KINDS, LegRun, scenario_metrics
+from lpik_bench.quality_metrics import KINDS, LegRun, jitter_where_both_moved, scenario_metrics
 from lpik_bench.quality_scenarios import SCENARIOS, Leg
 
 pytest.importorskip("numba")
@@ -148,6 +148,32 @@ def test_metrics_of_known_runs() -> None:
     m = scenario_metrics(model, (_leg(far, q0),), [still], dt, None)
     assert "acceleration" not in m.violations and m.frozen == n_steps
     assert m.frozen_without_direction is None  # a peer's row: not asked
+
+
+def test_jitter_where_both_moved_leaves_out_the_steps_a_library_held_the_arm() -> None:
+    """A run that moves on every step against one that fails its second half."""
+    model = load_robot("panda", task="pose")
+    q0, dt, n_steps = home_configuration("panda"), 1e-3, 40
+    targets = np.array([model.pose(q0)] * n_steps)
+    rng = np.random.default_rng(0)
+    moves = np.vstack([q0, q0 + np.cumsum(1e-4 * rng.standard_normal((n_steps, 7)), axis=0)])
+    halts = moves.copy()
+    halts[21:] = halts[20]  # no motion from step 20 on, the last 5 steps failed
+    failed_at = np.zeros(n_steps, dtype=bool)
+    failed_at[-5:] = True
+    leg = (_leg(targets, q0),)
+    runs = [
+        LegRun(moves, np.ones(n_steps, dtype=np.int64)),
+        LegRun(halts, np.ones(n_steps, dtype=np.int64), failed=5, failed_at=failed_at),
+    ]
+    a, b = (scenario_metrics(model, leg, [run], dt, None) for run in runs)
+    assert b.held[0].sum() == 20 and not a.held[0].any()
+    mine, theirs, only_mine = jitter_where_both_moved(a, b)
+    assert only_mine == 20
+    terms = np.abs(np.diff(np.vstack([np.zeros(7), np.diff(moves, axis=0)]), axis=0)).sum(1) / dt
+    assert mine == pytest.approx(terms[:20].sum()) and theirs == pytest.approx(terms[:20].sum())
+    assert a.jitter == pytest.approx(terms.sum()) and b.jitter > theirs  # b's stop is a change
+    assert jitter_where_both_moved(b, a)[2] == 0
 
 
 def test_frozen_steps_without_an_exact_direction_are_those_where_lp1_has_p_0() -> None:
@@ -432,3 +458,25 @@ def test_the_suite_runs_on_another_arm_and_says_what_it_left_out() -> None:
     assert suite.scenarios[0].rows["lp2s"].violation_steps == 0
     text = render(suite, "python -m lpik_bench.quality --robot iiwa14")
     assert "Closed-loop runs on the iiwa14" in text
+
+
+def test_a_jitter_miss_says_where_the_reference_held_the_arm() -> None:
+    """The miss's reason compares the jitter over the steps on which both libraries moved."""
+    from lpik_bench.quality_judge import verdicts
+    from lpik_bench.quality_report import measured_context
+
+    result = _judged_result({"lp2s": 1.0, "drake": 1.0})
+    lpik, drake = result.rows["lp2s"], result.rows["drake"]
+    lpik.jitter, drake.jitter = 12.0, 8.0
+    lpik.jitter_terms = [np.array([1.0, 2.0, 9.0])]
+    lpik.held = [np.array([False, False, False])]
+    drake.jitter_terms = [np.array([3.0, 5.0, 0.0])]
+    drake.held = [np.array([False, False, True])]
+    drake.failed = 1
+    jitter = next(v for v in verdicts(result, "lp2s") if v.metric.key == "jitter")
+    assert jitter.met is False
+    said = measured_context(result, "lp2s", jitter)
+    assert said == ("drake held the arm on 1 step on which lp2s moved (1 step failed); "
+                    "over the steps on which both moved, lp2s 3.00 against 8.00")  # fmt: skip
+    tracking = next(v for v in verdicts(result, "lp2s") if v.metric.key == "pos_rms")
+    assert measured_context(result, "lp2s", tracking) == ""

@@ -80,6 +80,7 @@ class LegRun:
         failed: Steps that raised or returned no finite step (taken as ``dq = 0``).
         p, status, binding: lpik's per-step ``p``, status and binding limit (None for peers).
         first_failure: What the first failed step said (None: none failed).
+        failed_at: Which steps failed, (N,) (None: none did).
     """
 
     q: FloatArray
@@ -89,6 +90,7 @@ class LegRun:
     status: list[str] | None = None
     binding: list[str | None] | None = None
     first_failure: str | None = None
+    failed_at: NDArray[np.bool_] | None = None
 
 
 def step_changes(q: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -164,6 +166,11 @@ class Metrics:
     statuses: dict[str, int] = field(default_factory=dict)
     bindings: list[tuple[str, int]] = field(default_factory=list)
     step_us: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    #: Per leg: each step's term of the jitter (:func:`velocity_changes`) and whether the
+    #: library held the arm there (a failed step, or no joint moving more than
+    #: :data:`FROZEN_DQ`): what :func:`jitter_where_both_moved` compares.
+    jitter_terms: list[FloatArray] = field(default_factory=list, repr=False)
+    held: list[NDArray[np.bool_]] = field(default_factory=list, repr=False)
 
     @property
     def violation_steps(self) -> int:
@@ -302,6 +309,8 @@ def scenario_metrics(
             old = m.violations.get(kind, (0, 0.0))
             m.violations[kind] = (old[0] + count, max(old[1], worst))
         moving = np.abs(dq).max(axis=1) > FROZEN_DQ
+        m.jitter_terms.append(change)
+        m.held.append(~moving if run.failed_at is None else ~moving | run.failed_at)
         far = (before[0] > TRACK_TOL[0]) | (before[1] > TRACK_TOL[1])
         frozen = np.flatnonzero(ok & far & ~moving)
         m.frozen += int(frozen.size)
@@ -336,6 +345,27 @@ def scenario_metrics(
         m.statuses = dict(statuses.most_common())
         m.bindings = bindings.most_common(3)
     return m
+
+
+def jitter_where_both_moved(a: Metrics, b: Metrics) -> tuple[float, float, int]:
+    """The jitter of ``a`` and of ``b`` over the steps on which neither held the arm.
+
+    A library that fails a step (held still, or braked) or holds the arm still
+    adds nothing to its jitter there, however far its target is: this sums both
+    libraries' jitter terms over the steps on which both moved, so that a
+    library that moves where the other gives up is compared on common ground.
+
+    Returns:
+        ``(jitter of a, jitter of b, steps on which b held the arm and a moved)``.
+    """
+    ja = jb = 0.0
+    only_a = 0
+    for ta, ha, tb, hb in zip(a.jitter_terms, a.held, b.jitter_terms, b.held):
+        both = ~ha & ~hb
+        ja += float(ta[both].sum())
+        jb += float(tb[both].sum())
+        only_a += int(np.count_nonzero(~ha & hb))
+    return ja, jb, only_a
 
 
 def _recovery(
