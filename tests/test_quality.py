@@ -480,3 +480,28 @@ def test_a_jitter_miss_says_where_the_reference_held_the_arm() -> None:
                     "over the steps on which both moved, lp2s 3.00 against 8.00")  # fmt: skip
     tracking = next(v for v in verdicts(result, "lp2s") if v.metric.key == "pos_rms")
     assert measured_context(result, "lp2s", tracking) == ""
+
+
+def test_tracking_on_return_splits_the_error_where_the_target_came_back_within_reach() -> None:
+    from lpik_bench.quality_metrics import (
+        RETURN_WINDOW,
+        Metrics,
+        return_steps,
+        tracking_on_return,
+    )
+
+    reachable = np.array([True, True, False, False, True, True, True, False, True, True])
+    assert return_steps(reachable, 2).tolist() == [0, 0, 0, 0, 1, 1, 0, 0, 1, 1]
+    assert not return_steps(np.ones(5, dtype=bool), 3).any()  # never out of reach
+
+    q0 = home_configuration("panda")
+    dt = RETURN_WINDOW / 2  # a window of two steps
+    leg = Leg("test", q0, np.zeros((10, 4, 4)), reachable)
+    a, b = Metrics(), Metrics()
+    a.position_errors = [np.array([1, 1, 9, 9, 4, 4, 1, 9, 4, 4]) * 1e-3]
+    b.position_errors = [np.array([1, 1, 9, 9, 2, 2, 3, 9, 2, 2]) * 1e-3]
+    (back_a, back_b), (rest_a, rest_b) = tracking_on_return(a, b, (leg,), dt)
+    assert (back_a, back_b) == pytest.approx((4.0, 2.0))
+    assert rest_a == pytest.approx(1.0) and rest_b == pytest.approx(np.sqrt(11 / 3))
+    always = Leg("test", q0, np.zeros((10, 4, 4)), np.ones(10, dtype=bool))
+    assert tracking_on_return(a, b, (always,), dt) is None

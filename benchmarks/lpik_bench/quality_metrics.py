@@ -66,6 +66,9 @@ RECOVERY_WINDOW = 100
 #: A point-to-point move has settled when the error stays within this: position [m],
 #: orientation [rad].
 SETTLE_TOL = (1e-5, 1e-5)
+#: The steps after the target comes back within reach whose tracking error the report
+#: gives apart from the rest (:func:`tracking_on_return`) [s].
+RETURN_WINDOW = 1.0
 #: Kinds of limit violation, in the order of the report.
 KINDS = ("end-stop", "velocity", "acceleration")
 
@@ -171,6 +174,10 @@ class Metrics:
     #: :data:`FROZEN_DQ`): what :func:`jitter_where_both_moved` compares.
     jitter_terms: list[FloatArray] = field(default_factory=list, repr=False)
     held: list[NDArray[np.bool_]] = field(default_factory=list, repr=False)
+    #: Per leg: the position error after each step [m], and ``sigma_min / sigma_max`` of
+    #: the task Jacobian where the target came back within reach (None: it never left).
+    position_errors: list[FloatArray] = field(default_factory=list, repr=False)
+    return_ratios: list[float | None] = field(default_factory=list, repr=False)
 
     @property
     def violation_steps(self) -> int:
@@ -310,6 +317,11 @@ def scenario_metrics(
             m.violations[kind] = (old[0] + count, max(old[1], worst))
         moving = np.abs(dq).max(axis=1) > FROZEN_DQ
         m.jitter_terms.append(change)
+        m.position_errors.append(after[0])
+        back = return_steps(leg.reachable, 1)
+        m.return_ratios.append(
+            singular_ratio(model, q[int(np.argmax(back))]) if back.any() else None
+        )
         m.held.append(~moving if run.failed_at is None else ~moving | run.failed_at)
         far = (before[0] > TRACK_TOL[0]) | (before[1] > TRACK_TOL[1])
         frozen = np.flatnonzero(ok & far & ~moving)
@@ -366,6 +378,48 @@ def jitter_where_both_moved(a: Metrics, b: Metrics) -> tuple[float, float, int]:
         jb += float(tb[both].sum())
         only_a += int(np.count_nonzero(~ha & hb))
     return ja, jb, only_a
+
+
+def return_steps(reachable: NDArray[np.bool_], window: int) -> NDArray[np.bool_]:
+    """The reachable steps within ``window`` steps after the target came back within reach."""
+    out = np.zeros(reachable.size, dtype=bool)
+    for k in np.flatnonzero(reachable[1:] & ~reachable[:-1]) + 1:
+        out[k : k + window] = True
+    return out & reachable
+
+
+def singular_ratio(model: PoseTask, q: FloatArray) -> float:
+    """``sigma_min / sigma_max`` of the task Jacobian at ``q``: how near a singular pose."""
+    s = np.linalg.svd(model.jacobian(q), compute_uv=False)
+    return float(s[-1] / s[0])
+
+
+def tracking_on_return(
+    a: Metrics, b: Metrics, legs: tuple[Leg, ...], dt: float
+) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """Position error RMS [mm] of ``a`` and ``b`` on the return and on the other steps.
+
+    The return: the reachable steps within :data:`RETURN_WINDOW` after the target
+    came back within reach (:func:`return_steps`), where a library that waited
+    near a singular configuration (:func:`singular_ratio`) while the target was
+    out of reach has further to come back. None where no target leaves the reach.
+
+    Returns:
+        ``((a, b) on the return, (a, b) on the other reachable steps)``.
+    """
+    window = max(1, round(RETURN_WINDOW / dt))
+    back = [return_steps(leg.reachable, window) for leg in legs]
+    if not any(x.any() for x in back):
+        return None
+
+    def rms(m: Metrics, pick: Callable[[int], NDArray[np.bool_]]) -> float:
+        e = np.concatenate([err[pick(i)] for i, err in enumerate(m.position_errors)])
+        return 1e3 * float(np.sqrt(np.mean(e**2))) if e.size else 0.0
+
+    def rest(i: int) -> NDArray[np.bool_]:
+        return legs[i].reachable & ~back[i]
+
+    return (rms(a, back.__getitem__), rms(b, back.__getitem__)), (rms(a, rest), rms(b, rest))
 
 
 def _recovery(

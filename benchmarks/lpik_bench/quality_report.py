@@ -15,6 +15,8 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
 from lpik_bench.quality_judge import (
     AGAINST_LIKE,
@@ -37,12 +39,14 @@ from lpik_bench.quality_metrics import (
     HIGH_HZ,
     KINDS,
     RECOVERY_WINDOW,
+    RETURN_WINDOW,
     SETTLE_TOL,
     TRACK_TOL,
     Metrics,
     ScenarioResult,
     SuiteResult,
     jitter_where_both_moved,
+    tracking_on_return,
 )
 from lpik_bench.quality_reach import REACH_TOL, SAMPLE_EVERY
 from lpik_bench.quality_scenarios import Scenario
@@ -439,19 +443,57 @@ def _reason(scenario: str, key: str, robot: str = "panda", measured: str = "") -
     return f"{measured}; {said}" if measured else said
 
 
+def _return_context(result: ScenarioResult, variant: str, reference: str, dt: float) -> str:
+    mine, theirs = result.rows[variant], result.rows[reference]
+    split = tracking_on_return(mine, theirs, result.scenario.legs, dt)
+    if split is None:
+        return ""
+    (back_a, back_b), (rest_a, rest_b) = split
+    ratios = [
+        (a, b)
+        for a, b in zip(mine.return_ratios, theirs.return_ratios)
+        if a is not None and b is not None
+    ]  # fmt: skip
+    said = (
+        f"on the steps within {RETURN_WINDOW:g} s after the target came back within reach, "
+        f"{variant} {fmt(back_a)} mm RMS against {reference}'s {fmt(back_b)}; on the other "
+        f"reachable steps {fmt(rest_a)} against {fmt(rest_b)}"
+    )
+    if ratios:
+        a, b = (float(np.median(x)) for x in zip(*ratios))
+        said += (
+            f"; where the target came back, sigma_min / sigma_max of the task Jacobian "
+            f"(median over the legs) {a:.2g} against {b:.2g}: the nearer a singular "
+            "configuration the arm waits while the target is out of reach, the slower its "
+            "joints bring the tool back"
+        )
+    return said
+
+
 def _steps(count: int) -> str:
     return f"{count:,} step" if count == 1 else f"{count:,} steps"
 
 
-def measured_context(result: ScenarioResult, variant: str, verdict: Verdict) -> str:
-    """What the runs themselves say about a missed jitter: where the reference held the arm.
+def measured_context(
+    result: ScenarioResult, variant: str, verdict: Verdict, dt: float = 1e-3
+) -> str:
+    """What the runs themselves say about a miss, where they say something.
 
-    A library adds no jitter on the steps it fails or holds the arm still; where
-    the reference did so on steps on which ``variant`` moved, the two are also
-    compared over the steps on which both moved
-    (:func:`~lpik_bench.quality_metrics.jitter_where_both_moved`). Empty otherwise.
+    - Jitter: a library adds none on the steps it fails or holds the arm still;
+      where the reference did so on steps on which ``variant`` moved, the two
+      are also compared over the steps on which both moved
+      (:func:`~lpik_bench.quality_metrics.jitter_where_both_moved`).
+    - Position error, where targets leave the reach: the error on the return
+      and on the other reachable steps, and how near a singular configuration
+      each arm was when the target came back (:func:`_return_context`).
+
+    Empty otherwise.
     """
-    if verdict.metric.key != "jitter" or verdict.reference is None:
+    if verdict.reference is None:
+        return ""
+    if verdict.metric.key in ("pos_rms", "pos_max"):
+        return _return_context(result, variant, verdict.reference[0][0], dt)
+    if verdict.metric.key != "jitter":
         return ""
     said = []
     for name in verdict.reference[0][:2]:
@@ -550,10 +592,14 @@ def goal_summary(suite: SuiteResult) -> list[str]:
         missed = [v for v in verdicts(result, name) if v.met is False]
         key = result.scenario.key
         robot = suite.environment.get("robot", "panda")
+        dt = suite.environment.get("dt", 1e-3)
+        reasons: list[str] = []
+        for v in missed:
+            reason = _reason(key, v.metric.key, robot, measured_context(result, name, v, dt))
+            reasons.append("as above" if reason in reasons else reason)
         said = "; ".join(
-            f"{v.metric.label} {fmt(v.value)} vs {_ref_cell(v)}: "
-            f"{_reason(key, v.metric.key, robot, measured_context(result, name, v))}"
-            for v in missed
+            f"{v.metric.label} {fmt(v.value)} vs {_ref_cell(v)}: {reason}"
+            for v, reason in zip(missed, reasons)
         )
         lines.append(f"- {result.scenario.title} ({name}): {said or 'nothing'}.")
     totals = ", ".join(f"{v} {full[v]}" for v in variants)
