@@ -316,13 +316,7 @@ def scenario_metrics(
             old = m.violations.get(kind, (0, 0.0))
             m.violations[kind] = (old[0] + count, max(old[1], worst))
         moving = np.abs(dq).max(axis=1) > FROZEN_DQ
-        m.jitter_terms.append(change)
-        m.position_errors.append(after[0])
-        back = return_steps(leg.reachable, 1)
-        m.return_ratios.append(
-            singular_ratio(model, q[int(np.argmax(back))]) if back.any() else None
-        )
-        m.held.append(~moving if run.failed_at is None else ~moving | run.failed_at)
+        _keep_steps(m, model, leg, run, change, after[0], moving)
         far = (before[0] > TRACK_TOL[0]) | (before[1] > TRACK_TOL[1])
         frozen = np.flatnonzero(ok & far & ~moving)
         m.frozen += int(frozen.size)
@@ -378,6 +372,18 @@ def jitter_where_both_moved(a: Metrics, b: Metrics) -> tuple[float, float, int]:
         jb += float(tb[both].sum())
         only_a += int(np.count_nonzero(~ha & hb))
     return ja, jb, only_a
+
+
+def _keep_steps(
+    m: Metrics, model: PoseTask, leg: Leg, run: LegRun, change: FloatArray,
+    position_error: FloatArray, moving: NDArray[np.bool_],
+) -> None:  # fmt: skip
+    """Keep one leg's per-step values that the report compares between two libraries."""
+    m.jitter_terms.append(change)
+    m.position_errors.append(position_error)
+    m.held.append(~moving if run.failed_at is None else ~moving | run.failed_at)
+    back = np.flatnonzero(return_steps(leg.reachable, 1))
+    m.return_ratios.append(singular_ratio(model, run.q[back[0]]) if back.size else None)
 
 
 def return_steps(reachable: NDArray[np.bool_], window: int) -> NDArray[np.bool_]:
