@@ -58,13 +58,7 @@ from lpik.fast.autobound import clearly_regular
 from lpik.fast.step import continues, fading_in_state, step_bounds
 from lpik.fast.twins import compiled_twin
 from lpik.methods import progress as rule
-from lpik.tolerances import (
-    FEASIBILITY_TOL,
-    MOTION_WEIGHT,
-    SIMPLEX_COST_TOL,
-    SIMPLEX_PIVOT_TOL,
-    SINGULAR_ACTIVATION,
-)
+from lpik.tolerances import FEASIBILITY_TOL, MOTION_WEIGHT, SIMPLEX_COST_TOL, SIMPLEX_PIVOT_TOL
 
 #: :func:`least_error_step`'s outcomes.
 SOLVED, INFEASIBLE, ITERATION_LIMIT = 0, 1, 2
@@ -78,6 +72,7 @@ NOT_STALLED, STALLED, STALLED_NO_GAIN = 0, 1, 2
 #: The stall stage's rule (:mod:`lpik.methods.progress`), compiled as it is.
 _stall_limit = njit(cache=True)(rule.stall_limit)
 _may_stall = compiled_twin(rule.may_stall, stall_limit=_stall_limit)
+_held_at_speed = compiled_twin(rule.held_at_speed, clearly_regular=clearly_regular)
 _stalls = compiled_twin(rule.stalls, may_stall=_may_stall)
 _exact_weight = njit(cache=True)(rule.exact_weight)
 _makes_progress = njit(cache=True)(rule.makes_progress)
@@ -572,7 +567,8 @@ def stall_stage(state, q0, q_prev, exact_dq, p, held, velocity, engaged, floor, 
     keeping = _in_band(engaged, moving)
     n, m = q0.shape[0], int(state[L.M])
     J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
-    at_speed = velocity and clearly_regular(J, SINGULAR_ACTIVATION)  # progress.at_speed
+    # at_speed counts only for a step not solved around a motion, outside the band
+    at_speed = not (moving or keeping) and _held_at_speed(velocity, J)
     if not _may_stall(p, held, moving, keeping, at_speed):
         return NOT_STALLED
     code, before, after = progress_in_state(state, q0, q_prev, dq, floor, exact_dq, engaged)

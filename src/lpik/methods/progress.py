@@ -262,11 +262,19 @@ def at_speed(binding: object, J: FloatArray) -> bool:
     """:func:`may_stall`'s ``at_speed``: a velocity limit binds, ``J`` is far from singular.
 
     Far from singular: ``sigma_min > SINGULAR_ACTIVATION sigma_max``, as certified by
-    :func:`lpik.methods.autobound.clearly_regular` (a Cholesky test that the compiled
-    stall stage runs as it is; it may say no a little above the threshold, never yes
-    below it).
+    :func:`lpik.methods.autobound.clearly_regular` (a Cholesky test; it may say no a
+    little above the threshold, never yes below it): :func:`held_at_speed`.
     """
-    return held_by_velocity(binding) and bool(clearly_regular(J, SINGULAR_ACTIVATION))
+    return bool(held_at_speed(held_by_velocity(binding), J))
+
+
+def held_at_speed(velocity, J):  # type: ignore[no-untyped-def]
+    """:func:`at_speed` from ``velocity`` (:func:`held_by_velocity`).
+
+    Plain: the compiled stall stage runs this function itself
+    (:func:`lpik.fast.progress.stall_stage`).
+    """
+    return velocity and clearly_regular(J, SINGULAR_ACTIVATION)
 
 
 def stall_candidate(
@@ -532,7 +540,8 @@ class StallWatch:
         problem = problem_of()
         moving = problem.last is not None  # under acceleration limits, q_prev != q0
         keeping = self.keeping(problem.q0, moving)  # after a progress step: the band
-        speed = at_speed(result.binding, problem.J)
+        # at_speed counts only for a step not solved around a motion, outside the band
+        speed = not (moving or keeping) and at_speed(result.binding, problem.J)
         if not stall_candidate(result.p, result.binding, moving, keeping, speed):
             self.run = 0
             return result
