@@ -51,7 +51,7 @@ from lpik_bench.quality_metrics import (
 from lpik_bench.quality_reach import REACH_TOL, SAMPLE_EVERY
 from lpik_bench.quality_scenarios import Scenario
 from lpik_bench.soak import STEP_TOL, STOP_TOL
-from lpik_bench.workload import QDD_MAX
+from lpik_bench.workload import DT, QDD_MAX
 
 __all__ = ["ERROR_RESOLUTION", "MARGIN", "METRICS", "TIE", "meets", "render"]
 
@@ -478,9 +478,7 @@ def _steps(count: int) -> str:
     return f"{count:,} step" if count == 1 else f"{count:,} steps"
 
 
-def measured_context(
-    result: ScenarioResult, variant: str, verdict: Verdict, dt: float = 1e-3
-) -> str:
+def measured_context(result: ScenarioResult, variant: str, verdict: Verdict, dt: float = DT) -> str:
     """What the runs themselves say about a miss, where they say something.
 
     - Jitter: a library adds none on the steps it fails or holds the arm still;
@@ -596,7 +594,7 @@ def goal_summary(suite: SuiteResult) -> list[str]:
         missed = [v for v in verdicts(result, name) if v.met is False]
         key = result.scenario.key
         robot = suite.environment.get("robot", "panda")
-        dt = suite.environment.get("dt", 1e-3)
+        dt = suite.environment["dt"]
         reasons: list[str] = []
         for v in missed:
             reason = _reason(key, v.metric.key, robot, measured_context(result, name, v, dt))
