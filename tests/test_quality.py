@@ -164,7 +164,7 @@ def test_jitter_where_both_moved_leaves_out_the_steps_a_library_held_the_arm() -
     leg = (_leg(targets, q0),)
     runs = [
         LegRun(moves, np.ones(n_steps, dtype=np.int64)),
-        LegRun(halts, np.ones(n_steps, dtype=np.int64), failed=5, failed_at=failed_at),
+        LegRun(halts, np.ones(n_steps, dtype=np.int64), failed_at=failed_at),
     ]
     a, b = (scenario_metrics(model, leg, [run], dt, None) for run in runs)
     assert b.held[0].sum() == 20 and not a.held[0].any()
@@ -239,7 +239,9 @@ def test_settle_time_and_overshoot_of_a_known_run() -> None:
         return q0 + np.linalg.pinv(J) @ np.array([dx, 0, 0, 0, 0, 0])
 
     q = np.array([at(-0.01)] + [at(-0.003)] * 5 + [at(-0.0005)] * 5 + [at(0.002)] * 5 + [q0] * 10)
-    run = LegRun(q, np.ones(len(q) - 1, dtype=np.int64), failed=2)
+    two_failed = np.zeros(len(q) - 1, dtype=bool)
+    two_failed[:2] = True
+    run = LegRun(q, np.ones(len(q) - 1, dtype=np.int64), failed_at=two_failed)
     leg = Leg("known", q[0], np.array([target] * (len(q) - 1)), np.ones(len(q) - 1, bool),
               held=True)  # fmt: skip
     m = scenario_metrics(model, (leg,), [run], dt, 10.0)

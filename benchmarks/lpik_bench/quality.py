@@ -237,12 +237,11 @@ def run_leg(contender: Contender, leg: Leg, dt: float = DT) -> LegRun:
     p = np.full(n_steps, np.nan) if contender.is_lpik else None
     status: list[str] = []
     binding: list[str | None] = []
-    failed, first_failure = 0, None
+    first_failure = None
     failed_at = np.zeros(n_steps, dtype=bool)
     for k in range(n_steps):
         dq, pk, sk, bk, ns[k] = contender.step(q, prev, leg.targets[k])
         if dq is None or not np.all(np.isfinite(dq)):
-            failed += 1
             failed_at[k] = True
             first_failure = first_failure or (sk if dq is None else "no finite step returned")
             dq = braking_step(q - prev, QDD_MAX * dt * dt if contender.acceleration_limited else 0)
@@ -253,8 +252,8 @@ def run_leg(contender: Contender, leg: Leg, dt: float = DT) -> LegRun:
             status.append(sk)
             binding.append(bk)
     if p is None:
-        return LegRun(qs, ns, failed, first_failure=first_failure, failed_at=failed_at)
-    return LegRun(qs, ns, failed, p, status, binding, first_failure, failed_at)
+        return LegRun(qs, ns, first_failure=first_failure, failed_at=failed_at)
+    return LegRun(qs, ns, p, status, binding, first_failure, failed_at)
 
 
 def _runs(

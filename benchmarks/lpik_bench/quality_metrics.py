@@ -80,20 +80,24 @@ class LegRun:
     Attributes:
         q: Joint coordinates, (N + 1, n): the start, then after each step.
         step_ns: Time of each step call [ns], (N,).
-        failed: Steps that raised or returned no finite step (taken as ``dq = 0``).
         p, status, binding: lpik's per-step ``p``, status and binding limit (None for peers).
         first_failure: What the first failed step said (None: none failed).
-        failed_at: Which steps failed, (N,) (None: none did).
+        failed_at: Which steps raised or returned no finite step (taken as the braking
+            step), (N,) (None: none did).
     """
 
     q: FloatArray
     step_ns: NDArray[np.int64]
-    failed: int = 0
     p: FloatArray | None = None
     status: list[str] | None = None
     binding: list[str | None] | None = None
     first_failure: str | None = None
     failed_at: NDArray[np.bool_] | None = None
+
+    @property
+    def failed(self) -> int:
+        """How many steps failed (:attr:`failed_at`)."""
+        return 0 if self.failed_at is None else int(np.count_nonzero(self.failed_at))
 
 
 def step_changes(q: FloatArray) -> tuple[FloatArray, FloatArray]:
