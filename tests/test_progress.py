@@ -18,7 +18,13 @@ from lpik.paper.scenarios import PLANAR, get_scenario
 from lpik.paper.setup import PAPER_COMMAND
 from lpik.problem import Problem
 from lpik.result import OFF_DIRECTION, OPTIMAL, STATUSES
-from lpik.tolerances import STALL_BLEND_P, STALL_KEEP_SHARE, STALL_P, STALL_SHARE
+from lpik.tolerances import (
+    COASTING_DRIFT_COSINE,
+    STALL_BLEND_P,
+    STALL_KEEP_SHARE,
+    STALL_P,
+    STALL_SHARE,
+)
 
 
 def blocked() -> Problem:
@@ -71,12 +77,33 @@ def test_the_progress_step_keeps_the_exact_step_where_leaving_it_buys_little() -
     np.testing.assert_allclose(progress_step(P, exact=exact).dq, exact, atol=1e-12)
     np.testing.assert_allclose(progress_step(P).dq @ [1.0, 1.0], 0.01, atol=1e-12)
     assert np.abs(progress_step(P).dq).sum() == pytest.approx(0.01)  # the least motion
-    lower, upper = np.full(2, -0.1), np.full(2, 0.1)
-    np.testing.assert_array_equal(progress_center(None, lower, upper, np.array([0.5, 0.0])),
+    lower, upper, zero = np.full(2, -0.1), np.full(2, 0.1), np.zeros(2)
+
+    def center(last: np.ndarray, exact: np.ndarray, moving: bool) -> np.ndarray:
+        return progress_center(P.J, P.dw, last, exact, moving, lower, upper, np.empty(2))
+
+    np.testing.assert_array_equal(center(zero, np.array([0.5, 0.0]), False),
                                   [0.1, 0.0])  # clipped to the bounds  # fmt: skip
     last = np.array([0.01, 0.02])
-    np.testing.assert_array_equal(progress_center(last, lower, upper, exact), last)
-    np.testing.assert_array_equal(progress_center(None, lower, upper), 0.0)
+    np.testing.assert_array_equal(center(last, exact, True), last)
+    np.testing.assert_array_equal(center(zero, zero, False), 0.0)
+
+
+def test_the_progress_step_brakes_where_coasting_carries_the_task_away_from_the_command() -> None:
+    """Under acceleration limits the motion term is measured from the arm's motion, but from
+    the braking step where that motion's task velocity points away from the command by more
+    than COASTING_DRIFT_COSINE (its cosine to dw below minus it)."""
+    J, dw = np.eye(2), np.array([1.0, 0.0])
+    lower, upper = np.array([-0.2, 0.05]), np.array([0.2, 0.3])  # rest is out of reach in y
+
+    def center(last: list[float]) -> np.ndarray:
+        return progress_center(J, dw, np.array(last), np.zeros(2), True, lower, upper,
+                               np.empty(2))  # fmt: skip
+
+    np.testing.assert_array_equal(center([0.1, 0.1]), [0.1, 0.1])  # along the command
+    np.testing.assert_array_equal(center([-0.01, 0.1]), [-0.01, 0.1])  # at 96 degrees: keeps
+    cosine = -COASTING_DRIFT_COSINE - 1e-3  # just past the band: brakes, within the bounds
+    np.testing.assert_array_equal(center([0.1 * cosine, 0.1 * np.sqrt(1 - cosine**2)]), [0.0, 0.05])
 
 
 def test_no_progress_possible_is_said_and_moves_nothing() -> None:

@@ -79,6 +79,7 @@ _makes_progress = njit(cache=True)(rule.makes_progress)
 _scale = njit(cache=True)(rule.progress_scale)
 _in_band = njit(cache=True)(rule.in_band)
 _motion_prices = njit(cache=True)(rule.motion_prices)
+_progress_center = njit(cache=True)(rule.progress_center)
 #: Degenerate pivots in a row after which the simplex prices by Bland's rule.
 _BLAND_AFTER = 30
 #: Fresh factorisations of the optimal basis before the answer stands.
@@ -518,13 +519,11 @@ def progress_in_state(state, q0, q_prev, dq, floor, exact, engaged):
         G = np.vstack((G, floor[:n].copy().reshape((1, n))))
         g = np.append(g, floor[n])
     m, r = J.shape[0], G.shape[0]
-    # the motion term's center (progress_center): the arm's motion under acceleration
-    # limits, else the exact step
-    moving = continues(state, q0, q_prev)
-    center = np.empty(n)
+    last = np.empty(n)
     for i in range(n):
-        c = q0[i] - q_prev[i] if moving else exact[i]
-        center[i] = min(max(c, lower[i]), upper[i])
+        last[i] = q0[i] - q_prev[i]
+    moving = continues(state, q0, q_prev)
+    center = _progress_center(J, dw, last, exact, moving, lower, upper, np.empty(n))
     shifted, lo, hi, rhs, delta = dw.copy(), lower - center, upper - center, g.copy(), np.empty(n)
     for k in range(m):
         for i in range(n):
@@ -532,9 +531,6 @@ def progress_in_state(state, q0, q_prev, dq, floor, exact, engaged):
     for j in range(r):
         for i in range(n):
             rhs[j] -= G[j, i] * center[i]
-    last = np.empty(n)
-    for i in range(n):
-        last[i] = q0[i] - q_prev[i]
     prices = _motion_prices(last, center, engaged, np.empty((2, n)))
     code = priced_least_error_step(J, shifted, lo, hi, G, rhs, prices, delta)
     for i in range(n):

@@ -53,6 +53,7 @@ from lpik.methods.autobound import clearly_regular
 from lpik.problem import Problem
 from lpik.result import CHECK_FAILED, INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result, safe_step
 from lpik.tolerances import (
+    COASTING_DRIFT_COSINE,
     EQUALITY_RTOL,
     FEASIBILITY_TOL,
     GAIN_RTOL,
@@ -318,9 +319,12 @@ def progress_step(
     """
     start = time.perf_counter()
     lower, upper = problem.step_bounds()[:2]
-    center = progress_center(problem.last, lower, upper, exact)
-    J, G = problem.J, problem.G
-    last = np.zeros(problem.n) if last_motion is None else np.asarray(last_motion, dtype=float)
+    J, G, zero = problem.J, problem.G, np.zeros(problem.n)
+    moving = problem.last is not None
+    center = progress_center(J, problem.dw, problem.last if moving else zero,
+                             zero if exact is None else np.asarray(exact, dtype=float), moving,
+                             lower, upper, np.empty(problem.n))  # fmt: skip
+    last = zero if last_motion is None else np.asarray(last_motion, dtype=float)
     prices = motion_prices(last, center, engaged, np.empty((2, problem.n)))
     rows_rhs = problem.h - G @ (problem.q0 + center)
     status, delta = least_error_lp(J, problem.dw - J @ center, lower - center, upper - center, G,
@@ -330,34 +334,50 @@ def progress_step(
     return _checked(problem, status, dq, before, 0.0, None, start)
 
 
-def progress_center(
-    last: FloatArray | None, lower: FloatArray, upper: FloatArray, exact: FloatArray | None = None
-) -> FloatArray:
+def progress_center(J, dw, last, exact, moving, lower, upper, center):  # type: ignore[no-untyped-def]
     """Where the progress step's motion term is measured from, within the step's bounds.
 
-    The stall stage minimises ``|J dq - dw|_1 + MOTION_WEIGHT |dq - c|_1``:
+    The stall stage minimises ``|J dq - dw|_1 + MOTION_WEIGHT |dq - c|_1``; ``c`` is
+    written into ``center`` (n,) and returned:
 
-    - under acceleration limits (the step solved around the motion, ``last = q0 -
-      q_prev``, :mod:`lpik.continuation`) ``c`` is that motion: the step keeps the
-      motion the arm has unless changing it buys clearly less error, so that
-      stalled and exact steps in turn do not throw the joints one way and back;
-    - otherwise (``last`` ``None``) ``c`` is the exact step ``exact`` (0 where none
-      is given): the progress step is the exact step but where leaving it buys
-      clearly less error. Measured on the quality suite's scenario 2 without
-      acceleration limits: with ``c`` 0 (the least motion) an arm unfolding from a
-      stretched pose at its velocity limits (``p`` 0.002 to 0.008) took, every few
-      steps, a progress step of almost no motion, which gained twice as much in the
-      linear model: two jumps of 8.9 rad/s each time; with ``c`` the exact step
-      the scenario's jitter fell from 482 to 311 rad/s and its largest orientation
-      error from 0.38 to 0.27 mrad (the progress steps take back the curvature's
-      error that the exact step adds), every excursion recovered. ``c`` the arm's
-      last motion instead carried the arm into a pose it could not leave (2 of 6
+    - under acceleration limits (``moving``: the step solved around the motion,
+      ``last = q0 - q_prev``, :mod:`lpik.continuation`) ``c`` is that motion: the step
+      keeps the motion the arm has unless changing it buys clearly less error, so that
+      stalled and exact steps in turn do not throw the joints one way and back. Where
+      that motion carries the task away from the command, ``J last`` at a cosine below
+      ``-COASTING_DRIFT_COSINE`` to ``dw``, ``c`` is the braking step (0 within the
+      bounds): coasting there can still pay in L1 while the tool drifts away from the
+      target (:data:`~lpik.tolerances.COASTING_DRIFT_COSINE`);
+    - otherwise ``c`` is the exact step ``exact`` (0 where there is none): the progress
+      step is the exact step but where leaving it buys clearly less error. Measured on
+      the quality suite's scenario 2 without acceleration limits: with ``c`` 0 (the
+      least motion) an arm unfolding from a stretched pose at its velocity limits (``p``
+      0.002 to 0.008) took, every few steps, a progress step of almost no motion, which
+      gained twice as much in the linear model: two jumps of 8.9 rad/s each time; with
+      ``c`` the exact step the scenario's jitter fell from 482 to 311 rad/s and its
+      largest orientation error from 0.38 to 0.27 mrad (the progress steps take back the
+      curvature's error that the exact step adds), every excursion recovered. ``c`` the
+      arm's last motion instead carried the arm into a pose it could not leave (2 of 6
       excursions recovered).
+
+    Plain loops: the compiled stall stage runs this function itself
+    (:func:`lpik.fast.progress.progress_in_state`).
     """
-    center = last if last is not None else exact
-    if center is None:
-        return np.zeros(lower.shape[0])
-    return np.clip(np.asarray(center, dtype=np.float64), lower, upper)
+    m, n = J.shape
+    along, command, task = 0.0, 0.0, 0.0  # dw . J last, |dw|^2, |J last|^2
+    if moving:
+        for k in range(m):
+            row = 0.0
+            for i in range(n):
+                row += J[k, i] * last[i]
+            along += dw[k] * row
+            command += dw[k] * dw[k]
+            task += row * row
+    braking = moving and along < -COASTING_DRIFT_COSINE * np.sqrt(command * task)
+    for i in range(n):
+        c = 0.0 if braking else (last[i] if moving else exact[i])
+        center[i] = min(max(c, lower[i]), upper[i])
+    return center
 
 
 def motion_prices(last, center, engaged, prices):  # type: ignore[no-untyped-def]
