@@ -197,6 +197,7 @@ def _fused_agreement(workload: Workload, plain: Any, acc: Any) -> list[Agreement
         err = np.empty(N)
         for i in range(N):
             prev = None if prevs is None else prevs[i]
+            controller.reset()  # independent states: no last answer to check them against
             fused = controller.step(workload.q[i], workload.targets[i], prev)
             ref = lp2(controller.problem(workload.q[i], workload.targets[i], prev))
             same = fused.binding == ref.binding and fused.status == ref.status

@@ -188,3 +188,48 @@ def fading_steps(J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatA
     if not (gain > price and gain_before > gain):
         return math.inf
     return (gain - price) / (gain_before - gain)
+
+
+#: The rows of a loop's memory (:func:`plausible_previous`, :func:`hold_step`), (5, n): the
+#: last step's ``q0``, its commanded step ``q - q0``, one period of the lower and upper
+#: acceleration limits (``qdd_min dt^2``, ``qdd_max dt^2``), and the plausible ``q_prev``.
+HELD_FROM, HELD_STEP, BAND_LOWER, BAND_UPPER, PLAUSIBLE = range(5)
+
+
+def plausible_previous(q0, q_prev, memory):  # type: ignore[no-untyped-def]
+    """The ``q_prev`` whose implied step the drives could have made, where it differs.
+
+    ``memory`` (5, n) holds the rows :data:`HELD_FROM` to :data:`PLAUSIBLE`. Where
+    ``q_prev`` is the last step's ``q0`` and every coordinate is finite, each
+    joint's implied step ``q0 - q_prev`` is clipped to the commanded step plus
+    one period of the acceleration limits, and the row :data:`PLAUSIBLE` is
+    ``q0`` less that step. Returns True where some joint's step was clipped (that
+    row holds the plausible ``q_prev``), False where ``q_prev`` stands as it is.
+
+    Why: :mod:`lpik.control.commanded`, whose :class:`~lpik.control.commanded.CommandedMotion`
+    holds the memory. Plain loops: the compiled controller runs this function
+    itself (:mod:`lpik.fast.commanded`).
+    """
+    n = memory.shape[1]
+    if q0.shape[0] != n or q_prev.shape[0] != n:
+        return False
+    for i in range(n):
+        if q_prev[i] != memory[HELD_FROM, i] or not math.isfinite(q0[i]):
+            return False
+    clipped = False
+    for i in range(n):
+        implied, held = q0[i] - q_prev[i], memory[HELD_STEP, i]
+        step = min(max(implied, held + memory[BAND_LOWER, i]), held + memory[BAND_UPPER, i])
+        clipped = clipped or step != implied
+        memory[PLAUSIBLE, i] = q0[i] - step
+    return clipped
+
+
+def hold_step(q0, q, memory):  # type: ignore[no-untyped-def]
+    """Remember the step just answered in ``memory``: its ``q0`` and the step ``q - q0``.
+
+    Plain loops, compiled as :func:`plausible_previous` is.
+    """
+    for i in range(memory.shape[1]):
+        memory[HELD_FROM, i] = q0[i]
+        memory[HELD_STEP, i] = q[i] - q0[i]

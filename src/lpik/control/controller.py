@@ -48,6 +48,7 @@ from lpik.collision.recovery import (
 )
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX, TargetMotion
 from lpik.control.backend_step import fuses_kinematics, step_functions
+from lpik.control.commanded import NOT_VECTORS
 from lpik.control.inputs import (
     TARGET_SHAPES,
     chain_arrays,
@@ -327,7 +328,11 @@ class Lp2Controller:
             + (("further",) if self._further else ())
             + (("recovery",) if scene_rows is not None else ())
             + (("bound",) if self.automatic_bound is not None and fuses_kinematics(model) else ())
+            + (("motion",) if s.motion is not None else ())
         )
+        #: The last step answered, against which a measured loop's next state is checked
+        #: (:mod:`lpik.control.commanded`; the numpy engine's own), or None.
+        self.motion = s.motion
         self._warmup: Warmup | None = None  # the child compiling the kernels, if one is
         # the steps go to the numpy engine: while the child compiles, and for good if it failed
         self._on_numpy_engine = False
@@ -356,6 +361,10 @@ class Lp2Controller:
         """Compile (or load) the fused step and the stall stage's kernels: not inside a loop."""
         compile_now(self._target_axes, self._stages)
         self._kernel, self._batch = step_functions(self.model, self._state, self._target_axes)
+        if self.motion is not None:
+            from lpik.fast.commanded import motion_kernels
+
+            self.motion.compiled(*motion_kernels())
 
     @property
     def engine(self) -> str:
@@ -512,6 +521,10 @@ class Lp2Controller:
             target: Commanded task value: xyz (3,) [m], a rotation (3, 3) or a
                 pose (4, 4); a planar arm's xyz has z = 0, its pose turns about z.
             q_prev: Joint coordinates one period ago (acceleration limits); ``None``: at rest.
+                Where it is the ``q0`` of the last step and the step it implies differs
+                from the one answered by more than the acceleration limits allow in a
+                period (a measured loop's noise), it is taken at the nearest step the
+                drives could have made (:attr:`motion`, :mod:`lpik.control.commanded`).
             watch: Count the step for ``on_stall`` (batch rows, independent states, do not).
 
         Returns:
@@ -524,6 +537,17 @@ class Lp2Controller:
             ValueError: For a ``q0``, ``q_prev`` or ``target`` of the wrong shape, or
                 non-finite values.
         """
+        motion = self.motion
+        if motion is None or not watch:
+            return self._step(q0, target, q_prev, watch)
+        if q_prev is not None:
+            q_prev = motion.previous(q0, q_prev)
+        result = self._step(q0, target, q_prev, True)
+        motion.hold(q0, result.q)
+        return result
+
+    def _step(self, q0: Any, target: Any, q_prev: Any, watch: bool = True) -> Result:
+        """:meth:`step` on the state as given (no check against the last answer)."""
         start = perf_counter()
         if self._on_numpy_engine:  # the kernels are not ready yet
             if self._on_numpy():
@@ -704,17 +728,29 @@ class Lp2Controller:
                 f"out: must be a float64 array of shape ({self._n},), got "
                 f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
             )
+        motion = self.motion  # the check and the hold inline: the tightest loop's cost
+        if motion is not None and q_prev is not None:
+            try:
+                if motion.check(q0, q_prev, motion.memory):
+                    q_prev = motion.taken()
+            except NOT_VECTORS:
+                q_prev = motion.previous(q0, q_prev)
         p = self._step_into(q0, target, q_prev, out)
-        if self.scene_rows is None or not self.inside(q0):
-            return p
-        self._last, self._last_code = self.step(q0, target, q_prev), -1  # the recovery stage
-        out[...] = self._last.q
-        return self._last.p
+        if self.scene_rows is not None and self.inside(q0):
+            self._last, self._last_code = self._step(q0, target, q_prev), -1  # the recovery stage
+            out[...] = self._last.q
+            p = self._last.p
+        if motion is not None:
+            try:
+                motion.keep(q0, out, motion.memory)
+            except NOT_VECTORS:
+                motion.hold(q0, out)
+        return p
 
     def _step_into(self, q0: Any, target: Any, q_prev: Any, out: FloatArray) -> float:
         """:meth:`step_into` but for the recovery stage."""
         if self._further or self._python_bound or self._on_numpy_engine:  # a Result
-            self._last, self._last_code = self.step(q0, target, q_prev), -1
+            self._last, self._last_code = self._step(q0, target, q_prev), -1
             out[...] = self._last.q
             return self._last.p
         if self._coal_rows:
@@ -892,7 +928,7 @@ class Lp2Controller:
         block[0], block[1] = np.maximum(saved[0], -bound), np.minimum(saved[1], bound)
         self._state[on], self._bound = -1.0, bound  # -1: solved under a bound given to it
         try:
-            return self.step(q0, target, q_prev, watch=False)
+            return self._step(q0, target, q_prev, watch=False)
         finally:
             block[...], self._state[on], self._bound = saved, saved_on, None
 
@@ -977,7 +1013,7 @@ class Lp2Controller:
             if numpy_engine:  # the stepper's own stall stage: one stalled step counted
                 res = self._numpy_step(Q0[b], T[b], prev)
             else:
-                res = self.step(Q0[b], T[b], prev, watch=False)
+                res = self._step(Q0[b], T[b], prev, watch=False)
             if (self._watch_stall or self._further) and not numpy_engine:  # row by row
                 res = self._stalled(res, Q0[b], prev, count=False)
             fallback[b] = res
@@ -996,13 +1032,16 @@ class Lp2Controller:
     def reset(self) -> None:
         """Forget the last step: the next one starts a new loop.
 
-        It has no target motion to feed forward (:class:`~lpik.command.TargetMotion`)
-        and the count of stalled steps (``on_stall``) starts again. For a controller
+        It has no target motion to feed forward (:class:`~lpik.command.TargetMotion`),
+        no last answer to check the next state's motion against (:attr:`motion`), and
+        the count of stalled steps (``on_stall``) starts again. For a controller
         moved to an unrelated state, or stepping independent states one by one.
         """
         self._state[int(self._state[layout.MEMORY])] = 0.0
         self.stepper.target_motion = TargetMotion()
         self.stepper.stall_watch.clear()
+        if self.motion is not None:  # no last answer to check the next state against
+            self.motion.forget()
         self._numpy_inputs = None
 
     # -- inputs and the problem -----------------------------------------------------------

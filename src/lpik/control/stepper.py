@@ -45,6 +45,7 @@ from lpik.command import (
     second_order_term,
     task_rows,
 )
+from lpik.control.commanded import CommandedMotion
 from lpik.control.inputs import (
     STATE_FREE_LIMITS,
     positive_number,
@@ -184,6 +185,9 @@ class Stepper:
         #: brakes within, or None (no acceleration limits, or ``continuation=False``).
         self.stop_rates = _stop_rates(self.limits, model.n_joints) if _flag(
             "continuation", continuation) else None  # fmt: skip
+        #: The last step answered, against which the next state's implied motion is
+        #: checked under acceleration limits (:mod:`lpik.control.commanded`), or None.
+        self.motion = CommandedMotion.for_limits(self.limits, model.n_joints, self.dt)
         #: Whether the method's steps are solved around the current motion.
         self.continues = self.stop_rates is not None and self.spec.continuable
         #: The automatic multiplier bound in force, or None.
@@ -450,13 +454,18 @@ class Stepper:
         """
         q = self._joints("q0", q0)
         prev = None if q_prev is None else self._joints("q_prev", q_prev)
+        if prev is not None and self.motion is not None:  # a measured loop's noise
+            prev = self.motion.previous(q, prev)
         problem = self.problem(q, target, prev)
         start = time.perf_counter()
         problem, result = self.bounded(problem, self.solve(problem), prev)
         last = None if prev is None else q - prev
         result = self.recovered(problem, self.stalled(result, lambda: problem, last))
         self.solve_time = time.perf_counter() - start
-        return self.applied(problem, result)
+        result = self.applied(problem, result)
+        if self.motion is not None:
+            self.motion.hold(q, result.q)
+        return result
 
     def _joints(self, name: str, value: ArrayLike) -> FloatArray:
         q = np.array(value, dtype=np.float64)

@@ -39,6 +39,7 @@ from numba import types
 
 from lpik.defaults import COMPILE_ENV, COMPILE_MODES, DEFAULT_COMPILE
 from lpik.fast.autobound import bound_in_state, floor_in_state
+from lpik.fast.commanded import HOLD_SIGNATURE, PLAUSIBLE_SIGNATURE, hold_step, plausible_previous
 from lpik.fast.progress import (
     further_stage,
     largest_share_lp,
@@ -62,6 +63,9 @@ STAGES = {
         (floor_in_state, (_VECTOR,) * 3),  # the bound's floor as the progress step's row
     ),
     "further": ((further_stage, (_VECTOR,) * 6),),  # mode="progress"'s second stage
+    # under acceleration limits: the state's implied step against the commanded one
+    # (lpik.control.commanded)
+    "motion": ((plausible_previous, PLAUSIBLE_SIGNATURE), (hold_step, HOLD_SIGNATURE)),
     # the automatic multiplier bound's rule on the fused step's state, over a SerialChain
     "bound": ((bound_in_state, (_VECTOR,) * 3),),
     # a scene's recovery stage (lpik.collision.recovery.recovery_motion on the state's arrays)

@@ -1,0 +1,138 @@
+"""A control loop's last commanded step, against which the next state's motion is checked.
+
+Under acceleration limits a step continues the motion its state implies,
+``last = q0 - q_prev`` (:mod:`lpik.continuation`, :mod:`lpik.bands`): each joint's
+step may differ from it by one period of its acceleration limit,
+``qdd dt^2``. A loop that feeds back measured joint coordinates hands the step
+their noise divided by the period: encoder noise of 1e-4 rad at 1 kHz is a
+velocity noise of 0.1 rad/s, ten times what a limit of 10 rad/s^2 lets one step
+change. Continued as if it were motion, that noise is integrated: each step's
+command carries the last reading's noise on into the next velocity, and the
+velocity random-walks (the Panda, 5 cm along x, ``qdd_max=10``, noise of 1e-4
+rad per joint and reading: the tool ended 196 mm from the goal, and was 284 mm
+away at worst).
+
+The drives cannot change a joint's velocity by more than its acceleration
+limit in one period, so a state whose implied step differs from the step the
+loop commanded from ``q_prev`` by more is not one the drives made: the
+difference is noise (or a push). :class:`CommandedMotion` remembers the last
+step it answered, ``q0`` and the commanded ``q - q0``; where the next call
+continues that loop (its ``q_prev`` is that ``q0``), the implied step is taken
+as near it as the state allows: within one period of the acceleration limits
+of the commanded step (:func:`plausible_previous`). A loop fed with its own
+commands (``q0`` the last answer, ``q_prev`` the one before) implies the
+commanded step exactly, and nothing changes for it. A loop that starts anew, or
+passes a ``q_prev`` that is not the last ``q0``, is taken as it comes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from lpik.continuation import (
+    BAND_LOWER,
+    BAND_UPPER,
+    HELD_FROM,
+    PLAUSIBLE,
+    hold_step,
+    plausible_previous,
+)
+from lpik.limits import AccelerationLimits, StepContext
+from lpik.types import FloatArray
+
+#: What the check raises for arguments that are not float64 (n,) arrays: the compiled
+#: twin a ``TypeError``, the plain function on lists or other shapes the others.
+NOT_VECTORS = (TypeError, AttributeError, ValueError, IndexError)
+
+
+class CommandedMotion:
+    """The last step a controller answered, and the states it took at their plausible motion.
+
+    Args:
+        qdd_min, qdd_max: The joints' acceleration limits [rad/s^2], (n,).
+        dt: The control period [s].
+    """
+
+    def __init__(self, qdd_min: FloatArray, qdd_max: FloatArray, dt: float) -> None:
+        n = qdd_max.shape[0]
+        #: The rows of :mod:`lpik.continuation`'s loop memory (``HELD_FROM`` ... ``PLAUSIBLE``).
+        self.memory = np.zeros((5, n))
+        self.memory[HELD_FROM] = np.nan  # no step answered yet: no q_prev matches
+        self.memory[BAND_LOWER] = qdd_min * dt * dt
+        self.memory[BAND_UPPER] = qdd_max * dt * dt
+        #: States whose implied step was taken at the plausible one (noise of a measured loop).
+        self.corrected = 0
+        #: :func:`plausible_previous` and :func:`hold_step` (compiled in a compiled
+        #: controller), for callers that run them on ``memory`` themselves.
+        self.check: Callable[..., bool] = plausible_previous
+        self.keep: Callable[..., None] = hold_step
+
+    @property
+    def held_from(self) -> FloatArray:
+        """The ``q0`` of the last step answered (NaN: none)."""
+        return self.memory[HELD_FROM]
+
+    @classmethod
+    def for_limits(cls, limits: Sequence[Any], n: int, dt: float) -> CommandedMotion | None:
+        """From the :class:`~lpik.limits.AccelerationLimits` among ``limits``; None: none.
+
+        The tightest limit of each side where there are several.
+        """
+        lower, upper = np.full(n, -np.inf), np.full(n, np.inf)
+        context = StepContext(q0=np.zeros(n), dt=1.0)
+        for limit in limits:
+            if isinstance(limit, AccelerationLimits):
+                piece = limit.apply(context)
+                lower = np.maximum(lower, piece.qdd_min)
+                upper = np.minimum(upper, piece.qdd_max)
+        if not (np.isfinite(lower).any() or np.isfinite(upper).any()):
+            return None
+        return cls(lower, upper, dt)
+
+    def compiled(self, plausible: Callable[..., bool], hold: Callable[..., None]) -> None:
+        """Use the compiled twins of :func:`plausible_previous` and :func:`hold_step`."""
+        self.check, self.keep = plausible, hold
+
+    def previous(self, q0: Any, q_prev: Any) -> Any:
+        """``q_prev``, or the plausible one (:func:`plausible_previous`) where it differs.
+
+        Arguments that are not (n,) coordinates are handed on as they are: the
+        step names what is wrong with them.
+        """
+        try:
+            clipped = self.check(q0, q_prev, self.memory)
+        except NOT_VECTORS:  # lists, other dtypes
+            vectors = self._vectors(q0, q_prev)
+            if vectors is None:
+                return q_prev
+            clipped = self.check(*vectors, self.memory)
+        return self.taken() if clipped else q_prev
+
+    def taken(self) -> FloatArray:
+        """The plausible ``q_prev`` that :func:`plausible_previous` has just found, counted."""
+        self.corrected += 1
+        return self.memory[PLAUSIBLE].copy()
+
+    def _vectors(self, *values: Any) -> tuple[FloatArray, ...] | None:
+        """``values`` as contiguous float64 (n,) arrays, or None where one is not."""
+        try:
+            out = tuple(np.array(v, dtype=np.float64, order="C") for v in values)  # writable
+        except (TypeError, ValueError):
+            return None
+        return out if all(v.shape == self.held_from.shape for v in out) else None
+
+    def hold(self, q0: Any, q: FloatArray) -> None:
+        """Remember the step answered from ``q0`` to ``q`` (:func:`hold_step`)."""
+        try:
+            self.keep(q0, q, self.memory)
+        except NOT_VECTORS:  # not float64 arrays: converted (the step has checked them)
+            vectors = self._vectors(q0, q)
+            if vectors is not None:
+                self.keep(*vectors, self.memory)
+
+    def forget(self) -> None:
+        """Forget the last step: the next state is taken as it comes."""
+        self.memory[HELD_FROM] = np.nan

@@ -1,0 +1,35 @@
+"""The control loop's commanded-motion check (:mod:`lpik.control.commanded`), compiled.
+
+The same functions, compiled as they are: ``plausible_previous`` and ``hold_step``
+are the dispatchers the background compile fills numba's disk cache with
+(:data:`lpik.control.warmup.STAGES`); :func:`motion_kernels` are the controller's,
+typed, so that arguments of other types raise ``TypeError`` instead of compiling
+in the middle of a loop.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from numba import njit, types
+
+from lpik import continuation as rule
+from lpik.fast.signatures import typed_kernel
+
+plausible_previous = njit(cache=True)(rule.plausible_previous)
+hold_step = njit(cache=True)(rule.hold_step)
+
+_VECTOR, _MATRIX = types.float64[::1], types.float64[:, ::1]
+#: The argument types each is called with.
+PLAUSIBLE_SIGNATURE = HOLD_SIGNATURE = (_VECTOR, _VECTOR, _MATRIX)
+
+
+def motion_kernels() -> tuple[Any, Any]:
+    """The typed dispatchers of ``plausible_previous`` and ``hold_step``.
+
+    Loaded from the disk cache (:data:`lpik.control.warmup.STAGES` fills it), else compiled.
+    """
+    return (
+        typed_kernel("plausible_previous", rule.plausible_previous, [PLAUSIBLE_SIGNATURE]),
+        typed_kernel("hold_step", rule.hold_step, [HOLD_SIGNATURE]),
+    )
