@@ -102,3 +102,31 @@ def test_reset_forgets_the_last_answer_and_no_acceleration_limits_need_no_check(
     assert Lp2Controller(PANDA, dt=1e-3).motion is None
     with pytest.raises(ValueError, match="q_prev"):
         controller.step(q, target, [0.0, 1.0])
+
+
+@settings(max_examples=5, deadline=None)
+@given(sigma=st.sampled_from([1e-5, 1e-4, 3e-4]), seed=st.integers(0, 2**16))
+def test_a_noisy_measured_loop_keeps_every_limit_against_the_motion_it_takes(
+    sigma: float, seed: int
+) -> None:
+    """Targets that jump to random configurations' poses every 0.3 s, readings with noise:
+    every command within the end-stops, every step within the velocity limits, and each
+    step within two periods' share of the acceleration limits of the step answered
+    before it (the band around the plausible motion, around the commanded one)."""
+    rng = np.random.default_rng(seed)
+    controller = Lp2Controller(PANDA, dt=1e-3, qdd_max=10.0)
+    lower, upper = PANDA.q_min, PANDA.q_max
+    speed = PANDA.qd_max * 1e-3
+    q = home_configuration("panda")
+    reading_before, answered = q.copy(), np.zeros(q.size)
+    for k in range(1500):
+        if k % 300 == 0:
+            target = PANDA.pose(lower + (upper - lower) * rng.uniform(0.1, 0.9, q.size))
+        reading = q + rng.normal(0.0, sigma, q.size)
+        q = controller.step(reading, target, reading_before).q
+        step = q - reading
+        assert np.all(q >= lower - 1e-9) and np.all(q <= upper + 1e-9), k
+        assert np.all(np.abs(step) <= speed + 1e-12), k
+        # from the second step on: the first reading has no step answered to check against
+        assert k == 0 or np.all(np.abs(step - answered) <= 2 * BAND + 1e-12), k
+        reading_before, answered = reading, step
