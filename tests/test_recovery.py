@@ -196,6 +196,12 @@ def test_a_speed_above_its_limit_is_a_fault_taken_at_the_limit_and_named() -> No
     assert upper[0] == pytest.approx(0.001)  # the band is taken around the limit
     assert lower[0] == pytest.approx(0.001 - 100.0 * DT**2)
     assert near.motion[0] == pytest.approx(0.001)  # the motion continued: at the limit
+    # exactly one step of acceleration past the limit, up to a rounding (a measured loop's
+    # state taken at the edge of its plausible band after a step at the limit): at the
+    # limit still, not at rest (that stopped a joint at full speed in one step)
+    edge = problem(1.0 + 100.0 * DT + 1e-14 / DT)
+    assert edge.recovering() == ("joint 1 upper velocity limit",)
+    assert edge.step_bounds()[1][0] == pytest.approx(0.001)
     # 3 rad/s: no motion the drives can have made even one step past the limit; the
     # sample tells nothing of the motion, and the band is taken around rest
     far = problem(3.0)

@@ -143,7 +143,12 @@ def rate_band(
     if qdd_min > -math.inf or qdd_max < math.inf:  # else the last step binds nothing
         sample = last
         last, fault = plausible_step(last, vel_lo, vel_hi)
-        if fault != MET and not vel_lo - qdd_max * dt2 <= sample <= vel_hi - qdd_min * dt2:
+        # one step of acceleration past the limit, up to a rounding (SLACK_TOL, as
+        # plausible_step): a measured loop's state taken at the edge of its plausible band
+        # (lpik.continuation.plausible_previous) after a step at the limit lands there
+        reach_lo = vel_lo - qdd_max * dt2 - SLACK_TOL * max(1.0, abs(vel_lo))
+        reach_hi = vel_hi - qdd_min * dt2 + SLACK_TOL * max(1.0, abs(vel_hi))
+        if fault != MET and not reach_lo <= sample <= reach_hi:
             # not even one step of acceleration past the limit: no motion at all is known
             last = min(max(0.0, vel_lo), vel_hi)
         # no motion to continue into an end-stop, whether the speed was a fault or not
