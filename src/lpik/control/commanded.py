@@ -27,7 +27,7 @@ passes a ``q_prev`` that is not the last ``q0``, is taken as it comes.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -40,7 +40,6 @@ from lpik.continuation import (
     hold_step,
     plausible_previous,
 )
-from lpik.limits import AccelerationLimits, StepContext
 from lpik.types import FloatArray
 
 #: What the check raises for arguments that are not float64 (n,) arrays: the compiled
@@ -76,21 +75,11 @@ class CommandedMotion:
         return self.memory[HELD_FROM]
 
     @classmethod
-    def for_limits(cls, limits: Sequence[Any], n: int, dt: float) -> CommandedMotion | None:
-        """From the :class:`~lpik.limits.AccelerationLimits` among ``limits``; None: none.
-
-        The tightest limit of each side where there are several.
-        """
-        lower, upper = np.full(n, -np.inf), np.full(n, np.inf)
-        context = StepContext(q0=np.zeros(n), dt=1.0)
-        for limit in limits:
-            if isinstance(limit, AccelerationLimits):
-                piece = limit.apply(context)
-                lower = np.maximum(lower, piece.qdd_min)
-                upper = np.minimum(upper, piece.qdd_max)
-        if not (np.isfinite(lower).any() or np.isfinite(upper).any()):
+    def for_rates(cls, rates: FloatArray, dt: float) -> CommandedMotion | None:
+        """From :func:`lpik.control.inputs.rate_limits`' (4, n); None: no acceleration limit."""
+        if not np.isfinite(rates[2:]).any():
             return None
-        return cls(lower, upper, dt)
+        return cls(rates[2], rates[3], dt)
 
     def compiled(self, plausible: Callable[..., bool], hold: Callable[..., None]) -> None:
         """Use the compiled twins of :func:`plausible_previous` and :func:`hold_step`."""

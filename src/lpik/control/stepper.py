@@ -80,13 +80,17 @@ def _under_bound(problem: Problem, bound: FloatArray) -> Problem:
                            lam_max=np.minimum(problem.lam_max, bound))  # fmt: skip
 
 
-def _stop_rates(limits: Sequence[Limit], n: int) -> tuple[FloatArray, FloatArray] | None:
-    """Each joint's smaller acceleration and velocity limit (``rate_limits``); None: no acc. limit.
+def _rates(limits: Sequence[Limit], n: int) -> FloatArray:
+    """The joints' velocity and acceleration limits (:func:`lpik.control.inputs.rate_limits`).
 
-    Read by :func:`lpik.control.inputs.rate_limits`, as the compiled step reads
-    them, from the limits whose bounds do not depend on the state.
+    Read as the compiled step reads them, from the limits whose bounds do not depend
+    on the state.
     """
-    rates = rate_limits([lim for lim in limits if isinstance(lim, STATE_FREE_LIMITS)], n)
+    return rate_limits([lim for lim in limits if isinstance(lim, STATE_FREE_LIMITS)], n)
+
+
+def _stop_rates(rates: FloatArray) -> tuple[FloatArray, FloatArray] | None:
+    """Each joint's smaller acceleration and velocity limit (of :func:`_rates`); None: no qdd."""
     qdd = np.minimum(rates[3], -rates[2])
     if not np.isfinite(qdd).any():
         return None
@@ -183,11 +187,11 @@ class Stepper:
         )  # fmt: skip
         #: The joints' acceleration and velocity limits (smaller side) that the command
         #: brakes within, or None (no acceleration limits, or ``continuation=False``).
-        self.stop_rates = _stop_rates(self.limits, model.n_joints) if _flag(
-            "continuation", continuation) else None  # fmt: skip
+        rates = _rates(self.limits, model.n_joints)
+        self.stop_rates = _stop_rates(rates) if _flag("continuation", continuation) else None
         #: The last step answered, against which the next state's implied motion is
         #: checked under acceleration limits (:mod:`lpik.control.commanded`), or None.
-        self.motion = CommandedMotion.for_limits(self.limits, model.n_joints, self.dt)
+        self.motion = CommandedMotion.for_rates(rates, self.dt)
         #: Whether the method's steps are solved around the current motion.
         self.continues = self.stop_rates is not None and self.spec.continuable
         #: The automatic multiplier bound in force, or None.
