@@ -404,8 +404,11 @@ class Lp2Controller:
         return True
 
     def _numpy_step(self, q0: Any, target: Any, q_prev: Any) -> Result:
-        """The numpy engine's step (:meth:`lpik.control.stepper.Stepper.step`), remembered."""
-        result = self.stepper.step(q0, target, q_prev)
+        """The numpy engine's step on the state :meth:`step` has checked, remembered.
+
+        :meth:`lpik.control.stepper.Stepper._step_as_given`: no second check, no second hold.
+        """
+        result = self.stepper._step_as_given(q0, target, q_prev)
         q, goal, prev = self._converted(q0, target, q_prev)  # copies: the caller may reuse them
         self._numpy_inputs = (q.copy(), goal.copy(), prev.copy())
         return result

@@ -460,16 +460,26 @@ class Stepper:
         prev = None if q_prev is None else self._joints("q_prev", q_prev)
         if prev is not None and self.motion is not None:  # a measured loop's noise
             prev = self.motion.previous(q, prev)
+        result = self._step_as_given(q, target, prev)
+        if self.motion is not None:
+            self.motion.hold(q, result.q)
+        return result
+
+    def _step_as_given(self, q0: ArrayLike, target: Any, q_prev: ArrayLike | None = None) -> Result:
+        """:meth:`step` on the state as given: no check against the last step answered.
+
+        Nothing is remembered either: for a controller that checks the state itself
+        (:meth:`lpik.control.controller.Lp2Controller.step`) and a batch's independent rows.
+        """
+        q = self._joints("q0", q0)
+        prev = None if q_prev is None else self._joints("q_prev", q_prev)
         problem = self.problem(q, target, prev)
         start = time.perf_counter()
         problem, result = self.bounded(problem, self.solve(problem), prev)
         last = None if prev is None else q - prev
         result = self.recovered(problem, self.stalled(result, lambda: problem, last))
         self.solve_time = time.perf_counter() - start
-        result = self.applied(problem, result)
-        if self.motion is not None:
-            self.motion.hold(q, result.q)
-        return result
+        return self.applied(problem, result)
 
     def _joints(self, name: str, value: ArrayLike) -> FloatArray:
         q = np.array(value, dtype=np.float64)
