@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lpik_bench.markdown import replace_section, section_head
+from lpik_bench.markdown import section_head, write_section
 from lpik_bench.quality_reach import moved
 
 #: The page whose section :func:`main` writes.
@@ -125,6 +125,5 @@ def main(argv: list[str] | None = None) -> int:
         rows, args.far, args.qdd_max, " ".join(["python benchmarks/excursions.py", *given])
     )
     print(text)
-    args.out.write_text(replace_section(args.out.read_text(encoding="utf-8"), HEADING, text),
-                        encoding="utf-8")  # fmt: skip
+    write_section(args.out, HEADING, text)
     return 0

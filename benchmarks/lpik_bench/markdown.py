@@ -211,6 +211,12 @@ def replace_section(page: str, heading: str, text: str) -> str:
     return page.rstrip("\n") + "\n\n" + text
 
 
+def write_section(path: Path, heading: str, text: str) -> None:
+    """Rewrite the page at ``path`` with its ``heading`` section as ``text`` (replace_section)."""
+    path.write_text(replace_section(path.read_text(encoding="utf-8"), heading, text),
+                    encoding="utf-8")  # fmt: skip
+
+
 def _sections(page: str) -> list[tuple[str, str]]:
     """``(heading, text)`` of every ``## `` section of ``page``, in order."""
     parts = re.split(r"^(?=## )", page, flags=re.MULTILINE)

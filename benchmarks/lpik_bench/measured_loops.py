@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik_bench.markdown import replace_section, section_head
+from lpik_bench.markdown import section_head, write_section
 
 #: The page whose section :func:`main` writes.
 OUT = Path(__file__).resolve().parents[2] / "docs" / "benchmarks.md"
@@ -166,8 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     command = " ".join(["python benchmarks/measured_loops.py", *given])
     text = section(rows, args.seeds, steps, command)
     print(text)
-    args.out.write_text(replace_section(args.out.read_text(encoding="utf-8"), HEADING, text),
-                        encoding="utf-8")  # fmt: skip
+    write_section(args.out, HEADING, text)
     return 0
 
 

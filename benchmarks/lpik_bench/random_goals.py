@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lpik_bench.markdown import replace_section, section_head
+from lpik_bench.markdown import section_head, write_section
 
 #: The page whose section :func:`main` writes.
 OUT = Path(__file__).resolve().parents[2] / "docs" / "benchmarks.md"
@@ -214,6 +214,5 @@ def main(argv: list[str] | None = None) -> int:
     command = " ".join(["python benchmarks/random_goals.py", *given])
     text = section(rows, misses, args.goals, args.seed, args.qdd_max, command, timings)
     print(text)
-    args.out.write_text(replace_section(args.out.read_text(encoding="utf-8"), HEADING, text),
-                        encoding="utf-8")  # fmt: skip
+    write_section(args.out, HEADING, text)
     return 0
