@@ -35,7 +35,7 @@ from lpik.methods.lp2 import lp2
 from lpik.problem import Problem
 from lpik.robots.planar import planar_arm
 from lpik.robots.tasks import PositionTask
-from lpik_bench.workload import Workload
+from lpik_bench.workload import Workload, trajectory_controller
 
 if TYPE_CHECKING:  # numba is optional: the compiled path is imported on use
     from lpik.control.controller import Lp2Controller
@@ -97,16 +97,9 @@ class Case:
 
 def controllers(workload: Workload) -> tuple[Lp2Controller, Lp2Controller]:
     """The fused controllers of the workload: end-stops + velocity, and + acceleration."""
-    from lpik.control.controller import Lp2Controller
-
     w = workload
-    # the paper's LP2 (the rows say "lp2 fused"); lp2s, the default, adds passes only at a bound
-    # on_stall=None: the method's step, which the runs check against the LP
-    plain = Lp2Controller(w.model, dt=w.dt, v_max=w.v_max, w_max=w.w_max, saturate=False,
-                          on_stall=None)  # fmt: skip
-    acc = Lp2Controller(w.model, dt=w.dt, v_max=w.v_max, w_max=w.w_max, qdd_max=w.qdd_max,
-                        saturate=False, on_stall=None)  # fmt: skip
-    return plain, acc
+    plain = trajectory_controller(w.model, w.dt, None)
+    return plain, trajectory_controller(w.model, w.dt, w.qdd_max)
 
 
 def workload_problems(workload: Workload) -> list[Problem]:

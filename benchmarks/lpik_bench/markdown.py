@@ -37,12 +37,17 @@ METHOD = """## How it is measured
   uniformly from the middle {range_pct}% of every joint's range and head for the pose of
   another such configuration; each step's target is the current pose moved
   towards that goal by half of lpik's command clamp, so no library rescales it,
-  and the next configuration is LP2's answer (consecutive steps are related, as
-  in a control loop). Every library gets the same (q, target) pairs.
+  and the next configuration is the answer of LP2 with the acceleration limits
+  of `full step +acc` (consecutive steps are related, as in a control loop fed
+  its own commands, and `q - q_prev` is a motion the drives could make: a
+  workload made without them jumps from rest to full speed in one step).
+  Every library gets the same (q, target, q_prev) triples.
 - **Limits.** End-stops and velocity limits from the URDF for every library
   (pink's and mink's configuration-limit gains set to 1; the Robotics Toolbox
   clips its damped-least-squares step). lpik's `full step +acc` adds joint
-  acceleration limits of {qdd:g} rad/s^2 with the true previous configuration.
+  acceleration limits of {qdd:g} rad/s^2 with the true previous configuration;
+  timed over the workload in its order, it answers each state with the step
+  that led to the next.
 - **What a step is.** `full step`: from (q, target pose) to the joint step,
   forward kinematics, Jacobian, limits, solve and result included; `solve`:
   the method alone on a prepared problem; `batch of B`: `lpik.fast.lp2_batch`

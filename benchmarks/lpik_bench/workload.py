@@ -8,10 +8,13 @@ Every step's target is the current pose moved towards that goal by at most
 ``TARGET_FRACTION`` of the command clamp (``v_max dt`` linear, ``w_max dt``
 angular), so no library clamps or rescales it and every library is asked for
 the same displacement ``dw``. The next configuration is the current one plus
-LP2's step (``M = I``, end-stops and velocity limits), so consecutive steps
-are related as in a control loop: HiGHS can warm-start, acceleration limits
-see a real previous step, and limits bind where the motion takes the arm to
-them.
+the step of :func:`trajectory_controller` (LP2, ``M = I``, end-stops, velocity
+and acceleration limits), so consecutive steps are related as in a control
+loop fed its own commands: HiGHS can warm-start, the implied previous motion
+``q - q_prev`` is one the drives could have made (a workload made without
+acceleration limits jumps from rest to full speed in one step, and every
+acceleration-limited library then answers a state no loop of its own reaches),
+and limits bind where the motion takes the arm to them.
 
 :func:`arm_only_urdf` gives the peers the arm's URDF with every joint off
 the base-to-tip chain fixed (the Panda's fingers), so that every library
@@ -23,6 +26,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,6 +35,9 @@ from lpik.robots.arm import Arm, bundled_arm, urdf_arm
 from lpik.robots.registry import urdf_path
 from lpik.robots.rotations import exp_so3, log_so3
 from lpik.robots.tasks import PoseTask
+
+if TYPE_CHECKING:
+    from lpik.control.controller import Lp2Controller
 
 FloatArray = NDArray[np.float64]
 
@@ -161,6 +168,23 @@ def step_target(pose: FloatArray, goal: FloatArray, linear: float, angular: floa
     return out
 
 
+def trajectory_controller(
+    model: PoseTask, dt: float = DT, qdd_max: float | None = QDD_MAX
+) -> Lp2Controller:
+    """The controller whose steps make the workload's trajectories, and that ``full step +acc``
+    times: the paper's LP2 (``saturate=False``; the rows say "lp2"), its strict step
+    (``on_stall=None``, which the runs check against the LP), lpik's command clamp, and
+    ``qdd_max`` [rad/s^2] (None: without acceleration limits, ``full step``'s controller).
+
+    Timed over the workload in its order, the acceleration-limited one answers each state
+    with the step that led to the next: a loop fed its own commands.
+    """
+    from lpik.control.controller import Lp2Controller
+
+    return Lp2Controller(model, dt=dt, v_max=V_MAX, w_max=W_MAX, qdd_max=qdd_max,
+                         saturate=False, on_stall=None)  # fmt: skip
+
+
 def make_workload(
     robot: str | ArmFile = "panda",
     *,
@@ -184,11 +208,9 @@ def make_workload(
     """
     if trajectories < 1 or steps < 1:
         raise ValueError("trajectories, steps: must be >= 1")
-    from lpik.control.controller import Lp2Controller
-
     arm, _ = bench_arm(robot)
     model = arm.task("pose")
-    controller = Lp2Controller(model, dt=dt, v_max=V_MAX, w_max=W_MAX, saturate=False)
+    controller = trajectory_controller(model, dt)
     rng = np.random.default_rng(seed)
     lo, hi = model.q_min, model.q_max
     mid, half = 0.5 * (lo + hi), 0.5 * RANGE_FRACTION * (hi - lo)
@@ -204,7 +226,7 @@ def make_workload(
             qs.append(q)
             prevs.append(prev)
             targets.append(target)
-            result = controller.step(q, target)
+            result = controller.step(q, target, prev)
             prev, q = q, result.q
     return Workload(
         robot=robot,
