@@ -16,7 +16,12 @@ import pytest
 
 from lpik.robots.registry import home_configuration, load_robot
 from lpik_bench.quality_metrics import KINDS, LegRun, jitter_where_both_moved, scenario_metrics
-from lpik_bench.quality_scenarios import SCENARIOS, Leg
+from lpik_bench.quality_scenarios import (
+    SCENARIOS,
+    Leg,
+    least_time_velocities,
+    rest_to_rest_time,
+)
 
 pytest.importorskip("numba")
 
@@ -507,3 +512,17 @@ def test_tracking_on_return_splits_the_error_where_the_target_came_back_within_r
     assert rest_a == pytest.approx(1.0) and rest_b == pytest.approx(np.sqrt(11 / 3))
     always = Leg("test", q0, np.zeros((10, 4, 4)), np.ones(10, dtype=bool))
     assert tracking_on_return(a, b, (always,), dt) is None
+
+
+@pytest.mark.parametrize("distance", [[0.3, -0.1, 0.0], [2.0, 0.5, -1.0], [0.0, 0.0, 0.0]])
+def test_the_least_time_move_covers_its_distance_within_the_limits(distance) -> None:
+    """The reference of a point-to-point move's energy above 5 Hz: every joint arrives,
+    no faster than its velocity limit nor its acceleration limit, by the least time."""
+    d, qd, qdd, dt = np.array(distance), np.array([1.0, 2.0, 1.5]), 10.0, 1e-3
+    v = least_time_velocities(d, qd, qdd, dt, 4000)
+    assert np.allclose(v.sum(axis=0) * dt, d, atol=1e-5)
+    assert np.all(np.abs(v) <= qd + 1e-12)
+    assert np.all(np.abs(np.diff(v, axis=0)) <= qdd * dt * (1 + 1e-9))
+    end = int(math.ceil(rest_to_rest_time(d, qd, qdd) / dt))
+    assert not v[end:].any()
+    assert d.any() == bool(np.abs(v[max(end - 1, 0)]).any())

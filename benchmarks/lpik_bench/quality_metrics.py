@@ -52,7 +52,7 @@ from numpy.typing import NDArray
 from lpik.result import MOVING
 from lpik.robots.tasks import PoseTask
 from lpik.types import FloatArray
-from lpik_bench.quality_scenarios import Leg, Scenario
+from lpik_bench.quality_scenarios import Leg, Scenario, least_time_velocities
 from lpik_bench.soak import STEP_TOL, STOP_TOL
 
 #: Frequency above which joint-velocity energy counts as high-frequency [Hz].
@@ -125,12 +125,14 @@ class Recovery:
 
 @dataclass(frozen=True)
 class Settling:
-    """One point-to-point leg: settle time [ms] (None: never settled), overshoot [mm]."""
+    """One point-to-point leg: settle time [ms] (None: never settled), overshoot [mm],
+    braking steps, and the position [mm] and orientation [mrad] error at the end."""
 
     label: str
     settle_ms: float | None
     overshoot: float
     braking: int
+    final: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -158,10 +160,19 @@ class Metrics:
     ori_max: float = 0.0
     jitter: float = 0.0
     high: float = 0.0
+    #: Point-to-point legs under acceleration limits: :attr:`high` of the least-time move
+    #: between each leg's start and this library's end configuration
+    #: (:func:`~lpik_bench.quality_scenarios.least_time_velocities`), None elsewhere.
+    least_time_high: float | None = None
     acc_max: float = 0.0
     violations: dict[str, tuple[int, float]] = field(default_factory=dict)
     frozen: int = 0
     frozen_without_direction: int | None = None
+    #: The legs with frozen steps, and how many each: ``(label, steps)``.
+    frozen_legs: list[tuple[str, int]] = field(default_factory=list)
+    #: lpik: the statuses and binding limits of the frozen steps, by count.
+    frozen_statuses: Counter[str] = field(default_factory=Counter)
+    frozen_bindings: Counter[str] = field(default_factory=Counter)
     failed: int = 0
     first_failure: str | None = None
     recoveries: list[Recovery] = field(default_factory=list)
@@ -299,7 +310,7 @@ def scenario_metrics(
     """
     m = Metrics(frozen_without_direction=None if direction is None else 0)
     pos_all, ori_all, times, ps = [], [], [], []
-    high = total = 0.0
+    high = total = least_high = least_total = 0.0
     statuses: Counter[str] = Counter()
     bindings: Counter[str] = Counter()
     for leg, run in zip(legs, runs):
@@ -324,6 +335,7 @@ def scenario_metrics(
         far = (before[0] > TRACK_TOL[0]) | (before[1] > TRACK_TOL[1])
         frozen = np.flatnonzero(ok & far & ~moving)
         m.frozen += int(frozen.size)
+        _keep_frozen(m, leg, run, frozen)
         if direction is not None:  # the run starts at rest: q_prev of step 0 is q(0)
             m.frozen_without_direction += sum(
                 direction(q[k], q[max(k - 1, 0)], leg.targets[k]) <= 0.0 for k in frozen
@@ -334,6 +346,10 @@ def scenario_metrics(
             m.recoveries.append(_recovery(leg, after, change, dt))
         if leg.held:
             m.settlings.append(_settling(leg, after, _braking(run), dt))
+            if qdd is not None:
+                least = least_time_velocities(q[-1] - q[0], model.qd_max, qdd, dt, dq.shape[0])
+                h, t = high_energy(least, dt)
+                least_high, least_total = least_high + h, least_total + t
         if leg.scene is not None:
             m.clearances.append(_clearance(model, leg, q, after[0][-1]))
         m.braking += _braking(run)
@@ -347,6 +363,8 @@ def scenario_metrics(
         m.pos_rms, m.pos_max = 1e3 * float(np.sqrt(np.mean(pos**2))), 1e3 * float(pos.max())
         m.ori_rms, m.ori_max = 1e3 * float(np.sqrt(np.mean(ori**2))), 1e3 * float(ori.max())
     m.high = 100.0 * high / total if total > 0 else 0.0
+    if least_total > 0:
+        m.least_time_high = 100.0 * least_high / least_total
     ns = np.concatenate(times) / 1e3
     m.step_us = (float(np.median(ns)), float(np.percentile(ns, 99)), float(ns.max()))
     if ps:
@@ -376,6 +394,16 @@ def jitter_where_both_moved(a: Metrics, b: Metrics) -> tuple[float, float, int]:
         jb += float(tb[both].sum())
         only_a += int(np.count_nonzero(~ha & hb))
     return ja, jb, only_a
+
+
+def _keep_frozen(m: Metrics, leg: Leg, run: LegRun, frozen: NDArray[np.intp]) -> None:
+    """Keep where a leg's frozen steps are, and (lpik) their statuses and binding limits."""
+    if not frozen.size:
+        return
+    m.frozen_legs.append((leg.label, int(frozen.size)))
+    if run.status is not None and run.binding is not None:
+        m.frozen_statuses.update(run.status[k] for k in frozen)
+        m.frozen_bindings.update(run.binding[k] or "none" for k in frozen)
 
 
 def _keep_steps(
@@ -475,7 +503,8 @@ def _settling(leg: Leg, after: tuple[FloatArray, FloatArray], braking: int, dt: 
     first = int(bad[-1]) + 1 if bad.size else 0  # the step from which it stays settled
     settle_ms = 1e3 * (first + 1) * dt if first < good.size else None
     overshoot = float(np.max(position - np.minimum.accumulate(position)))
-    return Settling(leg.label, settle_ms, 1e3 * overshoot, braking)
+    final = (1e3 * float(position[-1]), 1e3 * float(orientation[-1]))
+    return Settling(leg.label, settle_ms, 1e3 * overshoot, braking, final)
 
 
 @dataclass(eq=False)

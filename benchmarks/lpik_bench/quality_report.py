@@ -401,12 +401,11 @@ MISSED_BECAUSE = {
     "goals/jitter": "mink's 595 comes with 38,591 failed steps (held still) and steps "
     "above the acceleration limit, which it does not take; drake +acc, under the same "
     "limits, 637",
-    "goals/settle_ms": "lp2s +acc ends on 3 of the 10 goals off: goal 5 0.087 mm off, its "
-    "configuration's sigma_min / sigma_max (3.8e-4) below the automatic multiplier bound's "
-    "floor (1e-3), where the bound stops the arm (benchmarks/random_goals.py: with "
-    "lambda_bound=None and the default command it is reached); goals 7 and 9 0.48 and "
-    "0.41 m off with joint 7 on its upper end-stop, reachable on another branch of the "
-    "inverse kinematics only; no library settles on every goal",
+    "goals/settle_ms": "goal 5's configuration has a sigma_min / sigma_max (3.8e-4) below "
+    "the automatic multiplier bound's floor (1e-3), where the bound stops the arm "
+    "(benchmarks/random_goals.py: with lambda_bound=None and the default command it is "
+    "reached); goals 7 and 9 end with joint 7 on its upper end-stop, reachable on another "
+    "branch of the inverse kinematics only; no library settles on every goal",
     "goals/overshoot": "156 mm in goal 9 and 110 mm in goal 7, after joint 7 reached its "
     "end-stop: the progress step (least L1 error, a metre priced as a radian) gives up "
     "position for orientation, and the tool drifts from the goal",
@@ -474,6 +473,54 @@ def _return_context(result: ScenarioResult, variant: str, reference: str, dt: fl
     return said
 
 
+def _least_time_context(result: ScenarioResult, variant: str, reference: str) -> str:
+    """Point-to-point moves: how much of the energy above 5 Hz the move's speed itself makes."""
+    mine, theirs = result.rows[variant], result.rows[reference]
+    if mine.least_time_high is None:
+        return ""
+    said = (
+        f"a move between the same configurations in the least time the limits allow (every "
+        f"joint on the slowest one's profile, at the acceleration and velocity limits) has "
+        f"{fmt(mine.least_time_high)} % of its energy above {HIGH_HZ:g} Hz ({variant}: "
+        f"{fmt(mine.high)} %): the share comes with the speed of the move; "
+        f"{_settles(variant, mine.settle_ms)}, {_settles(reference, theirs.settle_ms)}"
+    )
+    if theirs.failed:
+        said += f" ({_steps(theirs.failed)} failed)"
+    return said
+
+
+def _frozen_context(m: Metrics) -> str:
+    """Where the frozen steps are, what the step said there, and whether LP1 had a direction."""
+    if not m.frozen_legs:
+        return ""
+    legs = ", ".join(f"{label} {count:,}" for label, count in m.frozen_legs)
+    said = f"frozen in {legs}"
+    if m.frozen_statuses:
+        statuses = ", ".join(f"{k} {v:,}" for k, v in m.frozen_statuses.most_common(3))
+        bindings = "; ".join(f"{k} ({v:,})" for k, v in m.frozen_bindings.most_common(3))
+        said += f"; the steps there: {statuses}; binding: {bindings}"
+    if m.frozen_without_direction is not None:
+        said += (
+            f"; LP1's p (the largest of any step in the command's direction) is 0 on "
+            f"{m.frozen_without_direction:,} of them"
+        )
+    return said
+
+
+def _unsettled_context(m: Metrics, variant: str) -> str:
+    """The point-to-point legs that never settled, and how far off each ended."""
+    never = [s for s in m.settlings if s.settle_ms is None]
+    if not never:
+        return ""
+    ends = ", ".join(f"{s.label} {fmt(s.final[0])} mm and {fmt(s.final[1])} mrad" for s in never)
+    return f"{variant} ends off on {len(never)} of {len(m.settlings)} moves: {ends}"
+
+
+def _settles(name: str, ms: float) -> str:
+    return f"{name} never settles" if math.isinf(ms) else f"{name} settles in {ms:,.0f} ms"
+
+
 def _steps(count: int) -> str:
     return f"{count:,} step" if count == 1 else f"{count:,} steps"
 
@@ -495,6 +542,12 @@ def measured_context(result: ScenarioResult, variant: str, verdict: Verdict, dt:
         return ""
     if verdict.metric.key in ("pos_rms", "pos_max"):
         return _return_context(result, variant, verdict.reference[0][0], dt)
+    if verdict.metric.key == "high":
+        return _least_time_context(result, variant, verdict.reference[0][0])
+    if verdict.metric.key == "frozen":
+        return _frozen_context(result.rows[variant])
+    if verdict.metric.key == "settle_ms":
+        return _unsettled_context(result.rows[variant], variant)
     if verdict.metric.key != "jitter":
         return ""
     said = []

@@ -12,6 +12,7 @@ order of the report, so a new scenario is one builder and one entry.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -404,16 +405,44 @@ def acceleration(model: PoseTask, dt: float, max_steps: int | None) -> Scenario:
     return Scenario("acceleration", "6. Acceleration limits", what, legs, acceleration_checked=True)
 
 
-def rest_to_rest_time(distance: FloatArray, qd_max: FloatArray, qdd_max: float) -> float:
-    """The least time [s] in which every joint covers ``distance`` from rest to rest.
+def rest_to_rest_times(distance: FloatArray, qd_max: FloatArray, qdd_max: float) -> FloatArray:
+    """The least time [s] in which each joint alone covers ``distance`` from rest to rest.
 
-    Each joint alone, at its velocity limit and ``qdd_max`` (bang-bang, or
-    trapezoidal where it reaches its velocity limit); the slowest joint's time.
+    At its velocity limit and ``qdd_max``: bang-bang, or trapezoidal where it
+    reaches its velocity limit.
     """
     d = np.abs(np.asarray(distance, dtype=float))
     bang = 2.0 * np.sqrt(d / qdd_max)
     cruise = d / qd_max + qd_max / qdd_max
-    return float(np.max(np.where(d <= qd_max**2 / qdd_max, bang, cruise)))
+    return np.where(d <= qd_max**2 / qdd_max, bang, cruise)
+
+
+def rest_to_rest_time(distance: FloatArray, qd_max: FloatArray, qdd_max: float) -> float:
+    """The least time [s] in which every joint covers ``distance`` from rest to rest:
+    the slowest joint's (:func:`rest_to_rest_times`)."""
+    return float(np.max(rest_to_rest_times(distance, qd_max, qdd_max)))
+
+
+def least_time_velocities(
+    distance: FloatArray, qd_max: FloatArray, qdd_max: float, dt: float, steps: int
+) -> FloatArray:
+    """Joint velocities (steps, n) [rad/s] of a rest-to-rest move over ``distance`` in the
+    least time the limits allow (:func:`rest_to_rest_time`).
+
+    Every joint follows the slowest joint's speed profile (at ``qdd_max`` and its
+    velocity limit), scaled to its own distance, so that all arrive together;
+    sampled at the middle of each period, at rest after the move.
+    """
+    d = np.asarray(distance, dtype=float)
+    times = rest_to_rest_times(d, qd_max, qdd_max)
+    slowest = int(np.argmax(times))
+    length = abs(d[slowest])
+    if length == 0.0:
+        return np.zeros((steps, d.size))
+    peak = min(math.sqrt(length * qdd_max), float(qd_max[slowest]))
+    t = (np.arange(steps) + 0.5) * dt
+    speed = np.clip(np.minimum(qdd_max * t, qdd_max * (times[slowest] - t)), 0.0, peak)
+    return (speed / length)[:, None] * d[None, :]
 
 
 def _random_moves(model: PoseTask, q0: FloatArray) -> list[tuple[FloatArray, str]]:
