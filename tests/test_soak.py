@@ -58,6 +58,18 @@ def test_closed_loops_over_other_arms_and_settings_break_no_limit(robot, setting
     assert report.steps == steps and report.statuses.get("optimal", 0) > 0
 
 
+def test_a_closed_loop_on_measured_joints_keeps_its_contract() -> None:
+    """lpik_bench.closed_loops' encoder-noise setting, sized for CI: every step held to the
+    contract of a loop closed on noisy readings (lpik_bench.soak.check_measured_step)."""
+    from lpik_bench.closed_loops import SETTINGS
+
+    setting = next(name for name in SETTINGS if "noise" in SETTINGS[name])
+    report = run("panda", setting, 2_000, seed=3)
+    assert report.broken() == 0, report
+    assert report.steps == 2_000 and report.statuses.get("optimal", 0) > 0
+    assert report.worst_acceleration_ratio > 0.0  # the band was checked
+
+
 def test_the_closed_loops_are_in_the_reliability_page() -> None:
     """docs/reliability.md holds the generated table: every arm and setting, nothing broken."""
     from pathlib import Path

@@ -17,6 +17,13 @@ the safety distance ending inside it), and its time is taken: a step above 1
 ms misses a 1 kHz period (a kernel loaded from numba's cache inside the loop
 once cost 11 ms after the first bad sample).
 
+One setting closes the loop on measured joints (:func:`run_measured`): each
+state is the last command plus encoder noise, the reading before it is
+``q_prev``, and each step is held to that loop's contract
+(:func:`lpik_bench.soak.check_measured_step`: no command further past an
+end-stop than its reading, the velocity limits, and each step but a recovery
+within twice the acceleration band of the step answered before it).
+
 Run it from the repository root (``--write`` puts the table into
 ``docs/reliability.md``, between its markers)::
 
@@ -36,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik_bench.soak import DT, SoakReport, Walk, check_step, write_block
+from lpik_bench.soak import DT, SoakReport, Walk, check_measured_step, check_step, write_block
 
 #: The arms, by their names in lpik's registry.
 ROBOTS = ("panda", "ur5e", "iiwa14")
@@ -51,6 +58,7 @@ SETTINGS: dict[str, dict[str, Any]] = {
     "saturate=False, qdd_max=10": {"qdd_max": 10.0, "saturate": False},
     "position task, qdd_max=10": {"qdd_max": 10.0, "task": "position"},
     "the shelf scene, qdd_max=10": {"qdd_max": 10.0, "scene": "panda-shelf"},
+    "measured joints (noise 1e-4 rad), qdd_max=10": {"qdd_max": 10.0, "noise": 1e-4},
 }
 #: The settings with a scene run on the arm the scene is laid out for only.
 SCENE_ARM = "panda"
@@ -69,17 +77,37 @@ PERIOD = 1e-3
 BEGIN, END = "<!-- loops:begin -->", "<!-- loops:end -->"
 
 
-def run(robot: str, setting: str, steps: int, seed: int = 0) -> SoakReport:
-    """``robot``'s compiled controller under ``SETTINGS[setting]`` for ``steps`` steps."""
+def _setup(robot: str, setting: str) -> tuple[Any, Any, Any, str, dict[str, Any]]:
+    """The task model, compiled controller, scene (or None), task kind and keyword arguments
+    of ``robot`` under ``SETTINGS[setting]``."""
     from lpik.collision import load_scene
     from lpik.control.controller import Lp2Controller
-    from lpik.robots.registry import home_configuration, load_robot
+    from lpik.robots.registry import load_robot
 
     options = dict(SETTINGS[setting])
+    options.pop("noise", None)
     task = options.pop("task", "pose")  # the walk is a pose; a position task follows its point
     model = load_robot(robot, task=task)
     scene = None if "scene" not in options else load_scene(options.pop("scene"))
     controller = Lp2Controller(model, dt=DT, compile="now", scene=scene, **options)
+    return model, controller, scene, task, options
+
+
+def _times(times: Any) -> list[float]:
+    """Median, p99, p99.9, max [s] and how many steps missed :data:`PERIOD`."""
+    return [float(np.median(times)), float(np.percentile(times, 99)),
+            float(np.percentile(times, 99.9)), float(times.max()),
+            float((times > PERIOD).sum())]  # fmt: skip
+
+
+def run(robot: str, setting: str, steps: int, seed: int = 0) -> SoakReport:
+    """``robot``'s compiled controller under ``SETTINGS[setting]`` for ``steps`` steps
+    (a setting with ``noise``: :func:`run_measured`)."""
+    from lpik.robots.registry import home_configuration, load_robot
+
+    if "noise" in SETTINGS[setting]:
+        return run_measured(robot, setting, steps, seed)
+    model, controller, scene, task, options = _setup(robot, setting)
     rng = np.random.default_rng(seed)
     q = home_configuration(robot)
     q_prev = q.copy()
@@ -107,9 +135,45 @@ def run(robot: str, setting: str, steps: int, seed: int = 0) -> SoakReport:
         report.longest_p_zero_run = max(report.longest_p_zero_run, run_length)
         q_prev, q = q, np.array(result.q, dtype=np.float64)
     report.steps = steps
-    report.step_times = [float(np.median(times)), float(np.percentile(times, 99)),
-                         float(np.percentile(times, 99.9)), float(times.max()),
-                         float((times > PERIOD).sum())]  # fmt: skip
+    report.step_times = _times(times)
+    return report
+
+
+def run_measured(robot: str, setting: str, steps: int, seed: int = 0) -> SoakReport:
+    """The loop closed on measured joints: each state is the last command plus encoder noise.
+
+    The drives are taken to follow each command exactly, and the controller is given
+    the reading of that position (``noise`` rad of Gaussian noise per joint) as ``q0``
+    and the reading before as ``q_prev``, as a loop on a real arm's encoders is. Each
+    step is held to the contract of such a loop (:func:`lpik_bench.soak.check_measured_step`).
+    """
+    from lpik.robots.registry import home_configuration, load_robot
+
+    model, controller, _, _, options = _setup(robot, setting)
+    noise = float(SETTINGS[setting]["noise"])
+    rng = np.random.default_rng(seed)
+    q = home_configuration(robot)
+    start = load_robot(robot).pose(q)
+    walk = Walk(start, rng, center=start[:3, 3], radius=RADIUS)
+    report = SoakReport(path=f"{robot}, {setting}")
+    times = np.empty(steps)
+    reading_before, answered, run_length = q.copy(), None, 0
+    for k in range(steps):
+        target = walk.next()
+        reading = q + rng.normal(0.0, noise, q.size)
+        t0 = time.perf_counter()
+        result = controller.step(reading, target, reading_before)
+        times[k] = time.perf_counter() - t0
+        report.statuses[result.status] = report.statuses.get(result.status, 0) + 1
+        check_measured_step(report, model, reading, answered, result.q, result.p,
+                            result.status, options["qdd_max"])  # fmt: skip
+        run_length = run_length + 1 if result.p == 0.0 else 0
+        report.p_zero_steps += result.p == 0.0
+        report.longest_p_zero_run = max(report.longest_p_zero_run, run_length)
+        q, reading_before = np.array(result.q, dtype=np.float64), reading
+        answered = q - reading
+    report.steps = steps
+    report.step_times = _times(times)
     return report
 
 

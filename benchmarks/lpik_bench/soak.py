@@ -154,6 +154,34 @@ def check_step(  # type: ignore[no-untyped-def]
         report.velocity_violations += bool((np.abs(dq) > model.qd_max * DT + STEP_TOL).any())
 
 
+def check_measured_step(  # type: ignore[no-untyped-def]
+    report: SoakReport, model, reading, answered, q, p, status, qdd_max: float
+) -> None:
+    """Count what a step of a loop closed on measured joints breaks.
+
+    The contract of such a loop (docs/concepts.md): no command further past an
+    end-stop than its ``reading``; every step within the velocity limits; each
+    step that is not a recovery within twice the acceleration limits' share of a
+    period of the step ``answered`` before it (None on the first step: nothing
+    to check against); no NaN; ``p`` in [0, 1].
+    """
+    if not (np.isfinite(q).all() and np.isfinite(p)):
+        report.non_finite += 1
+        return
+    report.p_outside_unit += not (0.0 <= p <= 1.0)
+    step = q - reading
+    past_before = np.maximum(reading - model.q_max, 0) + np.maximum(model.q_min - reading, 0)
+    past_after = np.maximum(q - model.q_max, 0) + np.maximum(model.q_min - q, 0)
+    report.end_stop_violations += bool((past_after > past_before + STOP_TOL).any())
+    report.velocity_violations += bool((np.abs(step) > model.qd_max * DT + STEP_TOL).any())
+    if answered is None or status == RECOVERING:
+        return
+    band = 2.0 * qdd_max * DT * DT
+    excess = np.abs(step - answered) / band
+    report.acceleration_violations += bool((np.abs(step - answered) > band + STEP_TOL).any())
+    report.worst_acceleration_ratio = max(report.worst_acceleration_ratio, float(excess.max()))
+
+
 def soak(
     steps: int, *, path: str = "compiled", seed: int = 0, glitch_every: int = 50_000
 ) -> SoakReport:
