@@ -332,24 +332,15 @@ def scenario_metrics(
             m.violations[kind] = (old[0] + count, max(old[1], worst))
         moving = np.abs(dq).max(axis=1) > FROZEN_DQ
         _keep_steps(m, model, leg, run, change, after[0], moving)
-        far = (before[0] > TRACK_TOL[0]) | (before[1] > TRACK_TOL[1])
-        frozen = np.flatnonzero(ok & far & ~moving)
-        m.frozen += int(frozen.size)
-        _keep_frozen(m, leg, run, frozen)
-        if direction is not None:  # the run starts at rest: q_prev of step 0 is q(0)
-            m.frozen_without_direction += sum(
-                direction(q[k], q[max(k - 1, 0)], leg.targets[k]) <= 0.0 for k in frozen
-            )
+        _keep_frozen(m, leg, run, before, moving, direction)
         m.failed += run.failed
         m.first_failure = m.first_failure or run.first_failure
         if leg.settle_from is not None:
             m.recoveries.append(_recovery(leg, after, change, dt))
         if leg.held:
             m.settlings.append(_settling(leg, after, _braking(run), dt))
-            if qdd is not None:
-                least = least_time_velocities(q[-1] - q[0], model.qd_max, qdd, dt, dq.shape[0])
-                h, t = high_energy(least, dt)
-                least_high, least_total = least_high + h, least_total + t
+            h, t = _least_time_energy(model, q, qdd, dt)
+            least_high, least_total = least_high + h, least_total + t
         if leg.scene is not None:
             m.clearances.append(_clearance(model, leg, q, after[0][-1]))
         m.braking += _braking(run)
@@ -396,10 +387,34 @@ def jitter_where_both_moved(a: Metrics, b: Metrics) -> tuple[float, float, int]:
     return ja, jb, only_a
 
 
-def _keep_frozen(m: Metrics, leg: Leg, run: LegRun, frozen: NDArray[np.intp]) -> None:
-    """Keep where a leg's frozen steps are, and (lpik) their statuses and binding limits."""
+def _least_time_energy(
+    model: PoseTask, q: FloatArray, qdd: float | None, dt: float
+) -> tuple[float, float]:
+    """:func:`high_energy` of the least-time move from ``q[0]`` to ``q[-1]`` over the run's
+    steps (:func:`~lpik_bench.quality_scenarios.least_time_velocities`); 0, 0 without ``qdd``."""
+    if qdd is None:
+        return 0.0, 0.0
+    least = least_time_velocities(q[-1] - q[0], model.qd_max, qdd, dt, q.shape[0] - 1)
+    return high_energy(least, dt)
+
+
+def _keep_frozen(
+    m: Metrics, leg: Leg, run: LegRun, before: tuple[FloatArray, FloatArray],
+    moving: NDArray[np.bool_], direction: Callable[..., float] | None,
+) -> None:  # fmt: skip
+    """Count a leg's frozen steps (the error ``before`` each step beyond :data:`TRACK_TOL`,
+    the target reachable, no joint ``moving``), those without an exact ``direction``, where
+    they are, and (lpik) their statuses and binding limits."""
+    far = (before[0] > TRACK_TOL[0]) | (before[1] > TRACK_TOL[1])
+    frozen = np.flatnonzero(leg.reachable & far & ~moving)
     if not frozen.size:
         return
+    m.frozen += int(frozen.size)
+    if direction is not None:  # the run starts at rest: q_prev of step 0 is q(0)
+        q = run.q
+        m.frozen_without_direction = (m.frozen_without_direction or 0) + sum(
+            direction(q[k], q[max(k - 1, 0)], leg.targets[k]) <= 0.0 for k in frozen
+        )
     m.frozen_legs.append((leg.label, int(frozen.size)))
     if run.status is not None and run.binding is not None:
         m.frozen_statuses.update(run.status[k] for k in frozen)
