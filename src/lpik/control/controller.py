@@ -64,6 +64,7 @@ from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL
 from lpik.fast import layout
 from lpik.fast.autobound import bound_in_state, floor_in_state, settings
 from lpik.fast.batch import BatchResult
+from lpik.fast.command_law import follow_in_state
 from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.outcome import compiled_result
@@ -544,10 +545,23 @@ class Lp2Controller:
         if motion is None or not watch:
             return self._step(q0, target, q_prev, watch)
         if q_prev is not None:
-            q_prev = motion.previous(q0, q_prev)
+            taken = motion.previous(q0, q_prev)
+            if taken is not q_prev:
+                self._follow(q0, q_prev, taken)
+            q_prev = taken
         result = self._step(q0, target, q_prev, True)
         motion.hold(q0, result.q)
         return result
+
+    def _follow(self, q0: Any, q_prev: Any, taken: FloatArray) -> None:
+        """The check took ``taken`` for ``q_prev``: the step still follows the last one.
+
+        The memories that feed the target's motion forward, the fused step's and the
+        numpy engine's, are keyed by ``taken`` (:func:`lpik.command.continues_with`).
+        """
+        q, prev = (np.asarray(v, dtype=np.float64) for v in (q0, q_prev))
+        follow_in_state(self._state, q, prev, taken)
+        self.stepper.target_motion.follow(q, prev, taken)
 
     def _step(self, q0: Any, target: Any, q_prev: Any, watch: bool = True) -> Result:
         """:meth:`step` on the state as given (no check against the last answer)."""
@@ -734,10 +748,12 @@ class Lp2Controller:
         motion = self.motion  # the check and the hold inline: the tightest loop's cost
         if motion is not None and q_prev is not None:
             try:
-                if motion.check(q0, q_prev, motion.memory):
-                    q_prev = motion.taken()
+                taken = motion.taken() if motion.check(q0, q_prev, motion.memory) else q_prev
             except NOT_VECTORS:
-                q_prev = motion.previous(q0, q_prev)
+                taken = motion.previous(q0, q_prev)
+            if taken is not q_prev:
+                self._follow(q0, q_prev, taken)
+            q_prev = taken
         p = self._step_into(q0, target, q_prev, out)
         if self.scene_rows is not None and self.inside(q0):
             self._last, self._last_code = self._step(q0, target, q_prev), -1  # the recovery stage

@@ -459,7 +459,10 @@ class Stepper:
         q = self._joints("q0", q0)
         prev = None if q_prev is None else self._joints("q_prev", q_prev)
         if prev is not None and self.motion is not None:  # a measured loop's noise
-            prev = self.motion.previous(q, prev)
+            taken = self.motion.previous(q, prev)
+            if taken is not prev:  # the step still follows the last one
+                self.target_motion.follow(q, prev, taken)
+            prev = taken
         result = self._step_as_given(q, target, prev)
         if self.motion is not None:
             self.motion.hold(q, result.q)

@@ -213,6 +213,20 @@ def target_motion(state, q0, q_prev, goal):
     return motion
 
 
+#: Whether the target's memory is keyed by a measured loop's q_prev
+#: (:func:`lpik.command.continues_with`).
+continues_with = njit(cache=True)(command.continues_with)
+
+
+@njit(cache=True)
+def follow_in_state(state, q0, q_prev, taken):
+    """:meth:`lpik.command.TargetMotion.follow` on the state's ``memory*`` blocks."""
+    seen = L.vector(state, L.MEMORY_Q)
+    if L.vector(state, L.MEMORY)[0] != 0.0 and continues_with(seen, q0, q_prev, taken):
+        for i in range(seen.shape[0]):
+            seen[i] = taken[i]
+
+
 @njit(cache=True)
 def _equal(a, b, size):
     for i in range(size):
