@@ -64,7 +64,6 @@ from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL
 from lpik.fast import layout
 from lpik.fast.autobound import bound_in_state, floor_in_state, settings
 from lpik.fast.batch import BatchResult
-from lpik.fast.command_law import follow_in_state
 from lpik.fast.lp2_kernel import INFEASIBLE as KERNEL_INFEASIBLE
 from lpik.fast.lp2_kernel import OK
 from lpik.fast.outcome import compiled_result
@@ -269,6 +268,10 @@ class Lp2Controller:
         ValueError: For a model the compiled path does not support, or bad limits/weights.
     """
 
+    #: The typed kernel that keeps the fused step's memory of the target's motion after a
+    #: corrected ``q_prev`` (:func:`lpik.fast.commanded.follow_kernel`); None until loaded.
+    _follow_kernel: Any = None
+
     def __init__(
         self,
         model: TaskModel,
@@ -363,9 +366,10 @@ class Lp2Controller:
         compile_now(self._target_axes, self._stages)
         self._kernel, self._batch = step_functions(self.model, self._state, self._target_axes)
         if self.motion is not None:
-            from lpik.fast.commanded import motion_kernels
+            from lpik.fast.commanded import follow_kernel, motion_kernels
 
             self.motion.compiled(*motion_kernels())
+            self._follow_kernel = follow_kernel()
 
     @property
     def engine(self) -> str:
@@ -556,11 +560,13 @@ class Lp2Controller:
     def _follow(self, q0: Any, q_prev: Any, taken: FloatArray) -> None:
         """The check took ``taken`` for ``q_prev``: the step still follows the last one.
 
-        The memories that feed the target's motion forward, the fused step's and the
-        numpy engine's, are keyed by ``taken`` (:func:`lpik.command.continues_with`).
+        The memories that feed the target's motion forward, the fused step's (once its
+        kernels are loaded) and the numpy layers' (the numpy engine's, and the problems
+        the fallbacks build), are keyed by ``taken`` (:func:`lpik.command.continues_with`).
         """
-        q, prev = (np.asarray(v, dtype=np.float64) for v in (q0, q_prev))
-        follow_in_state(self._state, q, prev, taken)
+        q, prev = (np.ascontiguousarray(v, dtype=np.float64) for v in (q0, q_prev))
+        if self._follow_kernel is not None:
+            self._follow_kernel(self._state, q, prev, taken)
         self.stepper.target_motion.follow(q, prev, taken)
 
     def _step(self, q0: Any, target: Any, q_prev: Any, watch: bool = True) -> Result:

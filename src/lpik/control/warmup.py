@@ -39,7 +39,14 @@ from numba import types
 
 from lpik.defaults import COMPILE_ENV, COMPILE_MODES, DEFAULT_COMPILE
 from lpik.fast.autobound import bound_in_state, floor_in_state
-from lpik.fast.commanded import HOLD_SIGNATURE, PLAUSIBLE_SIGNATURE, hold_step, plausible_previous
+from lpik.fast.command_law import follow_in_state
+from lpik.fast.commanded import (
+    FOLLOW_SIGNATURE,
+    HOLD_SIGNATURE,
+    PLAUSIBLE_SIGNATURE,
+    hold_step,
+    plausible_previous,
+)
 from lpik.fast.progress import (
     further_stage,
     largest_share_lp,
@@ -65,7 +72,11 @@ STAGES = {
     "further": ((further_stage, (_VECTOR,) * 6),),  # mode="progress"'s second stage
     # under acceleration limits: the state's implied step against the commanded one
     # (lpik.control.commanded)
-    "motion": ((plausible_previous, PLAUSIBLE_SIGNATURE), (hold_step, HOLD_SIGNATURE)),
+    "motion": (
+        (plausible_previous, PLAUSIBLE_SIGNATURE),
+        (hold_step, HOLD_SIGNATURE),
+        (follow_in_state, FOLLOW_SIGNATURE),  # the target's motion after a corrected q_prev
+    ),
     # the automatic multiplier bound's rule on the fused step's state, over a SerialChain
     "bound": ((bound_in_state, (_VECTOR,) * 3),),
     # a scene's recovery stage (lpik.collision.recovery.recovery_motion on the state's arrays)

@@ -218,13 +218,19 @@ def target_motion(state, q0, q_prev, goal):
 continues_with = njit(cache=True)(command.continues_with)
 
 
-@njit(cache=True)
-def follow_in_state(state, q0, q_prev, taken):
-    """:meth:`lpik.command.TargetMotion.follow` on the state's ``memory*`` blocks."""
+def follow(state, q0, q_prev, taken):  # type: ignore[no-untyped-def]
+    """:meth:`lpik.command.TargetMotion.follow` on the state's ``memory*`` blocks.
+
+    Compiled as :data:`follow_in_state` (the background compile's) and by
+    :func:`lpik.fast.commanded.follow_kernel` (the controller's, typed).
+    """
     seen = L.vector(state, L.MEMORY_Q)
     if L.vector(state, L.MEMORY)[0] != 0.0 and continues_with(seen, q0, q_prev, taken):
         for i in range(seen.shape[0]):
             seen[i] = taken[i]
+
+
+follow_in_state = njit(cache=True)(follow)
 
 
 @njit(cache=True)

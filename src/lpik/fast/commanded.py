@@ -4,7 +4,8 @@ The same functions, compiled as they are: ``plausible_previous`` and ``hold_step
 are the dispatchers the background compile fills numba's disk cache with
 (:data:`lpik.control.warmup.STAGES`); :func:`motion_kernels` are the controller's,
 typed, so that arguments of other types raise ``TypeError`` instead of compiling
-in the middle of a loop.
+in the middle of a loop. :func:`follow_kernel` keeps the fused step's memory of
+the target's motion where a step's ``q_prev`` was corrected.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any
 from numba import njit, types
 
 from lpik import continuation as rule
+from lpik.fast import command_law
 from lpik.fast.signatures import typed_kernel
 
 plausible_previous = njit(cache=True)(rule.plausible_previous)
@@ -22,6 +24,8 @@ hold_step = njit(cache=True)(rule.hold_step)
 _VECTOR, _MATRIX = types.float64[::1], types.float64[:, ::1]
 #: The argument types each is called with.
 PLAUSIBLE_SIGNATURE = HOLD_SIGNATURE = (_VECTOR, _VECTOR, _MATRIX)
+#: ``follow(state, q0, q_prev, taken)``'s (:func:`lpik.fast.command_law.follow`).
+FOLLOW_SIGNATURE = (_VECTOR,) * 4
 
 
 def motion_kernels() -> tuple[Any, Any]:
@@ -33,3 +37,13 @@ def motion_kernels() -> tuple[Any, Any]:
         typed_kernel("plausible_previous", rule.plausible_previous, [PLAUSIBLE_SIGNATURE]),
         typed_kernel("hold_step", rule.hold_step, [HOLD_SIGNATURE]),
     )
+
+
+def follow_kernel() -> Any:
+    """The typed dispatcher of :func:`lpik.fast.command_law.follow`.
+
+    A step whose ``q_prev`` was corrected keeps the fused step's memory of the
+    target's motion (:func:`lpik.command.continues_with`). Loaded from the disk cache
+    (:data:`lpik.control.warmup.STAGES` fills it), else compiled.
+    """
+    return typed_kernel("follow_in_state", command_law.follow, [FOLLOW_SIGNATURE])
