@@ -163,3 +163,56 @@ def test_a_noisy_measured_loop_keeps_every_limit_against_the_motion_it_takes(
         if k and result.status != "recovering":
             assert np.all(np.abs(step - answered) <= 2 * BAND + 1e-12), (k, result.status)
         reading_before, answered = reading, step
+
+
+def _feed(controller, how: str, steps: int = 12) -> None:  # type: ignore[no-untyped-def]
+    """The getting-started move, fed back ``how``: ``commands`` (q0 the last answer, q_prev
+    the one before), ``readings`` (the last two readings, 1e-5 rad of noise), ``no q_prev``
+    (the last answer alone) or ``reading and command`` (q0 a reading, q_prev the last answer)."""
+    rng = np.random.default_rng(1)
+    q = home_configuration("panda")
+    target = PANDA.pose(q)
+    target[0, 3] += 0.05
+    before = q.copy()
+    for _ in range(steps):
+        reading = q + rng.normal(0.0, 1e-5, q.size)
+        if how == "commands":
+            answer = controller.step(q, target, before).q
+            before = q
+        elif how == "readings":
+            answer = controller.step(reading, target, before).q
+            before = reading
+        elif how == "no q_prev":
+            answer = controller.step(q, target).q
+        else:
+            answer = controller.step(reading, target, q).q
+        q = answer
+
+
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+@pytest.mark.parametrize("how", ["no q_prev", "reading and command"])
+def test_a_loop_that_feeds_its_answer_back_as_the_past_is_warned(engine: str, how: str) -> None:
+    """Feeding the last answer back as the configuration one period before q0 says the arm
+    did not move while it was commanded to: under acceleration limits every step starts
+    from rest and the tool crawls (still 40 mm off the 5 cm goal after 3 s). The first
+    steps of a loop are watched, and that loop is told once."""
+    from lpik.control.stepper import Stepper
+
+    controller = (Lp2Controller(PANDA, dt=1e-3, qdd_max=10.0) if engine == "compiled"
+                  else Stepper(PANDA, dt=1e-3, qdd_max=10.0))  # fmt: skip
+    with pytest.warns(RuntimeWarning, match="q_prev is the last step's answer") as seen:
+        _feed(controller, how)
+    assert len([w for w in seen if issubclass(w.category, RuntimeWarning)]) == 1
+
+
+@pytest.mark.parametrize("how", ["commands", "readings"])
+def test_a_loop_fed_as_documented_is_not_warned(how: str) -> None:
+    """Commands fed back as commands, or readings as readings: no warning."""
+    import warnings
+
+    controller = Lp2Controller(PANDA, dt=1e-3, qdd_max=10.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        _feed(controller, how)
+        controller.reset()
+        _feed(controller, how)

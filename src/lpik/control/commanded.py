@@ -27,6 +27,7 @@ passes a ``q_prev`` that is not the last ``q0``, is taken as it comes.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -36,6 +37,7 @@ from lpik.continuation import (
     BAND_LOWER,
     BAND_UPPER,
     HELD_FROM,
+    HELD_STEP,
     PLAUSIBLE,
     hold_step,
     plausible_previous,
@@ -45,6 +47,20 @@ from lpik.types import FloatArray
 #: What the check raises for arguments that are not float64 (n,) arrays: the compiled
 #: twin a ``TypeError``, the plain function on lists or other shapes the others.
 NOT_VECTORS = (TypeError, AttributeError, ValueError, IndexError)
+#: The first steps of a loop whose feeding is watched (:meth:`CommandedMotion.watch_feed`),
+#: and how many of them in a row must feed the last answer back as the configuration one
+#: period before ``q0`` for the warning.
+FEED_WATCH, MISFED_STEPS = 8, 3
+#: How near the last answer a configuration is taken to be it [rad]: the rounding of
+#: ``q0 + (q - q0)``.
+ANSWER_TOL = 1e-12
+#: The warning of a loop that feeds the last answer back as ``q_prev`` (or none).
+MISFED = (
+    "q_prev is the last step's answer (or missing, with q0 that answer) while the arm moved "
+    "on the last step: under acceleration limits each step then starts from rest, and the "
+    "tool crawls. Pass the configuration one period before q0: in a loop fed its commands "
+    "the last q0 (q_prev, q = q, result.q), in a loop on measured joints the reading before"
+)
 
 
 class CommandedMotion:
@@ -68,6 +84,9 @@ class CommandedMotion:
         #: controller), for callers that run them on ``memory`` themselves.
         self.check: Callable[..., bool] = plausible_previous
         self.keep: Callable[..., None] = hold_step
+        #: Whether the next steps' feeding is watched (:meth:`watch_feed`).
+        self.watching = True
+        self._watched = self._misfed = 0
 
     @property
     def held_from(self) -> FloatArray:
@@ -123,5 +142,37 @@ class CommandedMotion:
                 self.keep(*vectors, self.memory)
 
     def forget(self) -> None:
-        """Forget the last step: the next state is taken as it comes."""
+        """Forget the last step: the next state is taken as it comes (and its loop watched)."""
         self.memory[HELD_FROM] = np.nan
+        self.watching, self._watched, self._misfed = True, 0, 0
+
+    def watch_feed(self, q0: Any, q_prev: Any) -> None:
+        """Warn once where a loop's first steps feed back the last answer as its ``q_prev``.
+
+        Over the first :data:`FEED_WATCH` steps after the memory starts: a ``q_prev``
+        within :data:`ANSWER_TOL` of the last answer ``q`` that is not its ``q0``, or no
+        ``q_prev`` with ``q0`` that answer, after a step that moved, says the arm has not
+        moved over the period while it was commanded to: each step then starts from
+        rest, the tool crawls under acceleration limits, and nothing fails. On
+        :data:`MISFED_STEPS` such steps in a row, a ``RuntimeWarning`` (:data:`MISFED`).
+        A step whose arguments are not coordinates ends the watch (the step names them).
+        """
+        self._watched += 1
+        self.watching = self._watched < FEED_WATCH
+        step = self.memory[HELD_STEP]
+        if not (np.isfinite(self.held_from).all() and step.any()):
+            return
+        try:
+            last = np.asarray(q0 if q_prev is None else q_prev, dtype=np.float64)
+            answer = self.held_from + step
+            misfed = last.shape == answer.shape and bool(
+                np.all(np.abs(last - answer) <= ANSWER_TOL)
+                and (q_prev is None or not np.array_equal(last, self.held_from))
+            )
+        except (TypeError, ValueError):
+            self.watching = False
+            return
+        self._misfed = self._misfed + 1 if misfed else 0
+        if self._misfed >= MISFED_STEPS:
+            warnings.warn(MISFED, RuntimeWarning, stacklevel=3)
+            self.watching = False

@@ -548,6 +548,8 @@ class Lp2Controller:
         motion = self.motion
         if motion is None or not watch:
             return self._step(q0, target, q_prev, watch)
+        if motion.watching:
+            motion.watch_feed(q0, q_prev)
         if q_prev is not None:
             taken = motion.previous(q0, q_prev)
             if taken is not q_prev:
@@ -752,6 +754,8 @@ class Lp2Controller:
                 f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
             )
         motion = self.motion  # the check and the hold inline: the tightest loop's cost
+        if motion is not None and motion.watching:
+            motion.watch_feed(q0, q_prev)
         if motion is not None and q_prev is not None:
             try:
                 taken = motion.taken() if motion.check(q0, q_prev, motion.memory) else q_prev
