@@ -303,6 +303,21 @@ def test_a_motion_too_fast_to_stop_before_the_end_stop_is_not_continued_into_it(
 # -------------------------------------------------------------------- random states
 
 
+def _tied(problem, a, b) -> bool:  # type: ignore[no-untyped-def]
+    """Whether two steps that name different joint bounds both sit on both: a tie of the
+    bounds that stop p (every joint on its acceleration band, for one), either named."""
+    lower, upper, _, _ = problem.step_bounds()
+    named = (a.binding, b.binding)
+    if any(x is None or x.kind not in ("end-stop", "velocity", "acceleration") for x in named):
+        return False
+    for binding in named:
+        bound = (lower if binding.side == "lower" else upper)[binding.index]
+        for step in (a, b):
+            if abs(step.dq[binding.index] - bound) > 1e-12 * max(1.0, abs(bound)):
+                return False
+    return True
+
+
 @st.composite
 def moving_states(draw: st.DrawFn):
     """A planar arm with all three kinds of limit and a state that may be outside them:
@@ -348,7 +363,9 @@ def test_every_step_from_any_state_keeps_the_contract(state) -> None:
         if compiled.path == "compiled" and reference.path == "ratio-test" and regular:
             assert compiled.status == reference.status
             if compiled.status != INFEASIBLE:  # an infeasible step's conflict may be a tie
-                assert compiled.binding == reference.binding
+                assert compiled.binding == reference.binding or _tied(
+                    problem, compiled, reference
+                ), (compiled.binding, reference.binding)
             np.testing.assert_allclose(compiled.q, reference.q, rtol=0, atol=atol)
     # a speed above the limit is a fault of the state, taken at the limit, and no faster
     # than the joint can still stop before its end-stop; so is a motion more than one
