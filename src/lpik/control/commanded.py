@@ -104,12 +104,20 @@ class CommandedMotion:
         """Use the compiled twins of :func:`plausible_previous` and :func:`hold_step`."""
         self.check, self.keep = plausible, hold
 
-    def previous(self, q0: Any, q_prev: Any) -> Any:
+    def admit(self, q0: Any, q_prev: Any) -> Any:
         """``q_prev``, or the plausible one (:func:`plausible_previous`) where it differs.
 
-        Arguments that are not (n,) coordinates are handed on as they are: the
-        step names what is wrong with them.
+        The ``q_prev`` a step of the loop takes (``None`` stays ``None``), after the
+        loop's first steps are watched (:meth:`watch_feed`). A result that ``is not
+        q_prev`` was corrected: the step still follows the last one
+        (:func:`lpik.command.continues_with`), which the caller's memory of the
+        target's motion is told. Arguments that are not (n,) coordinates are handed
+        on as they are: the step names what is wrong with them.
         """
+        if self.watching:
+            self.watch_feed(q0, q_prev)
+        if q_prev is None:
+            return None
         try:
             clipped = self.check(q0, q_prev, self.memory)
         except NOT_VECTORS:  # lists, other dtypes

@@ -48,7 +48,6 @@ from lpik.collision.recovery import (
 )
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX, TargetMotion
 from lpik.control.backend_step import fuses_kinematics, step_functions
-from lpik.control.commanded import NOT_VECTORS
 from lpik.control.inputs import (
     TARGET_SHAPES,
     chain_arrays,
@@ -548,14 +547,10 @@ class Lp2Controller:
         motion = self.motion
         if motion is None or not watch:
             return self._step(q0, target, q_prev, watch)
-        if motion.watching:
-            motion.watch_feed(q0, q_prev)
-        if q_prev is not None:
-            taken = motion.previous(q0, q_prev)
-            if taken is not q_prev:
-                self._follow(q0, q_prev, taken)
-            q_prev = taken
-        result = self._step(q0, target, q_prev, True)
+        taken = motion.admit(q0, q_prev)
+        if taken is not q_prev:
+            self._follow(q0, q_prev, taken)
+        result = self._step(q0, target, taken, True)
         motion.hold(q0, result.q)
         return result
 
@@ -753,14 +748,9 @@ class Lp2Controller:
                 f"out: must be a float64 array of shape ({self._n},), got "
                 f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}"
             )
-        motion = self.motion  # the check and the hold inline: the tightest loop's cost
-        if motion is not None and motion.watching:
-            motion.watch_feed(q0, q_prev)
-        if motion is not None and q_prev is not None:
-            try:
-                taken = motion.taken() if motion.check(q0, q_prev, motion.memory) else q_prev
-            except NOT_VECTORS:
-                taken = motion.previous(q0, q_prev)
+        motion = self.motion
+        if motion is not None:
+            taken = motion.admit(q0, q_prev)
             if taken is not q_prev:
                 self._follow(q0, q_prev, taken)
             q_prev = taken
@@ -770,10 +760,7 @@ class Lp2Controller:
             out[...] = self._last.q
             p = self._last.p
         if motion is not None:
-            try:
-                motion.keep(q0, out, motion.memory)
-            except NOT_VECTORS:
-                motion.hold(q0, out)
+            motion.hold(q0, out)
         return p
 
     def _step_into(self, q0: Any, target: Any, q_prev: Any, out: FloatArray) -> float:

@@ -458,10 +458,8 @@ class Stepper:
         """
         q = self._joints("q0", q0)
         prev = None if q_prev is None else self._joints("q_prev", q_prev)
-        if self.motion is not None and self.motion.watching:
-            self.motion.watch_feed(q, prev)
-        if prev is not None and self.motion is not None:  # a measured loop's noise
-            taken = self.motion.previous(q, prev)
+        if self.motion is not None:  # a measured loop's noise; the loop's feeding watched
+            taken = self.motion.admit(q, prev)
             if taken is not prev:  # the step still follows the last one
                 self.target_motion.follow(q, prev, taken)
             prev = taken
