@@ -43,7 +43,15 @@ from typing import Any
 
 import numpy as np
 
-from lpik_bench.soak import DT, SoakReport, Walk, check_measured_step, check_step, write_block
+from lpik_bench.soak import (
+    DT,
+    SoakReport,
+    Walk,
+    check_measured_step,
+    check_step,
+    tally,
+    write_block,
+)
 
 #: The arms, by their names in lpik's registry.
 ROBOTS = ("panda", "ur5e", "iiwa14")
@@ -124,15 +132,12 @@ def run(robot: str, setting: str, steps: int, seed: int = 0) -> SoakReport:
         t0 = time.perf_counter()
         result = controller.step(q, target, q_prev)
         times[k] = time.perf_counter() - t0
-        report.statuses[result.status] = report.statuses.get(result.status, 0) + 1
+        run_length = tally(report, result, run_length)
         check_step(report, model, q, q_prev, result.q, result.p, result.status,
                    options.get("qdd_max"))  # fmt: skip
         if scene is not None:
             report.below_safety += below_safety(controller.avoidance.proximities, q, result.q,
                                                 scene.safety_distance)  # fmt: skip
-        run_length = run_length + 1 if result.p == 0.0 else 0
-        report.p_zero_steps += result.p == 0.0
-        report.longest_p_zero_run = max(report.longest_p_zero_run, run_length)
         q_prev, q = q, np.array(result.q, dtype=np.float64)
     report.steps = steps
     report.step_times = _times(times)
@@ -164,12 +169,9 @@ def run_measured(robot: str, setting: str, steps: int, seed: int = 0) -> SoakRep
         t0 = time.perf_counter()
         result = controller.step(reading, target, reading_before)
         times[k] = time.perf_counter() - t0
-        report.statuses[result.status] = report.statuses.get(result.status, 0) + 1
+        run_length = tally(report, result, run_length)
         check_measured_step(report, model, reading, answered, result.q, result.p,
                             result.status, options["qdd_max"])  # fmt: skip
-        run_length = run_length + 1 if result.p == 0.0 else 0
-        report.p_zero_steps += result.p == 0.0
-        report.longest_p_zero_run = max(report.longest_p_zero_run, run_length)
         q, reading_before = np.array(result.q, dtype=np.float64), reading
         answered = q - reading
     report.steps = steps

@@ -518,7 +518,7 @@ def _unsettled_context(m: Metrics, variant: str) -> str:
 
 
 def _settles(name: str, ms: float) -> str:
-    return f"{name} never settles" if math.isinf(ms) else f"{name} settles in {ms:,.0f} ms"
+    return f"{name} never settles" if math.isinf(ms) else f"{name} settles in {fmt(ms)} ms"
 
 
 def _steps(count: int) -> str:

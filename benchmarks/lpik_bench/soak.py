@@ -125,6 +125,21 @@ class Walk:
         return pose
 
 
+def past_stops(model, q):  # type: ignore[no-untyped-def]
+    """How far each joint of ``q`` is past its end-stops [rad] (0 within them)."""
+    return np.maximum(q - model.q_max, 0) + np.maximum(model.q_min - q, 0)
+
+
+def tally(report: SoakReport, result, run_length: int) -> int:  # type: ignore[no-untyped-def]
+    """Count the step's status and ``p = 0``; returns the run of ``p = 0`` steps it ends or
+    lengthens."""
+    report.statuses[result.status] = report.statuses.get(result.status, 0) + 1
+    run_length = run_length + 1 if result.p == 0.0 else 0
+    report.p_zero_steps += result.p == 0.0
+    report.longest_p_zero_run = max(report.longest_p_zero_run, run_length)
+    return run_length
+
+
 def check_step(  # type: ignore[no-untyped-def]
     report: SoakReport, model, q0, q_prev, q, p, status, qdd_max: float | None = QDD_MAX
 ) -> None:
@@ -144,8 +159,7 @@ def check_step(  # type: ignore[no-untyped-def]
         excess = np.abs(dq - last) / decel
         report.acceleration_violations += bool((np.abs(dq - last) > decel + STEP_TOL).any())
         report.worst_acceleration_ratio = max(report.worst_acceleration_ratio, float(excess.max()))
-    past_before = np.maximum(q0 - model.q_max, 0) + np.maximum(model.q_min - q0, 0)
-    past_after = np.maximum(q - model.q_max, 0) + np.maximum(model.q_min - q, 0)
+    past_before, past_after = past_stops(model, q0), past_stops(model, q)
     if status == RECOVERING:
         braking = np.abs(dq - last) >= decel - STEP_TOL
         report.further_out += bool(((past_after > past_before + STOP_TOL) & ~braking).any())
@@ -170,9 +184,9 @@ def check_measured_step(  # type: ignore[no-untyped-def]
         return
     report.p_outside_unit += not (0.0 <= p <= 1.0)
     step = q - reading
-    past_before = np.maximum(reading - model.q_max, 0) + np.maximum(model.q_min - reading, 0)
-    past_after = np.maximum(q - model.q_max, 0) + np.maximum(model.q_min - q, 0)
-    report.end_stop_violations += bool((past_after > past_before + STOP_TOL).any())
+    report.end_stop_violations += bool(
+        (past_stops(model, q) > past_stops(model, reading) + STOP_TOL).any()
+    )
     report.velocity_violations += bool((np.abs(step) > model.qd_max * DT + STEP_TOL).any())
     if answered is None or status == RECOVERING:
         return
@@ -230,11 +244,8 @@ def soak(
         t0 = time.perf_counter()
         result = step(q, target, q_prev)
         times[k] = time.perf_counter() - t0
-        report.statuses[result.status] = report.statuses.get(result.status, 0) + 1
+        run = tally(report, result, run)
         check_step(report, model, q, q_prev, result.q, result.p, result.status)
-        run = run + 1 if result.p == 0.0 else 0
-        report.p_zero_steps += result.p == 0.0
-        report.longest_p_zero_run = max(report.longest_p_zero_run, run)
         q_prev, q = q, np.array(result.q, dtype=np.float64)
     report.wall_s = time.perf_counter() - start
     report.steps = steps
