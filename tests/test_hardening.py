@@ -227,11 +227,12 @@ def test_the_braking_command_does_not_warn_where_a_joint_hardly_moves() -> None:
 
     motion = np.array([1e-310, 0.5, 0.0])
     qdd_max, qd_max = np.array([10.0, 10.0, 10.0]), np.array([2.0, 2.0, 2.0])
+    hold = np.array([-1e-7, 0.0, 0.0])  # joint 0's own motion slows it down: no room left
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        share = braking_scale(motion, qdd_max, qd_max, 1e-3)
-    assert share == compiled_braking_scale(motion, qdd_max, qd_max, 1e-3)
-    assert share == braking_scale(np.array([0.0, 0.5, 0.0]), qdd_max, qd_max, 1e-3)
+        share = braking_scale(motion, hold, qdd_max, qd_max, 1e-3)
+    assert share == compiled_braking_scale(motion, hold, qdd_max, qd_max, 1e-3)
+    assert share == braking_scale(np.array([0.0, 0.5, 0.0]), hold, qdd_max, qd_max, 1e-3)
 
 
 @pytest.mark.parametrize(

@@ -246,7 +246,11 @@ class Stepper:
         if callable(target):
             dw = np.array(target(model, q0, self.dt), dtype=np.float64)
         else:
-            stop = None if J is None or self.stop_rates is None else (J, *self.stop_rates)
+            stop = (
+                None
+                if J is None or self.stop_rates is None
+                else (J, *self.stop_rates, self._turn(q0, q_prev, J, before))
+            )
             value = task_value(model, target)
             motion = None if stop is None else self.target_motion.motion(model, q0, q_prev, value)
             dw = commanded_displacement(model, model.pose(q0), value, v_max, w_max, self.dt,
@@ -254,6 +258,21 @@ class Stepper:
         if self.second_order and q_prev is not None:
             dw -= second_order_term(model, q_prev, q0, before)
         return dw
+
+    def _turn(
+        self, q0: FloatArray, q_prev: FloatArray | None, J: FloatArray, before: FloatArray | None
+    ) -> FloatArray:
+        """``J(q_prev) last - J last`` (``last = q0 - q_prev``): the brake's hold (zeros at rest).
+
+        :func:`lpik.command.braking_hold`'s input; ``before`` is ``J(q_prev) last`` where
+        the caller has it.
+        """
+        if q_prev is None or np.array_equal(q0, q_prev):
+            return np.zeros(J.shape[0])
+        last = np.asarray(q0, dtype=np.float64) - q_prev
+        if before is None:
+            before = np.asarray(self.model.jacobian(q_prev), dtype=np.float64) @ last
+        return before - J @ last
 
     def previous_jacobian(self, q0: FloatArray, q_prev: FloatArray | None) -> FloatArray | None:
         """``J(q_prev)``, where a stage reads the last step's motion ``q_prev -> q0``.

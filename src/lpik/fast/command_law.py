@@ -31,6 +31,8 @@ command_rows = compiled_twin(
 least_motion = njit(cache=True)(command.least_motion)
 #: The braking share of the command (:func:`lpik.command.braking_scale`).
 braking_scale = compiled_twin(command.braking_scale, braking_room=njit(cache=True)(braking_room))
+#: What the task's own motion takes of the joints' braking (:func:`lpik.command.braking_hold`).
+braking_hold = compiled_twin(command.braking_hold, least_motion=least_motion)
 #: The target's motion fed forward (:func:`lpik.command.add_target_motion`).
 add_target_motion = compiled_twin(
     command.add_target_motion, clamp_command=njit(cache=True)(command.clamp_command)
@@ -161,12 +163,15 @@ def hold_kinematics(state, q0, J6):
 
 
 @njit(cache=True)
-def braking_share(state, J, e6, rows):
+def braking_share(state, J, e6, rows, q0, q_prev):
     """:func:`lpik.command.braking_scale` of the pose error ``e6``'s task rows: the command's brake.
 
     The stop accelerations and speeds are each joint's smaller acceleration and
     velocity limit (the ``limits`` block); the least motion along the error goes
-    to the ``stop`` block, with the ``stop_scratch`` block as its work space.
+    to the ``stop`` block, with the ``stop_scratch`` block as its work space. The
+    hold (:func:`lpik.command.braking_hold`) of the motion ``q0 - q_prev`` reads
+    ``J(q_prev) (q0 - q_prev)`` from the ``rho`` block's row 0
+    (:func:`last_task_motion`, 0 at rest); the hold and the turn go to the ``hold`` block.
     """
     n, m = J.shape[1], J.shape[0]
     stop, limits = L.matrix_at(state, L.STOP, 3, n), L.matrix_at(state, L.LIMITS, 6, n)
@@ -176,8 +181,18 @@ def braking_share(state, J, e6, rows):
     for i in range(n):
         stop[1, i] = min(limits[5, i], -limits[4, i])
         stop[2, i] = min(limits[3, i], -limits[2, i])
-    least_motion(J, error, stop[0], L.matrix_at(state, L.STOP_SCRATCH, m, m + 1))
-    return braking_scale(stop[0], stop[1], stop[2], state[L.DT])
+    scratch = L.matrix_at(state, L.STOP_SCRATCH, m, m + 1)
+    least_motion(J, error, stop[0], scratch)
+    work = L.vector(state, L.HOLD)
+    hold, turn = work[:n], work[n : n + m]
+    before = L.matrix_at(state, L.RHO, 2, m)[0]
+    for k in range(m):
+        s = 0.0
+        for i in range(n):
+            s += J[k, i] * (q0[i] - q_prev[i])
+        turn[k] = before[k] - s
+    braking_hold(J, turn, hold, scratch)
+    return braking_scale(stop[0], hold, stop[1], stop[2], state[L.DT])
 
 
 @njit(cache=True)

@@ -57,8 +57,10 @@ MEMORY, MEMORY_Q, MEMORY_GOAL, TARGET_MOTION = range(60, 64)
 # the stop before a singular configuration ahead of the motion (under acceleration limits),
 # and the singular values of J at q0 and at prev_q that the automatic bound has read
 SINGULAR, SIGMA = 64, 65
+# what keeping the task's motion takes of each joint's brake (lpik.command.braking_hold)
+HOLD = 66
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 66
+END = 67
 #: Length of the header.
 HEADER = END + 1
 
@@ -157,6 +159,9 @@ BLOCKS = (
         "sigma",
         (MEMO_SIZE,),
         "sigma_min, sigma_max of J at q0, sigma_min at prev_q (NaN: not known; autobound's memo)",
+    ),
+    Block(
+        HOLD, "hold", (lambda n, m, r: n + m,), "the brake's hold (n), the last motion's turn (m)"
     ),
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.

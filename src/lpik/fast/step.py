@@ -450,20 +450,20 @@ def task_step(state, q0, q_prev, target):
         row = int(rows[k])
         for i in range(n):
             J[k, i] = J6[row, i]
+    second_order = L.vector(state, L.SECOND_ORDER)[0] != 0.0
+    previous = second_order or L.vector(state, L.CONTINUATION)[0] != 0.0
+    if previous:
+        last_task_motion(state, q0, q_prev, rows)
     brake, moved = math.inf, False
     if L.vector(state, L.CONTINUATION)[0] != 0.0:
-        brake = braking_share(state, J, e6, rows)
+        brake = braking_share(state, J, e6, rows, q0, q_prev)
         moved = target_motion(state, q0, q_prev, goal)[0] != 0.0
     command_rows(e6, rows, dw, state[L.V_MAX], state[L.W_MAX], state[L.DT], brake)
     if moved:
         motion = L.vector(state, L.TARGET_MOTION)
         add_target_motion(dw, motion[7 : 7 + m], rows, state[L.V_MAX], state[L.W_MAX], state[L.DT])
-    second_order = L.vector(state, L.SECOND_ORDER)[0] != 0.0
-    previous = second_order or L.vector(state, L.CONTINUATION)[0] != 0.0
-    if previous:
-        last_task_motion(state, q0, q_prev, rows)
-        if second_order:
-            take_off_second_order(state, q0, q_prev, rows, dw)
+    if second_order:
+        take_off_second_order(state, q0, q_prev, rows, dw)
     position = L.vector(state, L.POSITION)
     for a in range(3):
         position[a] = T[a, 3]
