@@ -88,7 +88,7 @@ class PeerStep:
     fk: Callable[[FloatArray], FloatArray]
     version: str
     note: str = ""
-    qdd_max: float | None = None
+    qdd_max: Any = None
 
 
 @dataclass(frozen=True)
@@ -151,7 +151,7 @@ def _drake_plant(workload: Workload) -> tuple[Any, Any, NDArray[np.int64] | None
 
 
 def _drake_parameters(
-    workload: Workload, order: NDArray[np.int64] | None, nq: int, tight: bool, qdd_max: float | None
+    workload: Workload, order: NDArray[np.int64] | None, nq: int, tight: bool, qdd_max: Any
 ) -> Any:  # DifferentialInverseKinematicsParameters
     """Drake's parameters: time step, end-stops, velocity and (``qdd_max``) acceleration limits."""
     from pydrake.multibody.inverse_kinematics import DifferentialInverseKinematicsParameters
@@ -165,8 +165,8 @@ def _drake_parameters(
     params.set_joint_velocity_limits(
         (_to_peer(-model.qd_max, order, nq), _to_peer(model.qd_max, order, nq))
     )
-    if qdd_max is not None:
-        accel = np.full(model.q_min.size, float(qdd_max))
+    if qdd_max is not None:  # one limit for every joint, or one per joint
+        accel = np.broadcast_to(np.asarray(qdd_max, dtype=np.float64), model.q_min.shape).copy()
         params.set_joint_acceleration_limits(
             (_to_peer(-accel, order, nq), _to_peer(accel, order, nq))
         )
@@ -179,16 +179,20 @@ def _drake_parameters(
     return params
 
 
-def drake_peer(
-    workload: Workload, *, tight: bool = False, qdd_max: float | None = None
-) -> list[PeerStep]:
+def _per_joint(limit: Any) -> str:
+    """A limit as text: one number, or one per joint (``1, 2, 3``)."""
+    values = np.atleast_1d(np.asarray(limit, dtype=np.float64))
+    return ", ".join(f"{v:g}" for v in values)
+
+
+def drake_peer(workload: Workload, *, tight: bool = False, qdd_max: Any = None) -> list[PeerStep]:
     """Drake's ``DoDifferentialInverseKinematics`` on a MultibodyPlant of the URDF.
 
     Args:
         workload: The benchmark's workload.
         tight: Solve Drake's QP (OSQP) to :data:`DRAKE_TIGHT_OSQP` instead of
             Drake's default tolerances (for the agreement check, not for timing).
-        qdd_max: Joint acceleration limit [rad/s^2] (None: none). With it the
+        qdd_max: Joint acceleration limit [rad/s^2], one or one per joint (None: none). With it the
             step is ``step(q, target, q_prev)``: the context's joint velocities
             are ``(q - q_prev) / dt``, and Drake's answer is taken whenever it
             returns joint velocities (kSolutionFound, and kStuck: a small
@@ -236,7 +240,8 @@ def drake_peer(
         note += "; OSQP eps_abs = eps_rel = 1e-8"
     if qdd_max is not None:
         note += (
-            f"; joint acceleration limits {qdd_max:g} rad/s^2 (set_joint_acceleration_limits), "
+            f"; joint acceleration limits {_per_joint(qdd_max)} rad/s^2 "
+            "(set_joint_acceleration_limits), "
             "joint velocities (q - q_prev) / dt in the context; kStuck's velocities taken too"
         )
     return [PeerStep("drake", method, step, fk, _version("drake"), note, qdd_max)]

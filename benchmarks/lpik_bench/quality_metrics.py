@@ -510,16 +510,28 @@ def _braking(run: LegRun) -> int:
     return sum(status not in MOVING for status in run.status)
 
 
-def _settling(leg: Leg, after: tuple[FloatArray, FloatArray], braking: int, dt: float) -> Settling:
-    """Settle time and overshoot of a point-to-point leg (see the module docstring)."""
-    position, orientation = after
+def settle_and_overshoot(
+    position: FloatArray, orientation: FloatArray, dt: float
+) -> tuple[float | None, float]:
+    """A point-to-point move's settle time [ms] (None: never) and overshoot [mm].
+
+    From the position [m] and orientation [rad] error after each step: the time
+    from which both stay within :data:`SETTLE_TOL`, and the largest growth of the
+    position error after its running minimum (see the module docstring).
+    """
     good = (position <= SETTLE_TOL[0]) & (orientation <= SETTLE_TOL[1])
     bad = np.flatnonzero(~good)
     first = int(bad[-1]) + 1 if bad.size else 0  # the step from which it stays settled
     settle_ms = 1e3 * (first + 1) * dt if first < good.size else None
-    overshoot = float(np.max(position - np.minimum.accumulate(position)))
+    return settle_ms, 1e3 * float(np.max(position - np.minimum.accumulate(position)))
+
+
+def _settling(leg: Leg, after: tuple[FloatArray, FloatArray], braking: int, dt: float) -> Settling:
+    """Settle time and overshoot of a point-to-point leg (:func:`settle_and_overshoot`)."""
+    position, orientation = after
+    settle_ms, overshoot = settle_and_overshoot(position, orientation, dt)
     final = (1e3 * float(position[-1]), 1e3 * float(orientation[-1]))
-    return Settling(leg.label, settle_ms, 1e3 * overshoot, braking, final)
+    return Settling(leg.label, settle_ms, overshoot, braking, final)
 
 
 @dataclass(eq=False)

@@ -1,0 +1,59 @@
+"""benchmarks/braking.py: one move's run, a row over the moves, and the page's section.
+
+No settle time or overshoot is asserted here beyond one easy move: those are the
+benchmark's findings (docs/benchmarks.md); tests/test_braking.py holds the moves that
+once passed their goal.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+from lpik.robots.registry import home_configuration, load_robot  # noqa: E402
+from lpik_bench import braking as B  # noqa: E402
+
+
+def test_every_set_of_limits_gives_each_joint_one_positive_limit() -> None:
+    for name, limits in B.LIMITS.items():
+        for n in (6, 7):
+            qdd = limits(n)
+            assert qdd.shape == (n,) and np.all(qdd > 0), name
+
+
+def test_a_short_move_settles_without_overshoot_within_the_limits() -> None:
+    model, q0 = load_robot("panda", task="pose"), home_configuration("panda")
+    qdd = B.LIMITS["10 on every joint"](q0.size)
+    make = B.contenders("panda", qdd)["lpik (default)"]
+    run = B.run(make(), model, q0, np.array(B.MOVES[0]), qdd)
+    assert run["settle"] is not None and run["settle"] < 1e3 * B.SECONDS
+    assert run["overshoot"] < 1e-6 and run["unanswered"] == 0
+    assert run["acceleration"] <= 1.0 + 1e-9
+
+
+def test_a_step_that_fails_holds_the_arm_and_is_counted_not_timed_as_an_acceleration() -> None:
+    model, q0 = load_robot("panda", task="pose"), home_configuration("panda")
+    qdd = B.LIMITS["2 on every joint"](q0.size)
+
+    def failing(q, prev, target):  # type: ignore[no-untyped-def]
+        return None, False
+
+    run = B.run(failing, model, q0, np.array(B.MOVES[0]), qdd)
+    assert run["unanswered"] == int(round(B.SECONDS / B.DT))
+    assert run["settle"] is None and run["acceleration"] == 0.0
+
+
+def test_a_row_reads_every_move_and_the_section_lists_every_row() -> None:
+    runs = [
+        {"settle": 500.0, "overshoot": 0.0, "unanswered": 0, "acceleration": 1.0},
+        {"settle": None, "overshoot": 2.5, "unanswered": 12, "acceleration": 0.5},
+    ]
+    row = B._row("panda", "2 on every joint", "lpik (default)", runs)
+    assert row == ["panda", "2 on every joint", "lpik (default)", "1 of 2", "500", "2.5", "12",
+                   "1"]  # fmt: skip
+    assert B._row("ur5e", "x", "y", runs[1:])[4] == "never"
+    text = B.section([row], "python benchmarks/braking.py")
+    assert text.startswith(B.HEADING)
+    assert "| panda | 2 on every joint | lpik (default) | 1 of 2 | 500 | 2.5 | 12 | 1 |" in text
