@@ -1,7 +1,7 @@
 """Point-to-point moves under low and unequal acceleration limits stop on their goal.
 
 The command's brake counts what keeping the task's motion on its line takes of each
-joint (:func:`lpik.command.braking_hold`). Before it, these moves passed their goal by
+joint (the hold of :func:`lpik.command.braking_scale`). Before it, these moves passed their goal by
 6 to 29 mm (``benchmarks/braking.py``).
 """
 

@@ -102,7 +102,7 @@ def clamp_command(
 #: curvature, the second-order term, the redundancy's own motion).
 BRAKING_SHARE = 0.8
 #: At most this share of a joint's planned brake (``BRAKING_SHARE`` of its limit) is counted
-#: as taken by keeping the task's motion (:func:`braking_hold`): the hold is one step's
+#: as taken by keeping the task's motion (:func:`braking_scale`'s hold): the hold is one step's
 #: estimate, it grows with the square of the speed and falls as the arm slows down, and a
 #: joint that has all of it taken would command no motion at all. Measured with the
 #: point-to-point moves of ``benchmarks/braking.py`` (overshoot) and the acceleration
@@ -122,22 +122,23 @@ MOTION_DAMPING = 1e-4
 
 
 def least_motion(J: FloatArray, e: FloatArray, x: FloatArray, scratch: FloatArray) -> None:
-    """``x = J^T (J J^T + d I)^-1 e``: the least joint motion that moves the task by ``e``.
+    """``x_j = J^T (J J^T + d I)^-1 e_j``: the least joint motion that moves the task by ``e_j``.
 
     The damped least-squares solution of ``J x = e`` (as eq. 19's robust inverse),
     with a damping ``d`` of :data:`MOTION_DAMPING` times the largest diagonal
     entry of ``J J^T``: directions the arm can hardly move in (near a singular
     configuration) count for little instead of making ``x`` blow up. Gaussian
-    elimination with partial pivoting, in plain loops, so that :mod:`lpik.fast`
-    compiles this very function.
+    elimination with partial pivoting, one for every row of ``e``, in plain loops,
+    so that :mod:`lpik.fast` compiles this very function.
 
     Args:
         J: Task Jacobian, (m, n).
-        e: Task motion, (m,).
-        x: Receives the joint motion, (n,).
-        scratch: Work space, (m, m + 1).
+        e: Task motions, (k, m).
+        x: Receives their joint motions, (k, n).
+        scratch: Work space, (m, m + k).
     """
-    m, n = J.shape[0], J.shape[1]
+    m, n, k = J.shape[0], J.shape[1], e.shape[0]
+    width = m + k
     big = 0.0
     for a in range(m):
         for b in range(m):
@@ -145,7 +146,8 @@ def least_motion(J: FloatArray, e: FloatArray, x: FloatArray, scratch: FloatArra
             for i in range(n):
                 s += J[a, i] * J[b, i]
             scratch[a, b] = s
-        scratch[a, m] = e[a]
+        for j in range(k):
+            scratch[a, m + j] = e[j, a]
         big = max(big, scratch[a, a])
     for a in range(m):
         scratch[a, a] += MOTION_DAMPING * max(big, 1e-300)
@@ -154,22 +156,24 @@ def least_motion(J: FloatArray, e: FloatArray, x: FloatArray, scratch: FloatArra
         for a in range(col + 1, m):
             if abs(scratch[a, col]) > abs(scratch[pivot, col]):
                 pivot = a
-        for b in range(m + 1):
+        for b in range(width):
             scratch[col, b], scratch[pivot, b] = scratch[pivot, b], scratch[col, b]
         for a in range(col + 1, m):
             factor = scratch[a, col] / scratch[col, col]
-            for b in range(col, m + 1):
+            for b in range(col, width):
                 scratch[a, b] -= factor * scratch[col, b]
-    for a in range(m - 1, -1, -1):
-        s = scratch[a, m]
-        for b in range(a + 1, m):
-            s -= scratch[a, b] * scratch[b, m]
-        scratch[a, m] = s / scratch[a, a]
-    for i in range(n):
-        s = 0.0
-        for a in range(m):
-            s += J[a, i] * scratch[a, m]
-        x[i] = s
+    for j in range(m, width):
+        for a in range(m - 1, -1, -1):
+            s = scratch[a, j]
+            for b in range(a + 1, m):
+                s -= scratch[a, b] * scratch[b, j]
+            scratch[a, j] = s / scratch[a, a]
+    for j in range(k):
+        for i in range(n):
+            s = 0.0
+            for a in range(m):
+                s += J[a, i] * scratch[a, m + j]
+            x[j, i] = s
 
 
 def braking_scale(
@@ -184,8 +188,10 @@ def braking_scale(
     :data:`BRAKING_SHARE` of each joint's limit, ``a`` is at most
     ``BRAKING_SHARE min_i qdd_max_i / |motion_i|``, less what the task's own motion
     already takes: ``hold`` is the change of the joints' step that keeps the task
-    moving as it does (the least joint motion of the second-order term, as the
-    Jacobian turns along the motion, :func:`braking_hold`), and where it slows a
+    moving as it does, the least joint motion (:func:`least_motion`) of the *turn*
+    ``J(q_prev) last - J(q0) last`` (``last = q0 - q_prev``: what the same joint step
+    moves the task less at ``q0`` than it did at ``q_prev``, as the Jacobian turns
+    along the motion), and where it slows a
     joint down as a brake along ``e`` would (its sign against ``motion_i``'s), that
     joint has that much less to brake with (up to :data:`HOLD_SHARE` of it). At
     speed, a joint with a low limit can spend all of it on keeping the tool on its
@@ -201,7 +207,8 @@ def braking_scale(
 
     Args:
         motion: Joint motion per unit of the error, (n,).
-        hold: The change of the joints' step [rad] that keeps the task's motion, (n,).
+        hold: The change of the joints' step [rad] that keeps the task's motion, (n,): the
+            least motion of the turn.
         qdd_max: Each joint's acceleration limit (the smaller side) [rad/s^2]; inf: none.
         qd_max: Each joint's velocity limit (the smaller side) [rad/s]; inf: none.
         dt: Control period [s].
@@ -226,20 +233,6 @@ def braking_scale(
     if rate < math.inf:
         share = min(share, braking_room(1.0, rate * dt * dt))
     return share
-
-
-def braking_hold(J, turn, hold, scratch):  # type: ignore[no-untyped-def]
-    """``hold``: the change of the joints' step that keeps the task's motion.
-
-    What :func:`braking_scale` counts as taken of each joint's brake.
-
-    ``turn = J(q_prev) last - J(q0) last`` (``last = q0 - q_prev``): what the
-    same joint step moves the task less at ``q0`` than it did at ``q_prev``, the
-    second-order term's share of the Jacobian turning; its least joint motion
-    (:func:`least_motion`) is the change of the joints' step that a motion held
-    along its line takes at this speed. Plain loops, compiled as they are.
-    """
-    least_motion(J, turn, hold, scratch)
 
 
 def add_target_motion(
@@ -515,7 +508,7 @@ def commanded_displacement(
         dt: Control period [s].
         stop: ``(J, qdd_max, qd_max, turn)``, the Jacobian at ``q``, the joints'
             acceleration and velocity limits (the smaller side, inf: none) and the
-            last motion's turn (:func:`braking_hold`; zeros at rest): the command
+            last motion's turn (:func:`braking_scale`; zeros at rest): the command
             then slows down in time to stop on the target (:func:`braking_scale`);
             None: it does not.
         target_motion: The target's motion over the last period (:class:`TargetMotion`),
@@ -543,16 +536,15 @@ def commanded_displacement(
 def _brake(stop: tuple[FloatArray, ...] | None, error: FloatArray, dt: float) -> float:
     """:func:`braking_scale` of ``error`` under ``stop = (J, qdd_max, qd_max, turn)``; inf without.
 
-    ``turn``: :func:`braking_hold`'s, ``J(q_prev) last - J(q0) last`` (zeros at rest).
+    ``turn``: ``J(q_prev) last - J(q0) last`` (zeros at rest), whose least motion is the hold.
     """
     if stop is None:
         return math.inf
     J, qdd, qd, turn = stop
     m, n = J.shape
-    motion, hold, scratch = np.empty(n), np.empty(n), np.empty((m, m + 1))
-    least_motion(J, error, motion, scratch)
-    braking_hold(J, np.asarray(turn, dtype=np.float64), hold, scratch)
-    return braking_scale(motion, hold, qdd, qd, dt)
+    motions = np.empty((2, n))  # along the error, and the hold
+    least_motion(J, np.array([error, turn], dtype=np.float64), motions, np.empty((m, m + 2)))
+    return braking_scale(motions[0], motions[1], qdd, qd, dt)
 
 
 class CommandLaw(Protocol):

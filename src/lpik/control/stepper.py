@@ -262,10 +262,10 @@ class Stepper:
     def _turn(
         self, q0: FloatArray, q_prev: FloatArray | None, J: FloatArray, before: FloatArray | None
     ) -> FloatArray:
-        """``J(q_prev) last - J last`` (``last = q0 - q_prev``): the brake's hold (zeros at rest).
+        """``J(q_prev) last - J last`` (``last = q0 - q_prev``): the brake's turn (zeros at rest).
 
-        :func:`lpik.command.braking_hold`'s input; ``before`` is ``J(q_prev) last`` where
-        the caller has it.
+        Its least motion is the hold of :func:`lpik.command.braking_scale`; ``before`` is
+        ``J(q_prev) last`` where the caller has it.
         """
         if q_prev is None or np.array_equal(q0, q_prev):
             return np.zeros(J.shape[0])

@@ -31,8 +31,6 @@ command_rows = compiled_twin(
 least_motion = njit(cache=True)(command.least_motion)
 #: The braking share of the command (:func:`lpik.command.braking_scale`).
 braking_scale = compiled_twin(command.braking_scale, braking_room=njit(cache=True)(braking_room))
-#: What the task's own motion takes of the joints' braking (:func:`lpik.command.braking_hold`).
-braking_hold = compiled_twin(command.braking_hold, least_motion=least_motion)
 #: The target's motion fed forward (:func:`lpik.command.add_target_motion`).
 add_target_motion = compiled_twin(
     command.add_target_motion, clamp_command=njit(cache=True)(command.clamp_command)
@@ -167,32 +165,27 @@ def braking_share(state, J, e6, rows, q0, q_prev):
     """:func:`lpik.command.braking_scale` of the pose error ``e6``'s task rows: the command's brake.
 
     The stop accelerations and speeds are each joint's smaller acceleration and
-    velocity limit (the ``limits`` block); the least motion along the error goes
-    to the ``stop`` block, with the ``stop_scratch`` block as its work space. The
-    hold (:func:`lpik.command.braking_hold`) of the motion ``q0 - q_prev`` reads
-    ``J(q_prev) (q0 - q_prev)`` from the ``rho`` block's row 0
-    (:func:`last_task_motion`, 0 at rest); the hold and the turn go to the ``hold`` block.
+    velocity limit (the ``limits`` block). The least motions along the error and
+    of the turn ``J(q_prev) last - J(q0) last`` (the hold; ``J(q_prev) last`` is the
+    ``rho`` block's row 0, :func:`last_task_motion`, 0 at rest) go to the ``stop``
+    block, from one factorisation: their task motions are the ``brake`` block, the
+    ``stop_scratch`` block its work space.
     """
     n, m = J.shape[1], J.shape[0]
-    stop, limits = L.matrix_at(state, L.STOP, 3, n), L.matrix_at(state, L.LIMITS, 6, n)
-    error = L.vector(state, L.DW)  # the command's block holds the error until the law runs
-    for k in range(m):
-        error[k] = e6[int(rows[k])]
-    for i in range(n):
-        stop[1, i] = min(limits[5, i], -limits[4, i])
-        stop[2, i] = min(limits[3, i], -limits[2, i])
-    scratch = L.matrix_at(state, L.STOP_SCRATCH, m, m + 1)
-    least_motion(J, error, stop[0], scratch)
-    work = L.vector(state, L.HOLD)
-    hold, turn = work[:n], work[n : n + m]
+    stop, limits = L.matrix_at(state, L.STOP, 4, n), L.matrix_at(state, L.LIMITS, 6, n)
+    motions = L.matrix_at(state, L.BRAKE, 2, m)  # the error, the turn
     before = L.matrix_at(state, L.RHO, 2, m)[0]
     for k in range(m):
+        motions[0, k] = e6[int(rows[k])]
         s = 0.0
         for i in range(n):
             s += J[k, i] * (q0[i] - q_prev[i])
-        turn[k] = before[k] - s
-    braking_hold(J, turn, hold, scratch)
-    return braking_scale(stop[0], hold, stop[1], stop[2], state[L.DT])
+        motions[1, k] = before[k] - s
+    for i in range(n):
+        stop[2, i] = min(limits[5, i], -limits[4, i])
+        stop[3, i] = min(limits[3, i], -limits[2, i])
+    least_motion(J, motions, stop[:2], L.matrix_at(state, L.STOP_SCRATCH, m, m + 2))
+    return braking_scale(stop[0], stop[1], stop[2], stop[3], state[L.DT])
 
 
 @njit(cache=True)

@@ -57,8 +57,8 @@ MEMORY, MEMORY_Q, MEMORY_GOAL, TARGET_MOTION = range(60, 64)
 # the stop before a singular configuration ahead of the motion (under acceleration limits),
 # and the singular values of J at q0 and at prev_q that the automatic bound has read
 SINGULAR, SIGMA = 64, 65
-# what keeping the task's motion takes of each joint's brake (lpik.command.braking_hold)
-HOLD = 66
+# the right-hand sides of the command's brake (lpik.command.braking_scale)
+BRAKE = 66
 #: The slot holding the buffer's length (where a block after the last would start).
 END = 67
 #: Length of the header.
@@ -140,8 +140,8 @@ BLOCKS = (
     Block(G_RHS, "g", ("r",), "the rows' right-hand side in dq: h - G q0"),
     Block(LP2_WS, "lp2_ws", (workspace_size,), "the LP2 kernel's workspace"),
     Block(SATURATION, "saturation", (lambda n, m, r: n + m,), "the best pass's dq and lam"),
-    Block(STOP, "stop", (3, "n"), "the least motion along the error; the stop acc. and speeds"),
-    Block(STOP_SCRATCH, "stop_scratch", (lambda n, m, r: m * (m + 1),), "its work space"),
+    Block(STOP, "stop", (4, "n"), "least motions of the error and the turn; stop acc., speeds"),
+    Block(STOP_SCRATCH, "stop_scratch", (lambda n, m, r: m * (m + 2),), "their work space"),
     Block(LAST, "last", ("n",), "the motion the step is solved around (lpik.continuation)"),
     Block(ORIGIN, "origin", ("n",), "q0 + last, the continued step's origin"),
     Block(SAFE, "safe", ("n",), "the safe step of a step solved around the motion"),
@@ -160,9 +160,7 @@ BLOCKS = (
         (MEMO_SIZE,),
         "sigma_min, sigma_max of J at q0, sigma_min at prev_q (NaN: not known; autobound's memo)",
     ),
-    Block(
-        HOLD, "hold", (lambda n, m, r: n + m,), "the brake's hold (n), the last motion's turn (m)"
-    ),
+    Block(BRAKE, "brake", (2, "m"), "the error, the last motion's turn: the brake's task motions"),
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.
 OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "bound", "bounded",
