@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik_bench.markdown import section_head, write_section
+from lpik_bench.markdown import section_head, table, write_section
 
 #: The page whose section :func:`main` writes.
 OUT = Path(__file__).resolve().parents[2] / "docs" / "benchmarks.md"
@@ -173,10 +173,9 @@ def section(rows: list[list[str]], command: str) -> str:
         "steps answered over that joint's limit. lpik with its clamp off gets the command "
         "the peers get "
         "(`V = error / dt`).", "",
-        "| arm | acceleration limits [rad/s^2] | controller | settled | slowest [ms] "
-        "| overshoot [mm] | unanswered steps | acceleration / limit |",
-        "|---|---|---|---:|---:|---:|---:|---:|",
-        *(f"| {' | '.join(row)} |" for row in rows),
+        *table("| arm | acceleration limits [rad/s^2] | controller | settled | slowest [ms] "
+               "| overshoot [mm] | unanswered steps | acceleration / limit |",
+               "|---|---|---|---:|---:|---:|---:|---:|", rows),
         "", "",
     ])  # fmt: skip
 

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lpik_bench.markdown import section_head, write_section
+from lpik_bench.markdown import section_head, table, write_section
 from lpik_bench.quality_reach import moved
 
 #: The page whose section :func:`main` writes.
@@ -98,9 +98,8 @@ def section(rows: list[tuple[str, ...]], far: list[float], qdd: float, command: 
         f"the tool within {RECOVERED * 1e3:g} mm of home at the end. With acceleration limits "
         f"`qdd_max={qdd:g}` rad/s^2, and without them. A miss is a local minimum within the "
         "end-stops that no local step leaves.", "",
-        "| arm | without acceleration limits | with them | misses with them |",
-        "|---|---:|---:|---|",
-        *(f"| {' | '.join(row)} |" for row in rows),
+        *table("| arm | without acceleration limits | with them | misses with them |",
+               "|---|---:|---:|---|", rows),
         "", "",
     ])  # fmt: skip
 

@@ -199,6 +199,11 @@ def section_head(heading: str, script: str, command: str) -> list[str]:
     ]  # fmt: skip
 
 
+def table(header: str, align: str, rows: Any) -> list[str]:
+    """A table of a section: ``header``, ``align`` and a line per row of cells (strings)."""
+    return [header, align, *(f"| {' | '.join(row)} |" for row in rows)]
+
+
 def replace_section(page: str, heading: str, text: str) -> str:
     """``page`` with its ``heading`` section replaced by ``text``, or ``text`` added.
 

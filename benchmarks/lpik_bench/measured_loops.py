@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik_bench.markdown import section_head, write_section
+from lpik_bench.markdown import section_head, table, write_section
 
 #: The page whose section :func:`main` writes.
 OUT = Path(__file__).resolve().parents[2] / "docs" / "benchmarks.md"
@@ -187,10 +187,9 @@ def _table(move: str, rows: list[list[str]]) -> list[str]:
              else "The circle (a moving target):")  # fmt: skip
     return [
         title, "",
-        f"| arm | noise [rad] | controller | {error} [mm] | largest after 1 s [mm] "
-        "| command acceleration [rad/s^2] | failed steps | corrected states |",
-        "|---|---:|---|---:|---:|---:|---:|---:|",
-        *(f"| {' | '.join(row)} |" for row in rows),
+        *table(f"| arm | noise [rad] | controller | {error} [mm] | largest after 1 s [mm] "
+               "| command acceleration [rad/s^2] | failed steps | corrected states |",
+               "|---|---:|---|---:|---:|---:|---:|---:|", rows),
         "", "",
     ]  # fmt: skip
 

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lpik_bench.markdown import section_head, write_section
+from lpik_bench.markdown import section_head, table, write_section
 
 #: The page whose section :func:`main` writes.
 OUT = Path(__file__).resolve().parents[2] / "docs" / "benchmarks.md"
@@ -169,10 +169,8 @@ def section(rows: list[tuple[str, ...]], misses: list[str], goals: int, seed: in
         f"{REACHED[0] * 1e3:g} mm and {REACHED[1] * 1e3:g} mrad at the end. *Reversals* (with "
         f"`qdd_max={qdd:g}` rad/s^2): steps on which a joint's acceleration changes sign at more "
         f"than {REVERSAL_SHARE:.0%} of its limit both times.", "",
-        "| arm | reached | time to reach, median / max [s] | reached with acceleration "
-        "limits | time to reach [s] | reversals |",
-        "|---|---:|---:|---:|---:|---:|",
-        *(f"| {' | '.join(row)} |" for row in rows),
+        *table("| arm | reached | time to reach, median / max [s] | reached with acceleration "
+               "limits | time to reach [s] | reversals |", "|---|---:|---:|---:|---:|---:|", rows),
         "", "Every step's `controller.step` call timed (`time.perf_counter_ns`, on this shared "
         "machine: the max is the noisiest), and the steps the compiled path did not answer (its "
         "`Result.path`: the numpy engine's stages, HiGHS):", "",
