@@ -33,7 +33,7 @@ def test_a_short_move_settles_without_overshoot_within_the_limits() -> None:
     assert run["acceleration"] <= 1.0 + 1e-9
 
 
-def test_a_step_that_fails_holds_the_arm_and_is_counted_not_timed_as_an_acceleration() -> None:
+def test_a_step_that_fails_brakes_the_arm_within_its_limits_and_is_counted() -> None:
     model, q0 = load_robot("panda", task="pose"), home_configuration("panda")
     qdd = B.LIMITS["2 on every joint"](q0.size)
 
@@ -43,6 +43,18 @@ def test_a_step_that_fails_holds_the_arm_and_is_counted_not_timed_as_an_accelera
     run = B.run(failing, model, q0, np.array(B.MOVES[0]), qdd)
     assert run["unanswered"] == int(round(B.SECONDS / B.DT))
     assert run["settle"] is None and run["acceleration"] == 0.0
+    # moving, then failing from step 20: the arm brakes at its limits, it is not held
+    speed = np.linspace(0.1, 0.4, q0.size) * B.DT  # a step per period [rad]
+    steps = []
+
+    def fails_later(q, prev, target):  # type: ignore[no-untyped-def]
+        steps.append(q - prev)
+        return (q + speed, True) if len(steps) < 20 else (None, False)
+
+    B.run(fails_later, model, q0, np.array(B.MOVES[0]), qdd)
+    change = np.diff(np.asarray(steps[19:]), axis=0)  # from the first failed step on
+    assert np.all(np.abs(change) <= qdd * B.DT**2 * (1 + 1e-9))  # no stop at once
+    assert np.allclose(steps[-1], 0.0)  # and it comes to rest
 
 
 def test_a_row_reads_every_move_and_the_section_lists_every_row() -> None:

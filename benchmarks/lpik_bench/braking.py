@@ -10,7 +10,12 @@ Rows: lpik's default controller; the same with its command clamp off (the
 peers' command, ``V = error / dt``); and Drake's
 ``DoDifferentialInverseKinematics`` with the same per-joint acceleration
 limits (where pydrake is installed), its joint velocities from
-``(q - q_prev) / dt``, held where a step fails. Each loop is fed its own
+``(q - q_prev) / dt``. Where a step fails, the arm brakes within its limits
+(:func:`lpik_bench.quality.braking_step`, as the quality suite takes a failed
+step of a library that holds acceleration limits): held where it is, it
+would stop at once, far beyond the limits (Drake's failures come as the
+arm arrives, moving: up to some 700 times the UR5e's 2 rad/s^2), and settle
+early by it. Each loop is fed its own
 commands. Per arm, limits and controller: the moves settled (within the quality
 suite's :data:`~lpik_bench.quality_metrics.SETTLE_TOL`), the slowest settle
 time, the largest overshoot (:func:`~lpik_bench.quality_metrics.settle_and_overshoot`),
@@ -111,6 +116,7 @@ def run(step: StepFn, model: Any, q0: np.ndarray, move: np.ndarray,
         qdd_max: np.ndarray) -> dict[str, Any]:  # fmt: skip
     """One move from rest at ``q0``: settle time [ms], overshoot [mm], unanswered steps, and
     the largest joint acceleration of the commands over its limit."""
+    from lpik_bench.quality import braking_step
     from lpik_bench.quality_metrics import errors, settle_and_overshoot
 
     target = model.pose(q0)
@@ -120,8 +126,8 @@ def run(step: StepFn, model: Any, q0: np.ndarray, move: np.ndarray,
     for _ in range(steps):
         answer, answered = step(q, prev, target)
         unanswered += not answered
-        if answer is None:
-            answer = q  # held where it is (the harness's stop, not the library's step)
+        if answer is None:  # the arm brakes within its limits, as the quality suite takes it
+            answer = q + braking_step(q - prev, qdd_max * DT * DT)
         else:
             worst = max(worst, float(np.max(np.abs(answer - 2 * q + prev) / DT**2 / qdd_max)))
         prev, q = q, np.asarray(answer, dtype=np.float64)
@@ -169,10 +175,10 @@ def section(rows: list[list[str]], command: str) -> str:
         "and 0.01 mrad, and the slowest settle time of those [ms]; "
         "*overshoot*: the largest growth of the position error after its running minimum "
         "[mm] (the quality suite's); *unanswered*: lpik's safe steps, Drake's failed steps "
-        "(the arm held); *acceleration / limit*: the largest joint acceleration of the "
-        "steps answered over that joint's limit. lpik with its clamp off gets the command "
-        "the peers get "
-        "(`V = error / dt`).", "",
+        "(there the arm brakes at its limits, as the quality suite takes a failed step; "
+        "held, it would stop at once, far beyond them); *acceleration / limit*: the "
+        "largest joint acceleration of the steps answered over that joint's limit. lpik "
+        "with its clamp off gets the command the peers get (`V = error / dt`).", "",
         *table("| arm | acceleration limits [rad/s^2] | controller | settled | slowest [ms] "
                "| overshoot [mm] | unanswered steps | acceleration / limit |",
                "|---|---|---|---:|---:|---:|---:|---:|", rows),

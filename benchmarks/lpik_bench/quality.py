@@ -215,14 +215,15 @@ def _peer_call(fn: Any, needs_prev: bool) -> StepCall:
     return step
 
 
-def braking_step(last: FloatArray, reduction: float) -> FloatArray:
+def braking_step(last: FloatArray, reduction: float | FloatArray) -> FloatArray:
     """The step of a failed step: no motion, or, with acceleration limits, the braking step.
 
     Each joint's step is ``last`` reduced towards 0 by at most ``reduction``
-    (``qdd_max dt^2``, the acceleration limit; 0 for a library without one:
-    ``dq = 0``), as lpik's safe step (:func:`lpik.result.safe_step`) brakes.
+    (``qdd_max dt^2``, the acceleration limit, one for all joints or one per
+    joint; 0 for a library without one: ``dq = 0``), as lpik's safe step
+    (:func:`lpik.result.safe_step`) brakes.
     """
-    if reduction <= 0:
+    if np.all(np.asarray(reduction) <= 0):
         return np.zeros_like(last)
     return last - np.clip(last, -reduction, reduction)
 
