@@ -73,7 +73,15 @@ MOVES: dict[str, Callable[[Any, np.ndarray, int], np.ndarray]] = {
 
 def run(step: StepFn, model: Any, targets: np.ndarray, q0: np.ndarray, sigma: float,
         seed: int) -> dict[str, float]:  # fmt: skip
-    """One loop on noisy readings: the tool's errors and the command stream's acceleration."""
+    """One loop on noisy readings: the tool's errors and the command stream's acceleration.
+
+    Where a step fails, the arm brakes from its last commanded motion within the
+    acceleration limits (:func:`lpik_bench.quality.braking_step`, as the quality
+    suite takes a failed step of a library that holds them); held where it is read
+    to be, it would stop at once.
+    """
+    from lpik_bench.quality import braking_step
+
     rng = np.random.default_rng(seed)
     q, reading_before = q0.copy(), q0.copy()
     steps = len(targets)
@@ -82,7 +90,7 @@ def run(step: StepFn, model: Any, targets: np.ndarray, q0: np.ndarray, sigma: fl
         reading = q + rng.normal(0.0, sigma, q.size)
         answer = step(reading, reading_before, target)
         if answer is None or not np.all(np.isfinite(answer)):
-            failed, answer = failed + 1, reading  # hold where the arm is read to be
+            failed, answer = failed + 1, q + braking_step(q - commands[-2], QDD_MAX * DT * DT)
         reading_before, q = reading, np.asarray(answer, dtype=float)
         commands.append(q.copy())
         error[k] = np.linalg.norm(model.pose(q)[:3, 3] - target[:3, 3])
@@ -176,7 +184,9 @@ def section(tables: dict[str, list[list[str]]], seeds: int, steps: int, command:
         "the steps of the largest joint acceleration of the commands [rad/s^2]: the noise of "
         "the readings the commands are built on (a loop fed its own commands, as "
         "`lpik simulate` is, has none). *Corrected*: states whose implied step was taken at "
-        "the nearest one the drives could have made (`lpik.control.commanded`).", "",
+        "the nearest one the drives could have made (`lpik.control.commanded`). *Failed "
+        "steps*: there the arm brakes from its last command at the acceleration limits, as "
+        "the quality suite takes a failed step (held, it would stop at once).", "",
         *(line for move, rows in tables.items() for line in _table(move, rows)),
     ])  # fmt: skip
 
