@@ -17,6 +17,7 @@ pytest.importorskip("numba")
 
 
 @pytest.mark.parametrize(("path", "steps", "glitch_every"), [("compiled", 30_000, 5_000),
+                                                             ("numpy engine", 1_500, 500),
                                                              ("numpy", 1_500, 500)])  # fmt: skip
 def test_a_random_walk_with_acceleration_limits_breaks_no_limit(path, steps, glitch_every) -> None:
     report = soak(steps, path=path, seed=3, glitch_every=glitch_every)
@@ -37,7 +38,7 @@ def test_the_long_soak_is_in_the_reliability_page() -> None:
     block = text.split(BEGIN, 1)[1].split(END, 1)[0]
     assert "Produced by `python -m lpik_bench.soak --steps 1000000" in block
     rows = [line for line in block.splitlines() if line.startswith(("| compiled", "| numpy"))]
-    assert len(rows) == 2
+    assert [row.split("|")[1].strip() for row in rows] == ["compiled", "numpy engine", "numpy"]
     for row in rows:
         cells = [c.strip() for c in row.strip("|").split("|")]
         assert cells[2].startswith("0 (") and cells[3] == "0 / 0"  # acceleration, stops/speed

@@ -13,10 +13,16 @@ checked here, independently of lpik's own check:
 - no NaN or inf in ``q`` or ``p``; ``p`` in [0, 1];
 - memory: the resident set size after the first 1,000 steps and at each quarter of the run.
 
+Three paths run the walk: the compiled controller (``Lp2Controller``), the numpy
+engine (:class:`lpik.control.stepper.Stepper`: the same stages, what a controller
+runs without numba or while it compiles) and the bare numpy layers
+(``build_problem`` and the paper's LP2, no stage around them).
+
 Run it from the repository root (``--write`` puts the results into
 ``docs/reliability.md``, between its soak markers)::
 
-    python -m lpik_bench.soak --steps 1000000 --numpy-steps 100000 --write docs/reliability.md
+    python -m lpik_bench.soak --steps 1000000 --engine-steps 100000 --numpy-steps 100000 \
+        --write docs/reliability.md
 """
 
 from __future__ import annotations
@@ -199,7 +205,8 @@ def check_measured_step(  # type: ignore[no-untyped-def]
 def soak(
     steps: int, *, path: str = "compiled", seed: int = 0, glitch_every: int = 50_000
 ) -> SoakReport:
-    """Run the soak for ``steps`` control steps on the compiled controller or the numpy layers.
+    """Run the soak for ``steps`` control steps on one path: ``"compiled"``,
+    ``"numpy engine"`` or ``"numpy"`` (the bare layers).
 
     ``rss_trace_mib`` is taken after the first :data:`WARM_UP` steps (once the kernels
     are compiled or loaded), then at each quarter of the run and at its end.
@@ -217,6 +224,13 @@ def soak(
 
         def step(q0, target, prev):  # type: ignore[no-untyped-def]
             return controller.step(q0, target, prev)
+    elif path == "numpy engine":
+        from lpik.control.stepper import Stepper
+
+        stepper = Stepper(model, dt=DT, qdd_max=QDD_MAX)
+
+        def step(q0, target, prev):  # type: ignore[no-untyped-def]
+            return stepper.step(q0, target, prev)
     else:
         limits = [*standard_limits(model), AccelerationLimits(np.full(model.n_joints, QDD_MAX))]
 
@@ -288,14 +302,18 @@ def write_block(doc: Path, block: str, begin: str = BEGIN, end: str = END) -> No
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Command line: run the soak on both paths and print (or write) the results."""
+    """Command line: run the soak on its paths and print (or write) the results."""
     parser = argparse.ArgumentParser(prog="python -m lpik_bench.soak", description=__doc__)
     parser.add_argument("--steps", type=int, default=1_000_000, help="compiled steps")
+    parser.add_argument("--engine-steps", type=int, default=100_000,
+                        help="numpy engine steps (the Stepper)")
     parser.add_argument("--numpy-steps", type=int, default=100_000, help="numpy-layer steps")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--write", type=Path, help="the Markdown file with the soak markers")
     args = parser.parse_args(argv)
     reports = [soak(args.steps, path="compiled", seed=args.seed)]
+    if args.engine_steps:
+        reports.append(soak(args.engine_steps, path="numpy engine", seed=args.seed))
     if args.numpy_steps:
         reports.append(soak(args.numpy_steps, path="numpy", seed=args.seed))
     command = "python -m lpik_bench.soak " + " ".join(sys.argv[1:] if argv is None else argv)
