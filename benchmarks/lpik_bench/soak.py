@@ -305,8 +305,9 @@ def main(argv: list[str] | None = None) -> int:
     """Command line: run the soak on its paths and print (or write) the results."""
     parser = argparse.ArgumentParser(prog="python -m lpik_bench.soak", description=__doc__)
     parser.add_argument("--steps", type=int, default=1_000_000, help="compiled steps")
-    parser.add_argument("--engine-steps", type=int, default=100_000,
-                        help="numpy engine steps (the Stepper)")
+    parser.add_argument(
+        "--engine-steps", type=int, default=100_000, help="numpy engine steps (the Stepper)"
+    )
     parser.add_argument("--numpy-steps", type=int, default=100_000, help="numpy-layer steps")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--write", type=Path, help="the Markdown file with the soak markers")
