@@ -30,6 +30,7 @@ from lpik.robots.planar import planar_arm
 
 pytest.importorskip("numba")
 from lpik.control.controller import Lp2Controller  # noqa: E402
+from lpik.control.stepper import Stepper  # noqa: E402
 
 ARM = planar_arm([1.0, 1.0, 1.0, 1.0], q_min=-2.5, q_max=np.deg2rad([95, 150, 150, 150]),
                  qd_max=1.0)  # fmt: skip
@@ -109,6 +110,14 @@ def test_rate_limits_read_per_second_values_and_refuse_state_dependent_limits() 
         Lp2Controller(ARM, dt=0.01, limits=3.0)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="lambda_bound: must be a number > 0"):
         Lp2Controller(ARM, dt=0.01, lambda_bound="big")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("flag", [True, [True, False, True, True], np.ones(4, dtype=bool)])
+def test_acceleration_limits_are_numbers_not_a_switch(flag) -> None:  # type: ignore[no-untyped-def]
+    """``qdd_max=True`` would be a limit of 1 rad/s^2 (False: 0), not limits switched on."""
+    for make in (Lp2Controller, Stepper):
+        with pytest.raises(ValueError, match="^qdd_max: must be a number or 4 numbers, got bool"):
+            make(ARM, dt=0.01, qdd_max=flag)
 
 
 def test_the_cli_sets_acceleration_limits_in_rad_per_s2(tmp_path) -> None:  # type: ignore[no-untyped-def]

@@ -114,8 +114,9 @@ def test_no_progress_possible_is_said_and_moves_nothing() -> None:
 
 
 def test_the_stall_watch_waits_for_its_steps() -> None:
-    with pytest.raises(ValueError, match="on_stall: must be a whole number"):
-        StallWatch(0)
+    for not_steps in (0, True, 1.0):
+        with pytest.raises(ValueError, match="on_stall: must be a whole number"):
+            StallWatch(not_steps)  # type: ignore[arg-type]
     P = blocked()
     watch = StallWatch(3)
     stalled = solve(P, "lp2")

@@ -59,8 +59,12 @@ def joint_rates(name: str, value: Any, n: int) -> FloatArray:
     """Per-joint limits > 0 (``inf``: none) from a scalar or ``n`` numbers, or a ValueError.
 
     Raises:
-        ValueError: Naming ``name``, for a wrong length, NaN, or a value <= 0 or too large.
+        ValueError: Naming ``name``, for a wrong length, NaN, a value <= 0 or too large,
+            or booleans (``True`` is not a switch that turns the limits on: it would be
+            a limit of 1).
     """
+    if isinstance(value, bool) or np.asarray(value).dtype == np.bool_:
+        raise ValueError(f"{name}: must be a number or {n} numbers, got booleans {value!r}")
     try:
         arr = np.array(value, dtype=np.float64)
     except (TypeError, ValueError):

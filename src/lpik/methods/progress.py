@@ -501,7 +501,8 @@ class StallWatch:
     """
 
     def __init__(self, after: int | None) -> None:
-        if after is not None and not (isinstance(after, int | np.integer) and after >= 1):
+        whole = isinstance(after, int | np.integer) and not isinstance(after, bool)
+        if after is not None and not (whole and after >= 1):
             raise ValueError(
                 f"on_stall: must be a whole number of steps >= 1 or None, got {after!r}"
             )
