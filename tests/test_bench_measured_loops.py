@@ -1,4 +1,4 @@
-"""benchmarks/measured_loops.py: a failed step brakes within the limits; a run's figures.
+"""benchmarks/measured_loops.py: a failed step brakes the commands within the limits.
 
 The errors themselves are the benchmark's findings (docs/benchmarks.md, "Encoder noise
 fed back"); tests/test_commanded.py holds lpik's measured loops to their contract.
