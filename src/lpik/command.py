@@ -494,7 +494,7 @@ def commanded_displacement(
     v_max: float,
     w_max: float,
     dt: float,
-    stop: tuple[FloatArray, FloatArray, FloatArray] | None = None,
+    stop: tuple[FloatArray, ...] | None = None,
     target_motion: FloatArray | None = None,
 ) -> FloatArray:
     """The step's ``dw`` from the task value ``pose`` at ``q`` towards ``target`` (the law above).
