@@ -28,7 +28,7 @@ def step_problem(model, avoid, q, target):  # type: ignore[no-untyped-def]
     J = model.jacobian(q)
     dw = ClampedTarget(target, v_max=0.5)(model, q, DT)
     limits = [*standard_limits(model), *avoid.limits()]
-    return build_problem(J, dw, q, limits, dt=DT, **avoid.weights({}, q, DT, J))
+    return avoid.with_field(build_problem(J, dw, q, limits, dt=DT), DT)
 
 
 def test_a_row_bounds_the_approach_as_faverjon_and_tournassoud_write_it() -> None:
@@ -121,6 +121,12 @@ def test_the_fields_own_step_keeps_within_the_limits() -> None:
     lo, hi = np.full(3, -0.01), np.array([0.01, 0.01, 0.004])
     assert field_scale(force, J, np.eye(3), lo, hi) == pytest.approx(0.5 * 0.004)
     assert field_scale(force, J, np.eye(3), lo, np.array([0.01, 0.01, 0.0])) == 0.0
+    # measured from the rest of the step at p = 0 (under acceleration limits: the motion kept)
+    rest = np.array([0.0, 0.0, 0.002])
+    assert field_scale(force, J, np.eye(3), lo, hi, rest) == pytest.approx(0.5 * 0.002)
+    # never past a row: G dq <= g with G = e3, g = 0.0025 leaves 0.0005 beyond rest
+    rows = (np.array([[0.0, 0.0, 1.0]]), np.array([0.0025]))
+    assert field_scale(force, J, np.eye(3), lo, hi, rest, rows) == pytest.approx(0.0005)
 
 
 def run(method, mechanism, scene, target, steps):  # type: ignore[no-untyped-def]
@@ -160,6 +166,72 @@ def test_on_the_tools_path_the_tool_stops_at_the_safety_distance(tmp_path) -> No
     rows = list(csv.DictReader(open(log.to_csv(tmp_path / "run.csv"), encoding="utf-8")))
     assert rows[-1]["closest"] == "link 4 - ball"
     assert float(rows[-1]["min_distance"]) == pytest.approx(log.min_distance[-1])
+
+
+#: A ball 0.107 m from the planar arm's second link at Q0: within the field's reach
+#: (``d_i`` 0.3 m), outside the safety distance (0.05 m); and one 3 mm inside it.
+BESIDE_LINK_2 = circle_scene((0.78, 1.382), 0.15)
+INSIDE_LINK_2 = circle_scene((0.81, 1.33), 0.15)
+
+
+def field_runs(scene, target, qdd_max, steps, mechanism="field"):  # type: ignore[no-untyped-def]
+    """The numpy engine's and the compiled controller's runs with the field: (log, qs)."""
+    from lpik import Lp2Controller
+
+    model = arm()
+    avoid = collision_avoidance(model, scene, Q0, mechanism=mechanism)
+    log = simulate(model, ClampedTarget(target, v_max=0.5), Q0, steps, method="lp2s", dt=DT,
+                   scene=avoid, qdd_max=qdd_max)  # fmt: skip
+    controller = Lp2Controller(model, dt=DT, qdd_max=qdd_max, scene=avoid, v_max=0.5)
+    q, prev, qs, statuses = Q0.copy(), Q0.copy(), [], []
+    for _ in range(steps):
+        result = controller.step(q, target, prev)
+        q, prev = result.q, q
+        qs.append(q)
+        statuses.append(result.status)
+    return log, np.array(qs), statuses
+
+
+@pytest.mark.parametrize("qdd_max", [1.0, 5.0])
+@pytest.mark.parametrize("scene", [BESIDE_LINK_2, INSIDE_LINK_2], ids=["beside", "inside"])
+def test_under_acceleration_limits_the_field_moves_an_arm_at_rest_within_them(
+    scene, qdd_max
+) -> None:  # type: ignore[no-untyped-def]
+    """The field's step at ``p = 0`` is measured against the acceleration band, not the
+    velocity room alone: before, every step of an arm at rest within the field's reach was
+    infeasible (held by the safe step), or, from inside ``d_s``, recovering for good at it."""
+    hold = np.asarray(arm().pose(Q0))
+    log, qs, statuses = field_runs(scene, hold, qdd_max, 200)
+    np.testing.assert_allclose(qs, np.vstack([log.q[1:], log.q_end]), atol=1e-9)
+    assert list(log.status) == statuses
+    back = int(np.argmax(log.status != "recovering"))  # out of d_s (none from outside it)
+    assert back < 60 and set(log.status[back:]) == {"optimal"}
+    assert log.min_distance[-1] > log.min_distance[0] + 0.1  # the field pushed the link away
+    q_all = np.vstack([log.q, log.q_end])
+    assert np.abs(np.diff(q_all, 2, axis=0)).max() <= qdd_max * DT**2 * (1 + 1e-9)
+    assert np.abs(log.position_end - hold[:2]).max() < 1e-6  # the tool held where it was
+
+
+def test_under_acceleration_limits_the_field_and_rows_steer_the_tool_to_its_target() -> None:
+    """Before, the field asked for more than the acceleration band: the tool never arrived."""
+    log, qs, statuses = field_runs(BESIDE_LINK_2, PULL_IN, 5.0, 900, mechanism="both")
+    # near the target rounding apart grows to 5e-5 rad between the two (the field alone,
+    # without acceleration limits, did the same before: 6.6e-3)
+    np.testing.assert_allclose(qs[:600], log.q[1:601], atol=1e-9)
+    for taken in (list(log.status), statuses):
+        assert "infeasible" not in taken
+    assert np.linalg.norm(log.position_end - PULL_IN[:2]) < 1e-6
+    assert np.linalg.norm(arm().position(qs[-1]) - PULL_IN[:2]) < 1e-6
+    assert log.min_distance.min() >= 0.05 - 1e-9
+
+
+def test_with_rows_and_field_the_field_never_pushes_a_pair_through_its_row() -> None:
+    """Near the target the field pushed links 2 and 4 together while it pushed link 2 off
+    the ball: its own step broke their row, and 375 of these 1000 steps were infeasible."""
+    log, qs, statuses = field_runs(BESIDE_LINK_2, PULL_IN, None, 1000, mechanism="both")
+    np.testing.assert_allclose(qs, np.vstack([log.q[1:], log.q_end]), atol=1e-9)
+    assert "infeasible" not in set(log.status) and list(log.status) == statuses
+    assert log.min_distance.min() >= 0.05 - 1e-9
 
 
 def test_a_scene_for_the_plane_needs_a_planar_arm() -> None:

@@ -44,6 +44,7 @@ import numpy as np
 
 from lpik.collision import recovery
 from lpik.collision.distance import Proximities, Proximity
+from lpik.continuation import continued
 from lpik.limits import Piece, StepContext
 from lpik.problem import Problem
 from lpik.result import Result
@@ -172,26 +173,69 @@ def field_force(found: Sequence[Proximity], gain: float, influence: float, dt: f
 
 
 def field_scale(
-    force: FloatArray, J: FloatArray, M: FloatArray, lo: FloatArray, hi: FloatArray
-) -> float:
+    force: FloatArray, J: FloatArray, M: FloatArray, lo: FloatArray, hi: FloatArray,
+    rest: FloatArray | None = None, rows: tuple[FloatArray, FloatArray] | None = None,
+) -> float:  # fmt: skip
     """The largest ``s`` in [0, 1] for which the step ``f`` alone drives stays in the limits.
 
-    At ``p = 0`` the paper's criterion (eq. 3) with eq. 12 moves ``dq = a``,
-    ``[[M, J^T], [J, 0]] [a; lam] = [f; 0]`` (the null-space share of ``f``).
-    ``s a`` may take at most :data:`FIELD_SHARE` of the room ``[lo, hi]`` of each
-    joint, so that LP2 keeps a solution at ``p = 0`` (a field too strong for a
-    joint at its limit made the step infeasible) and the command keeps the rest.
+    At ``p = 0`` the paper's criterion (eq. 3) with eq. 12 moves ``dq = rest + s a``,
+    ``[[M, J^T], [J, 0]] [a; lam] = [force; 0]`` (the null-space share of the
+    force) and ``rest`` the same for the rest of the criterion's ``f`` (None: 0).
+    ``s a`` may take at most :data:`FIELD_SHARE` of the room between ``rest`` and
+    ``[lo, hi]`` on each joint, so that the command keeps the rest of it, and
+    may not carry ``rest`` past any of the ``rows`` ``(G, g)``, ``G dq <= g`` (the
+    distance rows, with ``mechanism="both"``): LP2 keeps a solution at ``p =
+    0``. A field too strong for a joint at its limit, or one that pushed a pair
+    of links against its own row while it pushed another pair apart, made every
+    step infeasible.
+    """
+    a = null_space_motion(J, M, force)
+    base = np.zeros_like(a) if rest is None else rest
+    scale = 1.0
+    for i in range(a.shape[0]):
+        if a[i] > 0:
+            scale = min(scale, max(0.0, FIELD_SHARE * (hi[i] - base[i])) / a[i])
+        elif a[i] < 0:
+            scale = min(scale, min(0.0, FIELD_SHARE * (lo[i] - base[i])) / a[i])
+    if rows is not None:
+        G, g = rows
+        along, used = G @ a, G @ base
+        for k in range(along.shape[0]):
+            if along[k] > 0:
+                scale = min(scale, max(0.0, g[k] - used[k]) / along[k])
+    return scale
+
+
+def null_space_motion(J: FloatArray, M: FloatArray, f: FloatArray) -> FloatArray:
+    """The step at ``p = 0`` that ``f`` drives (eq. 3 with eq. 12).
+
+    ``[[M, J^T], [J, 0]] [dq; lam] = [f; 0]``: the null-space share of ``f``.
     """
     n, m = M.shape[0], J.shape[0]
     kkt = np.block([[M, J.T], [J, np.zeros((m, m))]])
-    a = np.linalg.lstsq(kkt, np.concatenate([force, np.zeros(m)]), rcond=None)[0][:n]
-    scale = 1.0
-    for i in range(n):
-        if a[i] > 0:
-            scale = min(scale, max(0.0, FIELD_SHARE * hi[i]) / a[i])
-        elif a[i] < 0:
-            scale = min(scale, min(0.0, FIELD_SHARE * lo[i]) / a[i])
-    return scale
+    return np.linalg.lstsq(kkt, np.concatenate([f, np.zeros(m)]), rcond=None)[0][:n]
+
+
+def field_scale_for(force: FloatArray, problem: Problem) -> float:
+    """:func:`field_scale` within ``problem``'s own room for the step.
+
+    The room is the step's bounds (end-stops, velocity and, under acceleration
+    limits, the band around the arm's motion: :meth:`~lpik.problem.Problem.step_bounds`)
+    and its rows (a scene's distance rows with ``mechanism="both"``).
+    Where the step is solved around the motion (:mod:`lpik.continuation`), the
+    field's share is measured in that frame: the room is the bounds less the motion
+    kept, and the rest of the step at ``p = 0`` is the continued criterion's (its
+    ``f`` less the decaying pull back to the least motion, :func:`continued`). So
+    under acceleration limits the field's motion grows as fast as the joints may
+    speed up; a field measured against the velocity room alone asked an arm at rest
+    for a step it could not take, and every step within the influence distance was
+    infeasible (the arm stopped by the safe step, its status ``infeasible``).
+    """
+    J, M = np.atleast_2d(problem.J), problem.M
+    frame = problem if problem.last is None else continued(problem)
+    lower, upper = frame.step_bounds()[:2]
+    rows = (frame.G, frame.h - frame.G @ frame.q0)
+    return field_scale(force, J, M, lower, upper, null_space_motion(J, M, frame.f), rows)
 
 
 @dataclass(frozen=True, eq=False)
@@ -238,36 +282,25 @@ class CollisionAvoidance:
         """The hard rows as a limit (:meth:`rows`)."""
         return [self.rows()]
 
-    def weights(
-        self, weights: Mapping[str, Any], q: FloatArray, dt: float, J: FloatArray
-    ) -> dict[str, Any]:
-        """``weights`` with the field's force added to ``f`` (unchanged for the rows alone).
+    def with_field(self, problem: Problem, dt: float) -> Problem:
+        """``problem`` with the field's force added to its ``f`` (unchanged for the rows alone).
 
-        The force is scaled by :func:`field_scale` so that LP2's step at ``p = 0`` stays
-        within the joints' limits.
-
-        Args:
-            weights: The step's weights (``M``, ``f``, ...).
-            q: Joint coordinates now, shape (n,).
-            dt: Control period [s].
-            J: The task Jacobian at ``q``, shape (m, n).
+        The force (:meth:`field_at` ``problem.q0``) is scaled by
+        :func:`field_scale_for`, so that LP2's step at ``p = 0`` stays within the
+        step's own room, acceleration bands included.
         """
-        out = dict(weights)
+        force = self.field_at(problem.q0, dt)
+        if force is None:
+            return problem
+        return problem.replace(f=problem.f + field_scale_for(force, problem) * force)
+
+    def field_at(self, q: FloatArray, dt: float) -> FloatArray | None:
+        """The field's force at ``q`` (:func:`field_force`), or None where there is none."""
         if self.mechanism == "rows":
-            return out
+            return None
         found = self.proximities.at(q)
         force = field_force(found, self.field_gain, self.scene.influence_distance, dt)
-        if not force.size or not force.any():
-            return out
-        chain = self.proximities.bodies.chain
-        M = np.asarray(out.get("M", np.eye(q.size)), dtype=np.float64)
-        M = np.diag(M) if M.ndim == 1 else M
-        room = chain.qd_max * dt
-        lo = np.maximum(chain.q_min - q, -room)
-        hi = np.minimum(chain.q_max - q, room)
-        force = field_scale(force, np.atleast_2d(J), M, lo, hi) * force
-        out["f"] = force + np.asarray(out.get("f", 0.0), dtype=np.float64)
-        return out
+        return force if force.size and force.any() else None
 
     def inside(self, q: FloatArray) -> dict[str, float]:
         """The pairs closer than ``d_s`` at ``q``: their rows' labels -> signed distance [m]."""

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik.collision import CollisionAvoidance
-from lpik.collision.avoidance import INACTIVE_RHS
+from lpik.collision.avoidance import INACTIVE_RHS, field_scale_for
 from lpik.collision.model import as_avoidance
 from lpik.collision.recovery import (
     RECOVERY,
@@ -159,16 +159,27 @@ class SceneRows:
         self._f0 = np.zeros(n) if f is None else np.broadcast_to(np.asarray(f, float), (n,)).copy()
         stepper.limits = (*stepper.limits[:-1], StateRows(self.G, self.h, self.labels))
 
-    def write(self, q0: FloatArray, dt: float) -> None:
-        """This step's rows (and force) by coal into the state buffer."""
+    def write(self, q0: FloatArray, target: Any, q_prev: Any) -> None:
+        """This step's rows (and force) by coal into the state buffer.
+
+        The field's force is scaled within the step's own room
+        (:func:`lpik.collision.avoidance.field_scale_for`), read off the numpy
+        engine's problem for this step, its acceleration bands included (as
+        :meth:`lpik.collision.CollisionAvoidance.with_field` does on the numpy engine).
+        """
         self.G[:] = 0.0
         self.h[:] = INACTIVE_RHS
-        pairs, G, h = self._rows.pair_rows(q0, dt)
+        pairs, G, h = self._rows.pair_rows(q0, self._stepper.dt)
         self.G[pairs] = G
         self.h[pairs] = h
-        weights = self.avoidance.weights({"f": self._f0}, q0, dt, self.model.jacobian(q0))
-        self._f[:] = weights["f"]
-        self._stepper.weights["f"] = weights["f"]
+        force = self.avoidance.field_at(q0, self._stepper.dt)
+        f = self._f0
+        if force is not None:  # its share of this step's room: the numpy engine's problem
+            self._stepper.weights["f"] = self._f0
+            problem = self._stepper.problem(q0, target, q_prev)
+            f = self._f0 + field_scale_for(force, problem) * force
+        self._f[:] = f
+        self._stepper.weights["f"] = f
 
 
 def compiled_least_error(*arrays: Any) -> tuple[str, FloatArray]:
@@ -697,7 +708,7 @@ class Lp2Controller:
             q0 = np.ascontiguousarray(q0, dtype=np.float64)
             if q0.shape != self._vector_shape or not np.isfinite(q0).all():
                 raise ValueError(f"q0: must be {self._n} finite coordinates")
-            self.scene_rows.write(q0, self.dt)
+            self.scene_rows.write(q0, target, q_prev)
         prev = q0 if q_prev is None else q_prev
         try:
             return self._kernel(self._state, q0, prev, target)
@@ -1089,5 +1100,5 @@ class Lp2Controller:
         """
         q0, target, q_prev = self._checked(q0, target, q_prev)
         if self.scene_rows is not None:
-            self.scene_rows.write(np.asarray(q0, dtype=np.float64), self.dt)
+            self.scene_rows.write(np.asarray(q0, dtype=np.float64), target, q_prev)
         return self.stepper.problem(q0, target, q_prev, bound=self._bound)

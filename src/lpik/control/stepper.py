@@ -340,10 +340,9 @@ class Stepper:
         computed where the stops ahead need it). ``singular_stop=False``: without the
         stop before a singular configuration (:meth:`on_floor`).
         """
-        limits, weights = self.limits, self.weights
+        limits = self.limits
         if self.avoidance is not None:
             limits = (*limits, *self.avoidance.limits())
-            weights = self.avoidance.weights(weights, q0, self.dt, J)
         if jacobian_before is None and self.continues:  # the stops ahead read it
             jacobian_before = self.previous_jacobian(q0, q_prev)
         before = None if jacobian_before is None else jacobian_before @ (q0 - q_prev)
@@ -351,7 +350,9 @@ class Stepper:
                           continuation=self.continues, motion_before=before,
                           singular_steps=self.singular_steps(
                               J, jacobian_before, bound if singular_stop else None),
-                          **weights)  # fmt: skip
+                          **self.weights)  # fmt: skip
+        if self.avoidance is not None:  # the field's force, within the step's own room
+            P = self.avoidance.with_field(P, self.dt)
         return P if bound is None else _under_bound(P, bound)
 
     def solve(self, problem: Problem, *, path: str | None = None) -> Result:
