@@ -80,6 +80,14 @@ def test_the_obstacle_scenario_carries_its_scene(tmp_path, capsys) -> None:  # t
         (["reach", "--robot", "panda", "--target", "1,2"], "--target: a 3-D arm needs"),
         (["pull-in", "--target", "1,2,3"], "--target: only for the scenario 'reach'"),
         (["obstacle", "--robot", "panda"], "robot: scenario 'obstacle' runs on the 'planar'"),
+        (
+            ["obstacle", "--method", "lp1", "--avoid", "field"],
+            "scene: method 'lp1' does not take the potential field's force",
+        ),
+        (
+            ["obstacle", "--method", "nlp", "--avoid", "both"],
+            "scene: method 'nlp' does not take the potential field's force",
+        ),
     ],
 )
 def test_bad_reach_options_are_one_line(capsys, args, message) -> None:  # type: ignore[no-untyped-def]
@@ -159,3 +167,21 @@ def test_names_with_newlines_or_terminal_escapes_are_printed_escaped(tmp_path, c
     assert "ba\\nll\\x1b[31m\\u202e" in printed
     rows = list(csv.DictReader(out.open(encoding="utf-8", newline="")))
     assert any(r["closest"] == f"link 2 - {name}" for r in rows)  # the CSV keeps the name
+
+
+@pytest.mark.parametrize("method", ["pinv", "lp1", "l1", "nlp"])
+def test_a_field_with_a_method_that_drops_it_is_refused(method) -> None:  # type: ignore[no-untyped-def]
+    """Those methods ignore ``f``: the field would be dropped without a word and the arm
+    left unguarded (lp1 on the planar obstacle: a pair 5 mm inside ``d_s``)."""
+    from lpik.collision import collision_avoidance, scene_from_dict
+    from lpik.command import ClampedTarget
+    from lpik.control.simulate import simulate
+    from lpik.robots.planar import planar_arm
+
+    model, target, q0 = planar_arm([1.0] * 4), ClampedTarget([1.0, 1.0, 0.0]), [0.3] * 4
+    for mechanism in ("field", "both"):
+        avoid = collision_avoidance(model, scene_from_dict(SCENE), None, mechanism=mechanism)
+        with pytest.raises(ValueError, match=f"^scene: method '{method}' does not take"):
+            simulate(model, target, q0, 2, method=method, dt=0.01, scene=avoid)
+    rows = collision_avoidance(model, scene_from_dict(SCENE), None, mechanism="rows")
+    simulate(model, target, q0, 2, method=method, dt=0.01, scene=rows)  # the rows: taken

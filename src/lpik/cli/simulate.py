@@ -139,8 +139,10 @@ def _epilog() -> str:
             ),
             _paragraph(
                 f"refused combinations (exit 2, one line): --lambda-bound with a method that "
-                f"does not bound its multipliers (only {bounded} do); --animate with a 3-D "
-                f"--robot (use --plot); --plot or --animate without matplotlib."
+                f"does not bound its multipliers (only {bounded} do); --avoid field or both "
+                f"with a method that does not take the field's force (only "
+                f"{_methods('takes_criterion')} do); --animate with a 3-D --robot (use --plot); "
+                f"--plot or --animate without matplotlib."
             ),
         ]
     )
@@ -234,6 +236,13 @@ def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _methods(capability: str) -> str:
+    """The methods whose :class:`~lpik.methods.registry.MethodSpec` has ``capability``."""
+    from lpik.methods.registry import METHODS
+
+    return ", ".join(name for name, spec in METHODS.items() if getattr(spec, capability))
+
+
 def _add_loop_arguments(parser: argparse.ArgumentParser) -> None:
     """How the loop steps: stall handling, obstacles and how to avoid them, HiGHS's start."""
     parser.add_argument(
@@ -265,8 +274,8 @@ def _add_loop_arguments(parser: argparse.ArgumentParser) -> None:
         "--avoid",
         choices=("rows", "field", "both"),
         default="rows",
-        help="with --scene: hard distance rows (velocity damper; lp1, l1, lp2), the paper's "
-        "potential field (weighted, robust, lp2) or both (default rows)",
+        help=f"with --scene: hard distance rows (velocity damper; {_methods('limit_aware')}), "
+        f"the paper's potential field ({_methods('takes_criterion')}) or both (default rows)",
     )
     parser.add_argument(
         "--cold-start",

@@ -64,7 +64,7 @@ from lpik.limits import (
 )
 from lpik.methods.autobound import bound_for_step, floor_row, singular_memo, singular_steps
 from lpik.methods.progress import StallWatch, further_step, least_error_lp
-from lpik.methods.registry import DEFAULT_METHOD, MethodSpec, get_method
+from lpik.methods.registry import DEFAULT_METHOD, METHODS, MethodSpec, get_method
 from lpik.problem import Problem
 from lpik.result import VIOLATES_LIMITS, Result
 from lpik.robots.base import TaskModel
@@ -203,6 +203,7 @@ class Stepper:
         home_q = None if home is None else np.asarray(home, dtype=np.float64)
         #: The scene's collision avoidance, or None.
         self.avoidance = as_avoidance(model, scene, home_q)
+        _check_field_method(self.avoidance, self.spec)
         self.stall_watch = StallWatch(on_stall)
         #: Where the last step's motion reached the automatic bound's floor (the stop
         #: ahead 0 steps away): what :meth:`on_floor` rebuilds its problem from, else None.
@@ -521,3 +522,19 @@ class Stepper:
         if path is not None:
             options["path"] = path
         return partial(spec.function, **options) if options else spec.function
+
+
+def _check_field_method(avoidance: Any, spec: MethodSpec) -> None:
+    """A potential field only with a method that takes its force (``f`` of eq. 3).
+
+    Any other method would drop the field without a word and leave the arm
+    unguarded (``lp1`` with the field on the planar obstacle: pairs 5 mm inside
+    ``d_s``).
+    """
+    if avoidance is None or avoidance.mechanism == "rows" or spec.takes_criterion:
+        return
+    takers = ", ".join(name for name, other in METHODS.items() if other.takes_criterion)
+    raise ValueError(
+        f"scene: method {spec.name!r} does not take the potential field's force "
+        f"(f of eq. 3; {takers} do): avoid with mechanism 'rows', got {avoidance.mechanism!r}"
+    )

@@ -38,6 +38,8 @@ class MethodSpec:
         limit_aware: Every step it returns keeps every limit.
         continuable: Its step is ``J dq = p dw`` (eq. 12), which under acceleration
             limits is solved around the current motion (:mod:`lpik.continuation`).
+        takes_criterion: Minimises the quadratic criterion of eq. 3 (``M``, ``f``),
+            through which a scene's potential field acts (its force is ``f``).
     """
 
     name: str
@@ -49,6 +51,7 @@ class MethodSpec:
     bounds_multipliers: bool = False
     limit_aware: bool = False
     continuable: bool = False
+    takes_criterion: bool = False
 
 
 #: Every method, by name, in the order the paper introduces them.
@@ -58,9 +61,12 @@ METHODS: dict[str, MethodSpec] = {
         MethodSpec("pinv", pinv, "Moore-Penrose pseudo-inverse step", "eqs. 8-9"),
         MethodSpec(
             "weighted", weighted, "weighted least-norm step (M, f; Lambda, q_ref)",
-            "eq. 7, sec. 3.1",
+            "eq. 7, sec. 3.1", takes_criterion=True,
         ),
-        MethodSpec("robust", robust, "Komainda's robust (damped) inverse", "eq. 19"),
+        MethodSpec(
+            "robust", robust, "Komainda's robust (damped) inverse", "eq. 19",
+            takes_criterion=True,
+        ),
         MethodSpec(
             "lp1", lp1, "Schlemmer's LP: max p, redundancy unresolved", "eqs. 11-14",
             takes_solver=True, limit_aware=True, continuable=True,
@@ -73,11 +79,13 @@ METHODS: dict[str, MethodSpec] = {
             "lp2", lp2, "max p with the quadratic criterion as LP rows",
             "eqs. 15-18, secs. 3.1-3.2",
             takes_solver=True, bounds_multipliers=True, limit_aware=True, continuable=True,
+            takes_criterion=True,
         ),
         MethodSpec(
             "lp2s", lp2s, "LP2 with saturation in the null space: a joint at its bound is "
             "fixed and the others carry on", "eqs. 15-18 over the free joints",
             takes_solver=True, bounds_multipliers=True, limit_aware=True, continuable=True,
+            takes_criterion=True,
         ),
         MethodSpec(
             "nlp", nlp, "Schlemmer's nonlinear program (needs the robot model)", "sec. 2.2",
