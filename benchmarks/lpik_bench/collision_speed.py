@@ -19,7 +19,11 @@ run only warms up. Variants:
   ``p < 1`` looks for a bound inside the compiled step and may solve LP2 again;
 * ``AvoidingLp2Controller.step, coal``: ``compiled_distances=False``, the
   distances through coal in Python and the rows written in before the
-  compiled step (the path before the compiled distance kernels).
+  compiled step (the path before the compiled distance kernels);
+* ``Lp2Controller.step, field`` (``both``): the paper's potential field (with
+  the rows), through coal as above; ``qdd_max=10`` in a loop that passes
+  ``q_prev``: the field's share of the step is read off the numpy engine's
+  problem for the step where a force acts (its acceleration bands).
 
 Every variant reaches the target; the compiled and coal paths give the same
 steps (tests hold them equal to 1e-9).
@@ -37,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik.collision import load_scene
+from lpik.collision import collision_avoidance, load_scene
 from lpik.control.avoiding_controller import AvoidingLp2Controller
 from lpik.control.controller import Lp2Controller
 from lpik.paper.collision_runs import SHELF_TARGET
@@ -51,6 +55,8 @@ def timed(step: Any, q0: np.ndarray, target: np.ndarray, runs: int, steps: int) 
     times, q = [], q0
     for run in range(runs + 1):
         q = q0.copy()
+        if hasattr(step, "restart"):  # a loop that remembers its last state
+            step.restart()
         for _ in range(steps):
             start = time.perf_counter()
             q = step(q, target)
@@ -66,6 +72,23 @@ def timed(step: Any, q0: np.ndarray, target: np.ndarray, runs: int, steps: int) 
     }
 
 
+class LoopStep:
+    """``controller.step(q, target, q_prev)`` in a loop fed its commands (q_prev: the last q)."""
+
+    def __init__(self, controller: Lp2Controller) -> None:
+        self.controller, self.prev = controller, None
+
+    def restart(self) -> None:
+        """A new reach: from rest, the controller's memory of the last step forgotten."""
+        self.prev = None
+        self.controller.reset()
+
+    def __call__(self, q: np.ndarray, target: np.ndarray) -> np.ndarray:
+        answer = self.controller.step(q, target, q if self.prev is None else self.prev).q
+        self.prev = q
+        return answer
+
+
 def run(runs: int, steps: int) -> dict:
     """Every variant, with the machine's load before and after."""
     setup = reach_setup("panda", SHELF_TARGET)
@@ -78,6 +101,11 @@ def run(runs: int, steps: int) -> dict:
     coal = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt,
                                  compiled_distances=False)  # fmt: skip
     out = np.zeros(setup.model.n_joints)
+    field, field_acc = (
+        Lp2Controller(setup.model, dt=setup.dt, qdd_max=qdd_max,
+                      scene=collision_avoidance(setup.model, scene, setup.q0, mechanism="both"))
+        for qdd_max in (None, 10.0)
+    )  # fmt: skip
 
     def into(q: np.ndarray, target: np.ndarray) -> np.ndarray:
         fused.step_into(q, target, out=out)
@@ -90,6 +118,8 @@ def run(runs: int, steps: int) -> dict:
         "AvoidingLp2Controller.step_into": into,
         "AvoidingLp2Controller.step, lambda_bound=None": lambda q, t: unbounded.step(q, t).q,
         "AvoidingLp2Controller.step, coal": lambda q, t: coal.step(q, t).q,
+        "Lp2Controller.step, field (both, coal)": lambda q, t: field.step(q, t).q,
+        "Lp2Controller.step, field (both, coal), qdd_max=10, q_prev": LoopStep(field_acc),
     }
     rows = []
     for name, step in variants.items():
