@@ -120,6 +120,12 @@ def test_acceleration_limits_are_numbers_not_a_switch(flag) -> None:  # type: ig
             make(ARM, dt=0.01, qdd_max=flag)
 
 
+def test_a_ragged_limit_is_named() -> None:
+    """The check for booleans reads the value inside the conversion's guard."""
+    with pytest.raises(ValueError, match="^qdd_max: must be a number or 4 numbers"):
+        Lp2Controller(ARM, dt=0.01, qdd_max=[1.0, [2.0, 3.0]])
+
+
 def test_the_cli_sets_acceleration_limits_in_rad_per_s2(tmp_path) -> None:  # type: ignore[no-untyped-def]
     out = tmp_path / "run.csv"
     with contextlib.redirect_stdout(io.StringIO()):

@@ -63,12 +63,13 @@ def joint_rates(name: str, value: Any, n: int) -> FloatArray:
             or booleans (``True`` is not a switch that turns the limits on: it would be
             a limit of 1).
     """
-    if isinstance(value, bool) or np.asarray(value).dtype == np.bool_:
-        raise ValueError(f"{name}: must be a number or {n} numbers, got booleans {value!r}")
     try:
+        booleans = np.asarray(value).dtype == np.bool_
         arr = np.array(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"{name}: must be a number or {n} numbers, got {value!r}") from None
+    if booleans:
+        raise ValueError(f"{name}: must be a number or {n} numbers, got booleans {value!r}")
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
     if arr.shape != (n,):
