@@ -238,6 +238,11 @@ def field_scale_for(force: FloatArray, problem: Problem) -> float:
     return field_scale(force, J, M, lower, upper, null_space_motion(J, M, frame.f), rows)
 
 
+def with_force(problem: Problem, force: FloatArray) -> Problem:
+    """``problem`` with the field's ``force`` added to ``f``, scaled by :func:`field_scale_for`."""
+    return problem.replace(f=problem.f + field_scale_for(force, problem) * force)
+
+
 @dataclass(frozen=True, eq=False)
 class CollisionAvoidance:
     """What a closed loop needs for collision avoidance: rows, force, the closest pair.
@@ -290,9 +295,7 @@ class CollisionAvoidance:
         step's own room, acceleration bands included.
         """
         force = self.field_at(problem.q0, dt)
-        if force is None:
-            return problem
-        return problem.replace(f=problem.f + field_scale_for(force, problem) * force)
+        return problem if force is None else with_force(problem, force)
 
     def field_at(self, q: FloatArray, dt: float) -> FloatArray | None:
         """The field's force at ``q`` (:func:`field_force`), or None where there is none."""

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik.collision import CollisionAvoidance
-from lpik.collision.avoidance import INACTIVE_RHS, field_scale_for
+from lpik.collision.avoidance import INACTIVE_RHS, with_force
 from lpik.collision.model import as_avoidance
 from lpik.collision.recovery import (
     RECOVERY,
@@ -163,7 +163,7 @@ class SceneRows:
         """This step's rows (and force) by coal into the state buffer.
 
         The field's force is scaled within the step's own room
-        (:func:`lpik.collision.avoidance.field_scale_for`), read off the numpy
+        (:func:`lpik.collision.avoidance.with_force`), read off the numpy
         engine's problem for this step, its acceleration bands included (as
         :meth:`lpik.collision.CollisionAvoidance.with_field` does on the numpy engine).
         """
@@ -176,8 +176,7 @@ class SceneRows:
         f = self._f0
         if force is not None:  # its share of this step's room: the numpy engine's problem
             self._stepper.weights["f"] = self._f0
-            problem = self._stepper.problem(q0, target, q_prev)
-            f = self._f0 + field_scale_for(force, problem) * force
+            f = with_force(self._stepper.problem(q0, target, q_prev), force).f
         self._f[:] = f
         self._stepper.weights["f"] = f
 
