@@ -8,17 +8,27 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from lpik import Lp2Controller, home_configuration
-from lpik.continuation import HELD_FROM, HELD_STEP, PLAUSIBLE, hold_step, plausible_previous
+from lpik.continuation import (
+    FAULT,
+    HELD_FROM,
+    HELD_STEP,
+    MEMORY_ROWS,
+    PLAUSIBLE,
+    hold_step,
+    plausible_previous,
+)
 from lpik.robots.registry import load_robot
 
 PANDA = load_robot("panda", task="pose")
 BAND = 1e-5  # qdd_max = 10 rad/s^2 at dt = 1 ms: qdd dt^2
+SPEED = 2e-3  # qd_max = 2 rad/s at dt = 1 ms: qd dt
 
 
 def _previous(q0: list[float], q_prev: list[float], held_from: list[float],
               held_step: list[float]) -> tuple[bool, np.ndarray]:  # fmt: skip
-    memory = np.array([held_from, held_step, [-BAND] * len(q0), [BAND] * len(q0),
-                       [np.nan] * len(q0)])  # fmt: skip
+    n = len(q0)
+    memory = np.array([held_from, held_step, [-BAND] * n, [BAND] * n, [np.nan] * n,
+                       [-SPEED] * n, [SPEED] * n, [0.0] * n])  # fmt: skip
     clipped = plausible_previous(np.array(q0), np.array(q_prev), memory)
     return clipped, memory[PLAUSIBLE]
 
@@ -35,9 +45,27 @@ def test_an_implied_step_beyond_the_acceleration_band_of_the_commanded_one_is_cl
     assert not _previous([0.0015, 0.0], [1e-9, 0.0], [0.0, 0.0], [1e-3, 0.0])[0]
     # no step answered yet (held_from NaN)
     assert not _previous([0.0015, 0.0], [0.0, 0.0], [np.nan, np.nan], [0.0, 0.0])[0]
-    memory = np.zeros((5, 2))
+    memory = np.zeros((MEMORY_ROWS, 2))
     hold_step(np.array([1.0, 2.0]), np.array([1.5, 1.0]), memory)
     assert memory[HELD_FROM].tolist() == [1.0, 2.0] and memory[HELD_STEP].tolist() == [0.5, -1.0]
+
+
+def test_a_velocity_fault_in_another_q_prev_is_taken_as_the_motion_since_the_last_q0() -> None:
+    """q_prev is not the last q0 (a loop that builds it from a velocity reading) and q0 is
+    where the last step sent the arm: joint 1's implied step, 50 times its velocity limit,
+    is a fault and is taken as the motion since the last q0; joint 2's, within its limit
+    (the arm may have been stopped), stands, and the fault row says which joint and side."""
+    q0, q_prev = [1e-3 + 2e-6, 0.0], [1e-3 + 2e-6 - 0.1, 1e-3]
+    n = len(q0)
+    memory = np.array([[0.0, 0.0], [1e-3, 0.0], [-BAND] * n, [BAND] * n, [np.nan] * n,
+                       [-SPEED] * n, [SPEED] * n, [0.0] * n])  # fmt: skip
+    assert plausible_previous(np.array(q0), np.array(q_prev), memory)
+    np.testing.assert_allclose(memory[PLAUSIBLE], [0.0, 1e-3], rtol=0, atol=1e-15)
+    assert memory[FAULT].tolist() == [1.0, 0.0]
+    # q0 further from where the step sent it than the drives could have made it: no memory
+    assert not _previous([1e-3 + 2e-5, 0.0], [-0.1, 0.0], [0.0, 0.0], [1e-3, 0.0])[0]
+    # a last step within the band around rest (a query repeated at the same q0 looks so)
+    assert not _previous([5e-6, 0.0], [-0.1, 0.0], [0.0, 0.0], [5e-6, 0.0])[0]
 
 
 def _measured_loop(controller, sigma: float, seed: int, steps: int) -> np.ndarray:  # type: ignore[no-untyped-def]
@@ -216,3 +244,57 @@ def test_a_loop_fed_as_documented_is_not_warned(how: str) -> None:
         _feed(controller, how)
         controller.reset()
         _feed(controller, how)
+
+
+def _velocity_loop(controller, bad: float, joint: int, at: int, into: bool, steps: int = 300):  # type: ignore[no-untyped-def]
+    """The Panda from home towards a goal 10 cm along x, y and -z, ``q_prev`` built from a
+    velocity reading (``q0 - qd dt``) that is exact but at step ``at``, where joint
+    ``joint``'s reads ``bad`` rad/s. Steps with :meth:`step_into` where ``into``, else
+    :meth:`step`. Returns the arm's configurations
+    (the commands followed exactly) and each step's status and binding."""
+    q = home_configuration("panda")
+    goal = PANDA.pose(q)
+    goal[:3, 3] += [0.1, 0.1, -0.1]
+    path, said, before = [q.copy()], [], q.copy()
+    for k in range(steps):
+        q_prev = before.copy()
+        if k == at:
+            q_prev[joint] = q[joint] - bad * 1e-3
+        if into:
+            out = np.empty(q.size)
+            controller.step_into(q, goal, q_prev, out=out)
+            said.append((controller.last_status, controller.last_binding))
+        else:
+            result = controller.step(q, goal, q_prev)
+            out = result.q
+            said.append((result.status, result.binding))
+        before, q = q, out
+        path.append(q.copy())
+    return np.array(path), said
+
+
+@settings(max_examples=8, deadline=None)
+@given(joint=st.integers(0, 6), sign=st.sampled_from([-1.0, 1.0]),
+       beyond=st.floats(0.05, 200.0), at=st.integers(20, 250),
+       engine=st.sampled_from(["step", "step_into", "numpy"]))  # fmt: skip
+def test_one_bad_velocity_sample_is_reported_and_the_arm_keeps_its_acceleration_limits(
+    joint: int, sign: float, beyond: float, at: int, engine: str
+) -> None:
+    """A q_prev from a velocity reading, one sample of which is beyond the joint's velocity
+    limit (a fault: the drives cannot move it so fast). Taken at rest or at the limit, as
+    the step must take it without a memory, the joint's real speed changed in one period
+    by 15 to 99 times its acceleration limit (five such runs). Taken as the motion since
+    the last q0, the arm keeps every
+    acceleration limit on every step, and the step says the state was faulty: status
+    ``recovering``, naming that joint's velocity limit on the side of the sample."""
+    from lpik.control.stepper import Stepper
+
+    controller = (Stepper(PANDA, dt=1e-3, qdd_max=10.0) if engine == "numpy"
+                  else Lp2Controller(PANDA, dt=1e-3, qdd_max=10.0))  # fmt: skip
+    bad = sign * (PANDA.qd_max[joint] + beyond)
+    path, said = _velocity_loop(controller, bad, joint, at, engine == "step_into")
+    acceleration = np.abs(np.diff(path, 2, axis=0)) / 1e-6
+    assert acceleration.max() <= 10.0 * (1 + 1e-6)
+    side = "upper" if sign > 0 else "lower"
+    assert said[at] == ("recovering", f"panda_joint{joint + 1} {side} velocity limit")
+    assert all(status != "recovering" for status, _ in said[:at] + said[at + 1 :])

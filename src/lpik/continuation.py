@@ -41,9 +41,10 @@ from typing import Any
 
 import numpy as np
 
+from lpik.bands import MET, plausible_step
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, MOVING, OPTIMAL, RECOVERING, Result, safe_step
-from lpik.tolerances import MOTION_WEIGHT, NO_CHANGE_P
+from lpik.tolerances import MOTION_WEIGHT, NO_CHANGE_P, SLACK_TOL
 from lpik.types import FloatArray
 
 #: Share of the narrowest band a step spends on slowing the null-space motion
@@ -190,21 +191,37 @@ def fading_steps(J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatA
     return (gain - price) / (gain_before - gain)
 
 
-#: The rows of a loop's memory (:func:`plausible_previous`, :func:`hold_step`), (5, n): the
+#: The rows of a loop's memory (:func:`plausible_previous`, :func:`hold_step`), (8, n): the
 #: last step's ``q0``, its commanded step ``q - q0``, one period of the lower and upper
-#: acceleration limits (``qdd_min dt^2``, ``qdd_max dt^2``), and the plausible ``q_prev``.
-HELD_FROM, HELD_STEP, BAND_LOWER, BAND_UPPER, PLAUSIBLE = range(5)
+#: acceleration limits (``qdd_min dt^2``, ``qdd_max dt^2``), the plausible ``q_prev``, one
+#: period of the lower and upper velocity limits (``qd_min dt``, ``qd_max dt``), and each
+#: joint's verdict on the implied step against them (:func:`lpik.bands.plausible_step`).
+HELD_FROM, HELD_STEP, BAND_LOWER, BAND_UPPER, PLAUSIBLE, SPEED_LOWER, SPEED_UPPER, FAULT = range(8)
+MEMORY_ROWS = 8
 
 
 def plausible_previous(q0, q_prev, memory):  # type: ignore[no-untyped-def]
     """The ``q_prev`` whose implied step the drives could have made, where it differs.
 
-    ``memory`` (5, n) holds the rows :data:`HELD_FROM` to :data:`PLAUSIBLE`. Where
-    ``q_prev`` is the last step's ``q0`` and every coordinate is finite, each
-    joint's implied step ``q0 - q_prev`` is clipped to the commanded step plus
-    one period of the acceleration limits, and the row :data:`PLAUSIBLE` is
-    ``q0`` less that step. Returns True where some joint's step was clipped (that
-    row holds the plausible ``q_prev``), False where ``q_prev`` stands as it is.
+    ``memory`` (:data:`MEMORY_ROWS`, n) holds the rows :data:`HELD_FROM` to
+    :data:`FAULT`. The memory describes the last period where every coordinate
+    is finite and either ``q_prev`` is the last step's ``q0`` (a loop that feeds
+    back its readings), or ``q0`` is where the last step sent the arm, to within
+    one period of the acceleration limits, and that step moved some joint by
+    more (a loop whose ``q_prev`` comes from elsewhere, e.g. a velocity reading,
+    ``q0 - qd dt``; a step that moved no joint by more than that is no evidence
+    that the loop went on: a query repeated at the same ``q0`` looks the same). Then a joint's step
+    is taken as the motion since the last ``q0``, ``q0 - q0_last``, clipped to
+    the commanded step plus one period of the acceleration limits: every
+    joint's where ``q_prev`` is the last ``q0`` (the step it implies); where it
+    is not, only the joints' whose implied step ``q0 - q_prev`` is faster than
+    their velocity limit (a fault of the state, :func:`lpik.bands.plausible_step`),
+    since a ``q_prev`` within the limits may say the arm was stopped or pushed,
+    which the memory cannot know. The row :data:`PLAUSIBLE` is ``q0`` less the step taken, and
+    :data:`FAULT` each joint's verdict on the implied step against its velocity
+    limits (:data:`lpik.bands.MET`, or the side it was beyond). Returns True
+    where some joint's step was clipped (those rows then hold the plausible
+    ``q_prev`` and the faults it replaced), False where ``q_prev`` stands as it is.
 
     Why: :mod:`lpik.control.commanded`, whose :class:`~lpik.control.commanded.CommandedMotion`
     holds the memory. Plain loops: the compiled controller runs this function
@@ -213,13 +230,29 @@ def plausible_previous(q0, q_prev, memory):  # type: ignore[no-untyped-def]
     n = memory.shape[1]
     if q0.shape[0] != n or q_prev.shape[0] != n:
         return False
+    exact = sent = True
+    moving = False
     for i in range(n):
-        if q_prev[i] != memory[HELD_FROM, i] or not math.isfinite(q0[i]):
+        if not (math.isfinite(q0[i]) and math.isfinite(q_prev[i])):
             return False
+        exact = exact and q_prev[i] == memory[HELD_FROM, i]
+        # where the arm is against where the last step sent it (NaN: no step answered yet)
+        lo, hi, held = memory[BAND_LOWER, i], memory[BAND_UPPER, i], memory[HELD_STEP, i]
+        off = q0[i] - memory[HELD_FROM, i] - held
+        rounding = SLACK_TOL * max(1.0, abs(q0[i]))
+        sent = sent and lo - rounding <= off <= hi + rounding
+        moving = moving or not lo - rounding <= held <= hi + rounding
+    if not (exact or (sent and moving)):
+        return False
     clipped = False
     for i in range(n):
         implied, held = q0[i] - q_prev[i], memory[HELD_STEP, i]
-        step = min(max(implied, held + memory[BAND_LOWER, i]), held + memory[BAND_UPPER, i])
+        fault = plausible_step(implied, memory[SPEED_LOWER, i], memory[SPEED_UPPER, i])[1]
+        memory[FAULT, i] = fault
+        step = implied
+        if exact or fault != MET:  # the motion since the last q0, as the drives could make it
+            moved = q0[i] - memory[HELD_FROM, i]
+            step = min(max(moved, held + memory[BAND_LOWER, i]), held + memory[BAND_UPPER, i])
         clipped = clipped or step != implied
         memory[PLAUSIBLE, i] = q0[i] - step
     return clipped

@@ -22,26 +22,43 @@ as near it as the state allows: within one period of the acceleration limits
 of the commanded step (:func:`plausible_previous`). A loop fed with its own
 commands (``q0`` the last answer, ``q_prev`` the one before) implies the
 commanded step exactly, and nothing changes for it. A loop that starts anew, or
-passes a ``q_prev`` that is not the last ``q0``, is taken as it comes.
+passes a ``q_prev`` that is not the last ``q0``, is taken as it comes, with one
+exception: a joint whose implied speed is above its velocity limit (a fault of
+the state, a bad sample of a loop that builds ``q_prev`` from a velocity
+reading) where ``q0`` is where the last step sent the arm. Its step is then
+taken as the motion since the last ``q0``, which the positions show, instead of
+at rest or at the limit (:mod:`lpik.bands`), which changed the real speed in
+one period by 15 to 99 times the acceleration limit; and the step is reported
+``recovering``, naming that limit (:meth:`CommandedMotion.reported`), as is a
+fault that the check of a loop on its readings replaces. A reading within the
+limit stands: it may say the arm was stopped while the loop paused.
 """
 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
+from lpik import labels
 from lpik.continuation import (
     BAND_LOWER,
     BAND_UPPER,
+    FAULT,
     HELD_FROM,
     HELD_STEP,
+    MEMORY_ROWS,
     PLAUSIBLE,
+    SPEED_LOWER,
+    SPEED_UPPER,
     hold_step,
     plausible_previous,
 )
+from lpik.labels import SIDES, Binding
+from lpik.result import INFEASIBLE, OFF_DIRECTION, OPTIMAL, RECOVERING, SCALED, Result
 from lpik.types import FloatArray
 
 #: What the check raises for arguments that are not float64 (n,) arrays: the compiled
@@ -54,6 +71,9 @@ FEED_WATCH, MISFED_STEPS = 8, 3
 #: How near the last answer a configuration is taken to be it [rad]: the rounding of
 #: ``q0 + (q - q0)``.
 ANSWER_TOL = 1e-12
+#: The statuses that a step from a state with a replaced velocity fault reports as
+#: ``recovering`` (:meth:`CommandedMotion.reported`).
+REPORTED_AS_FAULT = frozenset({OPTIMAL, SCALED, OFF_DIRECTION, INFEASIBLE})
 #: The warning of a loop that feeds the last answer back as ``q_prev`` (or none).
 MISFED = (
     "q_prev is the last step's answer (or missing, with q0 that answer) while the arm moved "
@@ -67,19 +87,32 @@ class CommandedMotion:
     """The last step a controller answered, and the states it took at their plausible motion.
 
     Args:
-        qdd_min, qdd_max: The joints' acceleration limits [rad/s^2], (n,).
+        rates: :func:`lpik.control.inputs.rate_limits`' (4, n): the joints' velocity
+            limits [rad/s] and acceleration limits [rad/s^2].
         dt: The control period [s].
+        joint_names: The names of the joints, for the label of a fault (default
+            ``"joint 1"`` ...).
     """
 
-    def __init__(self, qdd_min: FloatArray, qdd_max: FloatArray, dt: float) -> None:
-        n = qdd_max.shape[0]
-        #: The rows of :mod:`lpik.continuation`'s loop memory (``HELD_FROM`` ... ``PLAUSIBLE``).
-        self.memory = np.zeros((5, n))
+    def __init__(
+        self, rates: FloatArray, dt: float, joint_names: Sequence[str] | None = None
+    ) -> None:
+        n = rates.shape[1]
+        #: The rows of :mod:`lpik.continuation`'s loop memory (``HELD_FROM`` ... ``FAULT``).
+        self.memory = np.zeros((MEMORY_ROWS, n))
         self.memory[HELD_FROM] = np.nan  # no step answered yet: no q_prev matches
-        self.memory[BAND_LOWER] = qdd_min * dt * dt
-        self.memory[BAND_UPPER] = qdd_max * dt * dt
+        self.memory[SPEED_LOWER] = rates[0] * dt
+        self.memory[SPEED_UPPER] = rates[1] * dt
+        self.memory[BAND_LOWER] = rates[2] * dt * dt
+        self.memory[BAND_UPPER] = rates[3] * dt * dt
+        self.joint_names = tuple(joint_names or labels.default_joint_names(n))
         #: States whose implied step was taken at the plausible one (noise of a measured loop).
         self.corrected = 0
+        #: Of those, the states whose implied step was faster than a velocity limit.
+        self.faults = 0
+        #: The velocity limit the last state's implied step was beyond, where the plausible
+        #: step replaced it (the step is reported ``recovering``, naming it), else None.
+        self.fault: Binding | None = None
         #: :func:`plausible_previous` and :func:`hold_step` (compiled in a compiled
         #: controller), for callers that run them on ``memory`` themselves.
         self.check: Callable[..., bool] = plausible_previous
@@ -94,11 +127,13 @@ class CommandedMotion:
         return self.memory[HELD_FROM]
 
     @classmethod
-    def for_rates(cls, rates: FloatArray, dt: float) -> CommandedMotion | None:
-        """From :func:`lpik.control.inputs.rate_limits`' (4, n); None: no acceleration limit."""
+    def for_rates(
+        cls, rates: FloatArray, dt: float, joint_names: Sequence[str] | None = None
+    ) -> CommandedMotion | None:
+        """As the constructor; None where there is no acceleration limit (nothing to check)."""
         if not np.isfinite(rates[2:]).any():
             return None
-        return cls(rates[2], rates[3], dt)
+        return cls(rates, dt, joint_names)
 
     def compiled(self, plausible: Callable[..., bool], hold: Callable[..., None]) -> None:
         """Use the compiled twins of :func:`plausible_previous` and :func:`hold_step`."""
@@ -116,6 +151,7 @@ class CommandedMotion:
         """
         if self.watching:
             self.watch_feed(q0, q_prev)
+        self.fault = None
         if q_prev is None:
             return None
         try:
@@ -128,9 +164,33 @@ class CommandedMotion:
         return self.taken() if clipped else q_prev
 
     def taken(self) -> FloatArray:
-        """The plausible ``q_prev`` that :func:`plausible_previous` has just found, counted."""
+        """The plausible ``q_prev`` that :func:`plausible_previous` has just found, counted.
+
+        Where it replaced a step faster than a velocity limit, :attr:`fault` names the
+        first such limit.
+        """
         self.corrected += 1
+        beyond = np.flatnonzero(self.memory[FAULT])
+        if beyond.size:
+            i = int(beyond[0])
+            side = SIDES[1] if self.memory[FAULT, i] > 0 else SIDES[0]
+            velocity = labels.BOUND_KINDS[1]
+            self.fault = labels.bound_label(self.joint_names[i], side, velocity, i).outside()
+            self.faults += 1
         return self.memory[PLAUSIBLE].copy()
+
+    def reported(self, result: Result) -> Result:
+        """``result``, reported ``recovering`` and naming :attr:`fault` where there was one.
+
+        A state that implied a speed above a velocity limit was outside its limits, as
+        :func:`lpik.bands.rate_band` reports it where no memory replaces the speed: a
+        step within the limits (or the safe step) from it is ``recovering``; one already
+        ``recovering`` keeps the limit it names, and the others (a failed check, a
+        classical method's step that breaks a limit) keep theirs.
+        """
+        if self.fault is None or result.status not in REPORTED_AS_FAULT:
+            return result
+        return replace(result, status=RECOVERING, binding=self.fault)
 
     def _vectors(self, *values: Any) -> tuple[FloatArray, ...] | None:
         """``values`` as contiguous float64 (n,) arrays, or None where one is not."""

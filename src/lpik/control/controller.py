@@ -48,6 +48,7 @@ from lpik.collision.recovery import (
 )
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX, TargetMotion
 from lpik.control.backend_step import fuses_kinematics, step_functions
+from lpik.control.commanded import REPORTED_AS_FAULT
 from lpik.control.inputs import (
     TARGET_SHAPES,
     chain_arrays,
@@ -77,7 +78,7 @@ from lpik.fast.progress import (
     state_rows,
 )
 from lpik.fast.step import BAD_INPUT
-from lpik.labels import row_label, step_label_table
+from lpik.labels import Binding, row_label, step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
 from lpik.methods.autobound import floor_row
@@ -89,7 +90,7 @@ from lpik.methods.progress import (
     stall_limit,
 )
 from lpik.problem import Problem, reference_configuration
-from lpik.result import INFEASIBLE, OPTIMAL, Result
+from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import FULL_P, STALL_P
 from lpik.types import FloatArray
@@ -280,6 +281,9 @@ class Lp2Controller:
     #: The typed kernel that keeps the fused step's memory of the target's motion after a
     #: corrected ``q_prev`` (:func:`lpik.fast.commanded.follow_kernel`); None until loaded.
     _follow_kernel: Any = None
+    #: The velocity fault the last :meth:`step_into`'s state had and its memory replaced
+    #: (``CommandedMotion.fault``), reported by :attr:`last_status`.
+    _fault: Binding | None = None
 
     def __init__(
         self,
@@ -560,7 +564,7 @@ class Lp2Controller:
         taken = motion.admit(q0, q_prev)
         if taken is not q_prev:
             self._follow(q0, q_prev, taken)
-        result = self._step(q0, target, taken, True)
+        result = motion.reported(self._step(q0, target, taken, True))
         motion.hold(q0, result.q)
         return result
 
@@ -771,6 +775,7 @@ class Lp2Controller:
             p = self._last.p
         if motion is not None:
             motion.hold(q0, out)
+            self._fault = motion.fault
         return p
 
     def _step_into(self, q0: Any, target: Any, q_prev: Any, out: FloatArray) -> float:
@@ -806,17 +811,28 @@ class Lp2Controller:
         """Status of the last :meth:`step_into` (``None`` before the first)."""
         if self._last_code is None:
             return None
-        return OPTIMAL if self._last_code == OK else self._last.status
+        status = OPTIMAL if self._last_code == OK else self._last.status
+        return RECOVERING if self._faulted(status) else status
 
     @property
     def last_binding(self) -> str | None:
         """The limit that bound the last :meth:`step_into` (``None``: none, or no step yet)."""
         if self._last_code is None:
             return None
+        status = OPTIMAL if self._last_code == OK else self._last.status
+        if self._faulted(status):
+            return self._fault
         if self._last_code != OK:
             return self._last.binding
         label = self._out.item(self._label_at)
         return None if label < 0 else self._labels[int(label)]
+
+    def _faulted(self, status: str) -> bool:
+        """Whether the last :meth:`step_into` reports its state's velocity fault, not ``status``.
+
+        As :meth:`~lpik.control.commanded.CommandedMotion.reported` does for a Result.
+        """
+        return self._fault is not None and status in REPORTED_AS_FAULT
 
     # -- steps the kernel hands on ------------------------------------------------------------
 

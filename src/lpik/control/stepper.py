@@ -191,7 +191,7 @@ class Stepper:
         self.stop_rates = _stop_rates(rates) if _flag("continuation", continuation) else None
         #: The last step answered, against which the next state's implied motion is
         #: checked under acceleration limits (:mod:`lpik.control.commanded`), or None.
-        self.motion = CommandedMotion.for_rates(rates, self.dt)
+        self.motion = CommandedMotion.for_rates(rates, self.dt, model.joint_names)
         #: Whether the method's steps are solved around the current motion.
         self.continues = self.stop_rates is not None and self.spec.continuable
         #: The automatic multiplier bound in force, or None.
@@ -486,6 +486,7 @@ class Stepper:
             prev = taken
         result = self._step_as_given(q, target, prev)
         if self.motion is not None:
+            result = self.motion.reported(result)
             self.motion.hold(q, result.q)
         return result
 

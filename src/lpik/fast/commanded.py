@@ -14,11 +14,17 @@ from typing import Any
 
 from numba import njit, types
 
+from lpik import bands
 from lpik import continuation as rule
 from lpik.fast import command_law
 from lpik.fast.signatures import typed_kernel
+from lpik.fast.twins import rebound
 
-plausible_previous = njit(cache=True)(rule.plausible_previous)
+#: :func:`lpik.continuation.plausible_previous` with its velocity check compiled.
+_plausible_rule = rebound(
+    rule.plausible_previous, plausible_step=njit(cache=True)(bands.plausible_step)
+)
+plausible_previous = njit(cache=True)(_plausible_rule)
 hold_step = njit(cache=True)(rule.hold_step)
 
 _VECTOR, _MATRIX = types.float64[::1], types.float64[:, ::1]
@@ -34,7 +40,7 @@ def motion_kernels() -> tuple[Any, Any]:
     Loaded from the disk cache (:data:`lpik.control.warmup.STAGES` fills it), else compiled.
     """
     return (
-        typed_kernel("plausible_previous", rule.plausible_previous, [PLAUSIBLE_SIGNATURE]),
+        typed_kernel("plausible_previous", _plausible_rule, [PLAUSIBLE_SIGNATURE]),
         typed_kernel("hold_step", rule.hold_step, [HOLD_SIGNATURE]),
     )
 
