@@ -1,4 +1,4 @@
-"""Closed loops over the three bundled arms and nine controller settings, every step checked.
+"""Closed loops over the three bundled arms and ten controller settings, every step checked.
 
 The soak (:mod:`lpik_bench.soak`) runs one arm with one setting for a million
 steps. This runs each bundled arm (Panda, UR5e, iiwa14: a pose task but in one
@@ -16,6 +16,13 @@ among the shelf's obstacles, which the Panda alone runs, no step from outside
 the safety distance ending inside it), and its time is taken: a step above 1
 ms misses a 1 kHz period (a kernel loaded from numba's cache inside the loop
 once cost 11 ms after the first bad sample).
+
+One setting builds ``q_prev`` from a velocity reading, ``q0 - qd dt`` (as many
+drives report ``qd``), exact but for about one reading in :data:`VELOCITY_FAULT_EVERY`,
+where one joint's is beyond its velocity limit (:func:`bad_reading`). Its steps are
+checked against the arm's own last motion, not the reading, so that the acceleration
+limits are held on every step, the bad readings' included; each bad reading's step
+is ``recovering``.
 
 One setting closes the loop on measured joints (:func:`run_measured`): each
 state is the last command plus encoder noise, the reading before it is
@@ -67,7 +74,10 @@ SETTINGS: dict[str, dict[str, Any]] = {
     "position task, qdd_max=10": {"qdd_max": 10.0, "task": "position"},
     "the shelf scene, qdd_max=10": {"qdd_max": 10.0, "scene": "panda-shelf"},
     "measured joints (noise 1e-4 rad), qdd_max=10": {"qdd_max": 10.0, "noise": 1e-4},
+    "velocity readings, qdd_max=10": {"qdd_max": 10.0, "velocity_readings": True},
 }
+#: The settings whose ``q_prev`` is built from a velocity reading, not passed as it is.
+VELOCITY_SETTINGS = {name for name, kw in SETTINGS.items() if kw.get("velocity_readings")}
 #: The settings with a scene run on the arm the scene is laid out for only.
 SCENE_ARM = "panda"
 #: A step from at or above the safety distance may end below it by this much [m]: the
@@ -79,10 +89,22 @@ RADIUS = 0.8
 BAD_SAMPLE_EVERY = 5000
 #: Standard deviation of a bad sample's offset per joint [rad].
 BAD_SAMPLE_SIZE = 0.05
+#: On average one bad velocity reading in this many steps (:func:`bad_reading`).
+VELOCITY_FAULT_EVERY = 500
 #: A step slower than this misses a 1 kHz period [s].
 PERIOD = 1e-3
 #: Markers of the generated block in docs/reliability.md.
 BEGIN, END = "<!-- loops:begin -->", "<!-- loops:end -->"
+
+
+def bad_reading(rng: Any, model: Any, q0: Any, q_prev: Any) -> Any:
+    """``q_prev`` as a loop builds it from a velocity reading, ``q0 - qd dt``, where one
+    joint's reading is a bad sample: beyond its velocity limit by 0.01 to 50 rad/s."""
+    j = int(rng.integers(q0.size))
+    speed = (model.qd_max[j] + rng.uniform(0.01, 50.0)) * rng.choice([-1.0, 1.0])
+    out = q_prev.copy()
+    out[j] = q0[j] - speed * DT
+    return out
 
 
 def _setup(robot: str, setting: str) -> tuple[Any, Any, Any, str, dict[str, Any]]:
@@ -94,6 +116,7 @@ def _setup(robot: str, setting: str) -> tuple[Any, Any, Any, str, dict[str, Any]
 
     options = dict(SETTINGS[setting])
     options.pop("noise", None)
+    options.pop("velocity_readings", None)  # how the loop builds q_prev (run)
     task = options.pop("task", "pose")  # the walk is a pose; a position task follows its point
     model = load_robot(robot, task=task)
     scene = None if "scene" not in options else load_scene(options.pop("scene"))
@@ -124,17 +147,21 @@ def run(robot: str, setting: str, steps: int, seed: int = 0) -> SoakReport:
     report = SoakReport(path=f"{robot}, {setting}")
     times = np.empty(steps)
     run_length = 0
+    readings = setting in VELOCITY_SETTINGS
     for k in range(steps):
         target = walk.next() if task == "pose" else walk.next()[:3, 3].copy()
-        if rng.random() < 1.0 / BAD_SAMPLE_EVERY:
-            q_prev = q_prev + rng.normal(0.0, BAD_SAMPLE_SIZE, q.size)
+        given = q_prev
+        if rng.random() < 1.0 / (VELOCITY_FAULT_EVERY if readings else BAD_SAMPLE_EVERY):
+            given = (bad_reading(rng, model, q, q_prev) if readings
+                     else q_prev + rng.normal(0.0, BAD_SAMPLE_SIZE, q.size))  # fmt: skip
             report.glitches += 1
         t0 = time.perf_counter()
-        result = controller.step(q, target, q_prev)
+        result = controller.step(q, target, given)
         times[k] = time.perf_counter() - t0
         run_length = tally(report, result, run_length)
-        check_step(report, model, q, q_prev, result.q, result.p, result.status,
-                   options.get("qdd_max"))  # fmt: skip
+        # a velocity reading's loop: checked against the arm's own last motion, every step
+        check_step(report, model, q, q_prev if readings else given, result.q, result.p,
+                   result.status, options.get("qdd_max"))  # fmt: skip
         if scene is not None:
             report.below_safety += below_safety(controller.avoidance.proximities, q, result.q,
                                                 scene.safety_distance)  # fmt: skip
