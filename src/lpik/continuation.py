@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik.bands import MET, plausible_step
+from lpik.bands import plausible_step
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, MOVING, OPTIMAL, RECOVERING, Result, safe_step
 from lpik.tolerances import MOTION_WEIGHT, NO_CHANGE_P, SLACK_TOL
@@ -205,23 +205,27 @@ def plausible_previous(q0, q_prev, memory):  # type: ignore[no-untyped-def]
 
     ``memory`` (:data:`MEMORY_ROWS`, n) holds the rows :data:`HELD_FROM` to
     :data:`FAULT`. The memory describes the last period where every coordinate
-    is finite and either ``q_prev`` is the last step's ``q0`` (a loop that feeds
-    back its readings), or ``q0`` is where the last step sent the arm, to within
-    one period of the acceleration limits, and that step moved some joint by
-    more (a loop whose ``q_prev`` comes from elsewhere, e.g. a velocity reading,
-    ``q0 - qd dt``; a step that moved no joint by more than that is no evidence
-    that the loop went on: a query repeated at the same ``q0`` looks the same). Then a joint's step
-    is taken as the motion since the last ``q0``, ``q0 - q0_last``, clipped to
-    the commanded step plus one period of the acceleration limits: every
-    joint's where ``q_prev`` is the last ``q0`` (the step it implies); where it
-    is not, only the joints' whose implied step ``q0 - q_prev`` is faster than
-    their velocity limit (a fault of the state, :func:`lpik.bands.plausible_step`),
-    since a ``q_prev`` within the limits may say the arm was stopped or pushed,
-    which the memory cannot know. The row :data:`PLAUSIBLE` is ``q0`` less the step taken, and
-    :data:`FAULT` each joint's verdict on the implied step against its velocity
-    limits (:data:`lpik.bands.MET`, or the side it was beyond). Returns True
-    where some joint's step was clipped (those rows then hold the plausible
-    ``q_prev`` and the faults it replaced), False where ``q_prev`` stands as it is.
+    is finite and either
+
+    - ``q_prev`` is the last step's ``q0`` (a loop that feeds back its readings), or
+    - ``q0`` is where the last step sent the arm, to within one period of the
+      acceleration limits, that step moved some joint by more, and the state
+      does not read as at rest, every joint's implied step ``q0 - q_prev``
+      within that band around 0 (a loop whose ``q_prev`` comes from elsewhere,
+      e.g. a velocity reading, ``q0 - qd dt``; a last step within the band is
+      no evidence that the loop went on, since a query repeated at the same
+      ``q0`` looks the same, and an arm that reads as at rest may have been
+      stopped while the loop paused, which the memory cannot know).
+
+    Then each joint whose implied step differs from the commanded step by more
+    than one period of the acceleration limits is taken at the motion since the
+    last ``q0``, ``q0 - q0_last``, clipped to that band (where ``q_prev`` is the
+    last ``q0``, that motion is the implied step). The row :data:`PLAUSIBLE` is
+    ``q0`` less the step taken, and :data:`FAULT` each joint's verdict on the
+    implied step against its velocity limits (:data:`lpik.bands.MET`, or the
+    side it was beyond: :func:`lpik.bands.plausible_step`). Returns True where
+    some joint's step was clipped (those rows then hold the plausible ``q_prev``
+    and the faults it replaced), False where ``q_prev`` stands as it is.
 
     Why: :mod:`lpik.control.commanded`, whose :class:`~lpik.control.commanded.CommandedMotion`
     holds the memory. Plain loops: the compiled controller runs this function
@@ -230,7 +234,7 @@ def plausible_previous(q0, q_prev, memory):  # type: ignore[no-untyped-def]
     n = memory.shape[1]
     if q0.shape[0] != n or q_prev.shape[0] != n:
         return False
-    exact = sent = True
+    exact = sent = resting = True
     moving = False
     for i in range(n):
         if not (math.isfinite(q0[i]) and math.isfinite(q_prev[i])):
@@ -238,21 +242,22 @@ def plausible_previous(q0, q_prev, memory):  # type: ignore[no-untyped-def]
         exact = exact and q_prev[i] == memory[HELD_FROM, i]
         # where the arm is against where the last step sent it (NaN: no step answered yet)
         lo, hi, held = memory[BAND_LOWER, i], memory[BAND_UPPER, i], memory[HELD_STEP, i]
-        off = q0[i] - memory[HELD_FROM, i] - held
+        off, implied = q0[i] - memory[HELD_FROM, i] - held, q0[i] - q_prev[i]
         rounding = SLACK_TOL * max(1.0, abs(q0[i]))
         sent = sent and lo - rounding <= off <= hi + rounding
         moving = moving or not lo - rounding <= held <= hi + rounding
-    if not (exact or (sent and moving)):
+        resting = resting and lo - rounding <= implied <= hi + rounding
+    if not (exact or (sent and moving and not resting)):
         return False
     clipped = False
     for i in range(n):
         implied, held = q0[i] - q_prev[i], memory[HELD_STEP, i]
-        fault = plausible_step(implied, memory[SPEED_LOWER, i], memory[SPEED_UPPER, i])[1]
-        memory[FAULT, i] = fault
+        lo, hi = held + memory[BAND_LOWER, i], held + memory[BAND_UPPER, i]
+        speed_lo, speed_hi = memory[SPEED_LOWER, i], memory[SPEED_UPPER, i]
+        memory[FAULT, i] = plausible_step(implied, speed_lo, speed_hi)[1]
         step = implied
-        if exact or fault != MET:  # the motion since the last q0, as the drives could make it
-            moved = q0[i] - memory[HELD_FROM, i]
-            step = min(max(moved, held + memory[BAND_LOWER, i]), held + memory[BAND_UPPER, i])
+        if not lo <= implied <= hi:  # the motion since the last q0, as the drives could make it
+            step = min(max(q0[i] - memory[HELD_FROM, i], lo), hi)
         clipped = clipped or step != implied
         memory[PLAUSIBLE, i] = q0[i] - step
     return clipped

@@ -21,17 +21,18 @@ continues that loop (its ``q_prev`` is that ``q0``), the implied step is taken
 as near it as the state allows: within one period of the acceleration limits
 of the commanded step (:func:`plausible_previous`). A loop fed with its own
 commands (``q0`` the last answer, ``q_prev`` the one before) implies the
-commanded step exactly, and nothing changes for it. A loop that starts anew, or
-passes a ``q_prev`` that is not the last ``q0``, is taken as it comes, with one
-exception: a joint whose implied speed is above its velocity limit (a fault of
-the state, a bad sample of a loop that builds ``q_prev`` from a velocity
-reading) where ``q0`` is where the last step sent the arm. Its step is then
-taken as the motion since the last ``q0``, which the positions show, instead of
-at rest or at the limit (:mod:`lpik.bands`), which changed the real speed in
-one period by 15 to 99 times the acceleration limit; and the step is reported
-``recovering``, naming that limit (:meth:`CommandedMotion.reported`), as is a
-fault that the check of a loop on its readings replaces. A reading within the
-limit stands: it may say the arm was stopped while the loop paused.
+commanded step exactly, and nothing changes for it. A loop that passes a
+``q_prev`` that is not the last ``q0`` (one that builds it from a velocity
+reading, ``q0 - qd dt``) is checked too where ``q0`` is where the last step sent
+the arm: a joint whose reading differs from the commanded step by more than the
+band is taken at the motion since the last ``q0``, which the positions show.
+Continued as it came, one reading 0.5 rad/s off changed the joint's real speed
+by 49 times its acceleration limit in one period; one beyond the velocity
+limit, taken at rest (:mod:`lpik.bands`), by 15 to 99 times. A reading beyond
+the velocity limit is a fault, and the step is reported ``recovering``, naming
+that limit (:meth:`CommandedMotion.reported`), as is a fault that the check of a
+loop on its readings replaces. A state that reads as at rest is taken as it
+comes (a loop resumed after a pause), as is a loop that starts anew or jumps.
 """
 
 from __future__ import annotations
