@@ -301,6 +301,7 @@ def test_one_bad_velocity_sample_is_reported_and_the_arm_keeps_its_acceleration_
     side = "upper" if sign > 0 else "lower"
     assert said[at] == ("recovering", f"panda_joint{joint + 1} {side} velocity limit")
     assert all(status != "recovering" for status, _ in said[:at] + said[at + 1 :])
+    assert controller.motion.faults == 1
 
 
 @settings(max_examples=8, deadline=None)

@@ -22,7 +22,7 @@ drives report ``qd``), exact but for about one reading in :data:`VELOCITY_FAULT_
 where one joint's is beyond its velocity limit (:func:`bad_reading`). Its steps are
 checked against the arm's own last motion, not the reading, so that the acceleration
 limits are held on every step, the bad readings' included; each bad reading's step
-is ``recovering``.
+is ``recovering``. The other settings' bad samples are checked against the sample.
 
 One setting closes the loop on measured joints (:func:`run_measured`): each
 state is the last command plus encoder noise, the reading before it is

@@ -197,7 +197,7 @@ def fading_steps(J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatA
 #: period of the lower and upper velocity limits (``qd_min dt``, ``qd_max dt``), and each
 #: joint's verdict on the implied step against them (:func:`lpik.bands.plausible_step`).
 HELD_FROM, HELD_STEP, BAND_LOWER, BAND_UPPER, PLAUSIBLE, SPEED_LOWER, SPEED_UPPER, FAULT = range(8)
-MEMORY_ROWS = 8
+MEMORY_ROWS = FAULT + 1
 
 
 def plausible_previous(q0, q_prev, memory):  # type: ignore[no-untyped-def]
