@@ -156,7 +156,8 @@ def condition_bound(S, L, x):  # type: ignore[no-untyped-def]
                 s -= L[i, k] * x[k]
             x[i] = s / L[i, i]
             norm_inv += x[i] * x[i]
-    return math.sqrt(norm_s) * norm_inv
+    # Python floats: a product past the largest float is inf (singular), without numpy's warning
+    return math.sqrt(norm_s) * float(norm_inv)
 
 
 def smoothing_pull(problem: Problem) -> FloatArray:
