@@ -104,11 +104,11 @@ def _paragraph(text: str) -> str:
 
 def _epilog() -> str:
     """The help's closing paragraphs: scenarios, robots, CSV columns, refused combinations."""
-    from lpik.methods.registry import METHODS
+    from lpik.methods.registry import methods_with
     from lpik.paper.scenarios import PLANAR, SCENARIOS
     from lpik.robots.registry import robot_names
 
-    bounded = ", ".join(name for name, spec in METHODS.items() if spec.bounds_multipliers)
+    bounded, takers = methods_with("bounds_multipliers"), methods_with("takes_criterion")
     return "\n\n".join(
         [
             "scenarios:",
@@ -141,7 +141,7 @@ def _epilog() -> str:
                 f"refused combinations (exit 2, one line): --lambda-bound with a method that "
                 f"does not bound its multipliers (only {bounded} do); --avoid field or both "
                 f"with a method that does not take the field's force (only "
-                f"{_methods('takes_criterion')} do); --animate with a 3-D --robot (use --plot); "
+                f"{takers} do); --animate with a 3-D --robot (use --plot); "
                 f"--plot or --animate without matplotlib."
             ),
         ]
@@ -236,15 +236,10 @@ def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _methods(capability: str) -> str:
-    """The methods whose :class:`~lpik.methods.registry.MethodSpec` has ``capability``."""
-    from lpik.methods.registry import METHODS
-
-    return ", ".join(name for name, spec in METHODS.items() if getattr(spec, capability))
-
-
 def _add_loop_arguments(parser: argparse.ArgumentParser) -> None:
     """How the loop steps: stall handling, obstacles and how to avoid them, HiGHS's start."""
+    from lpik.methods.registry import methods_with
+
     parser.add_argument(
         "--on-stall",
         type=_stall_value,
@@ -274,8 +269,8 @@ def _add_loop_arguments(parser: argparse.ArgumentParser) -> None:
         "--avoid",
         choices=("rows", "field", "both"),
         default="rows",
-        help=f"with --scene: hard distance rows (velocity damper; {_methods('limit_aware')}), "
-        f"the paper's potential field ({_methods('takes_criterion')}) or both (default rows)",
+        help=f"with --scene: hard distance rows (velocity damper; {methods_with('limit_aware')}), "
+        f"the paper's potential field ({methods_with('takes_criterion')}) or both (default rows)",
     )
     parser.add_argument(
         "--cold-start",

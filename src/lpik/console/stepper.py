@@ -27,7 +27,7 @@ from lpik.console.robot import ConsoleRobot
 from lpik.control.stepper import Stepper as PipelineStepper
 from lpik.defaults import DEFAULT_ON_STALL
 from lpik.limits import MultiplierBounds, multiplier_limit
-from lpik.methods.registry import DEFAULT_METHOD, METHODS, get_method
+from lpik.methods.registry import DEFAULT_METHOD, get_method, methods_with
 from lpik.result import Result
 from lpik.types import FloatArray
 
@@ -74,7 +74,7 @@ class Settings:
         if isinstance(bound, MultiplierBounds):  # a number: within the page's range
             _in_range("lambda_bound", self.lambda_bound, *LAMBDA_RANGE)
             if not spec.bounds_multipliers:
-                bounded = ", ".join(n for n, s in METHODS.items() if s.bounds_multipliers)
+                bounded = methods_with("bounds_multipliers")
                 raise ValueError(
                     f"lambda_bound: method {self.method!r} does not bound its multipliers "
                     f"(only {bounded} do)"

@@ -64,7 +64,7 @@ from lpik.limits import (
 )
 from lpik.methods.autobound import bound_for_step, floor_row, singular_memo, singular_steps
 from lpik.methods.progress import StallWatch, further_step, least_error_lp
-from lpik.methods.registry import DEFAULT_METHOD, METHODS, MethodSpec, get_method
+from lpik.methods.registry import DEFAULT_METHOD, MethodSpec, get_method, methods_with
 from lpik.problem import Problem
 from lpik.result import VIOLATES_LIMITS, Result
 from lpik.robots.base import TaskModel
@@ -534,7 +534,7 @@ def _check_field_method(avoidance: Any, spec: MethodSpec) -> None:
     """
     if avoidance is None or avoidance.mechanism == "rows" or spec.takes_criterion:
         return
-    takers = ", ".join(name for name, other in METHODS.items() if other.takes_criterion)
+    takers = methods_with("takes_criterion")
     raise ValueError(
         f"scene: method {spec.name!r} does not take the potential field's force "
         f"(f of eq. 3; {takers} do): avoid with mechanism 'rows', got {avoidance.mechanism!r}"

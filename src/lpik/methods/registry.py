@@ -98,6 +98,14 @@ METHODS: dict[str, MethodSpec] = {
 ALL_METHODS = tuple(METHODS)
 
 
+def methods_with(capability: str) -> str:
+    """The names of the methods whose :class:`MethodSpec` has ``capability``, comma-separated.
+
+    What an error or a help text lists as the methods that do (e.g. ``"bounds_multipliers"``).
+    """
+    return ", ".join(name for name, spec in METHODS.items() if getattr(spec, capability))
+
+
 def get_method(name: Any, *, field: str = "method") -> MethodSpec:
     """The method called ``name``, or an error (naming ``field``) that lists them."""
     try:
