@@ -120,6 +120,30 @@ def test_acceleration_limits_are_numbers_not_a_switch(flag) -> None:  # type: ig
             make(ARM, dt=0.01, qdd_max=flag)
 
 
+@pytest.mark.parametrize(
+    ("field", "bad", "kind"),
+    [("q0", [True, 0.1, 0.2, 0.3], "booleans"), ("q0", np.zeros(4, dtype=bool), "booleans"),
+     ("q_prev", [0.0, 0.1, np.bool_(False), 0.3], "booleans"),
+     ("q0", np.array([0.0, 0.1, 0.2, 0.3]) + 1e-3j, "complex numbers"),
+     ("target", [1.0, True], "booleans"), ("target", [1.5 + 0j, 1.0], "complex numbers")],
+)  # fmt: skip
+def test_joint_coordinates_and_targets_are_real_numbers(field: str, bad, kind: str) -> None:  # type: ignore[no-untyped-def]
+    """numpy reads ``True`` as 1.0 and drops an imaginary part: each would move the arm."""
+    state = {"q0": [0.0, 0.1, 0.2, 0.3], "target": [1.5, 1.0], "q_prev": [0.0, 0.1, 0.2, 0.3]}
+    state[field] = bad
+    args = (state["q0"], state["target"], state["q_prev"])
+    steps = [Lp2Controller(ARM, dt=0.01, qdd_max=5.0).step, Stepper(ARM, dt=0.01, qdd_max=5.0).step]
+    out = np.empty(4)
+    steps.append(lambda *a: Lp2Controller(ARM, dt=0.01, qdd_max=5.0).step_into(*a, out=out))
+    for step in steps:
+        with pytest.raises(ValueError, match=f"^{field}: must be .*numbers, got {kind}$"):
+            step(*args)
+    batch = Lp2Controller(ARM, dt=0.01, qdd_max=5.0).step_batch
+    rows = {"q0": "q0", "q_prev": "q_prev", "target": "targets"}[field]
+    with pytest.raises(ValueError, match=f"^{rows}: must be numbers, got {kind}$"):
+        batch([args[0]], [args[1]], [args[2]])
+
+
 def test_a_ragged_limit_is_named() -> None:
     """The check for booleans reads the value inside the conversion's guard."""
     with pytest.raises(ValueError, match="^qdd_max: must be a number or 4 numbers"):

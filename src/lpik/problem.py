@@ -20,7 +20,7 @@ import numpy as np
 from lpik import bands, labels
 from lpik.exceptions import InvalidProblemError
 from lpik.tolerances import MAX_MAGNITUDE, PSD_RTOL, SYMMETRY_RTOL
-from lpik.types import FloatArray
+from lpik.types import FloatArray, real_array
 
 #: Default name of the limit that sets ``dq_min`` / ``dq_max`` (eq. 14).
 STEP_BOUND_KIND = labels.VELOCITY_LIMIT
@@ -40,10 +40,8 @@ def reference_configuration(q_min: FloatArray, q_max: FloatArray, q0: FloatArray
 def _vector(name: str, value: Any, size: int, *, allow_inf: bool = False) -> FloatArray:
     """Convert ``value`` to a float vector of length ``size`` or raise naming ``name``."""
     try:
-        arr = np.array(
-            [np.nan if v is None else v for v in value] if isinstance(value, list) else value,
-            dtype=np.float64,
-        )
+        nulls = [np.nan if v is None else v for v in value] if isinstance(value, list) else value
+        arr = real_array(nulls)
     except (TypeError, ValueError) as exc:
         raise InvalidProblemError(name, f"must be a list of {size} numbers ({exc})") from None
     if arr.ndim == 0 and size == 1:
@@ -92,7 +90,7 @@ def _matrix(name: str, value: Any, n: int, default_diag: float) -> FloatArray:
     if value is None:
         return np.eye(n) * default_diag
     try:
-        arr = np.array(value, dtype=np.float64)
+        arr = real_array(value)
     except (TypeError, ValueError) as exc:
         raise InvalidProblemError(
             name, f"must be an {n} x {n} matrix or {n} numbers ({exc})"
@@ -213,7 +211,7 @@ class Problem:
     def _init_jacobian(self) -> tuple[int, int]:
         """Validate ``J``; returns its shape ``(m, n)``."""
         try:
-            J = np.array(self.J, dtype=np.float64)
+            J = real_array(self.J)
         except (TypeError, ValueError) as exc:
             raise InvalidProblemError("J", f"must be an m x n matrix of numbers ({exc})") from None
         if J.ndim != 2 or J.shape[0] < 1 or J.shape[1] < 1:
@@ -282,7 +280,7 @@ class Problem:
                 "G" if self.G is None else "h", "G and h must be given together"
             )
         try:
-            G = np.array(self.G, dtype=np.float64)
+            G = real_array(self.G)
         except (TypeError, ValueError) as exc:
             raise InvalidProblemError("G", f"must be an r x {n} matrix ({exc})") from None
         if G.size == 0:

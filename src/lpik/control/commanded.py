@@ -60,7 +60,7 @@ from lpik.continuation import (
 )
 from lpik.labels import SIDES, Binding
 from lpik.result import INFEASIBLE, OFF_DIRECTION, OPTIMAL, RECOVERING, SCALED, Result
-from lpik.types import FloatArray
+from lpik.types import FloatArray, real_array
 
 #: What the check raises for arguments that are not float64 (n,) arrays: the compiled
 #: twin a ``TypeError``, the plain function on lists or other shapes the others.
@@ -196,7 +196,7 @@ class CommandedMotion:
     def _vectors(self, *values: Any) -> tuple[FloatArray, ...] | None:
         """``values`` as contiguous float64 (n,) arrays, or None where one is not."""
         try:
-            out = tuple(np.array(v, dtype=np.float64, order="C") for v in values)  # writable
+            out = tuple(real_array(v, order="C") for v in values)  # writable
         except (TypeError, ValueError):
             return None
         return out if all(v.shape == self.held_from.shape for v in out) else None

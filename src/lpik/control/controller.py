@@ -53,6 +53,7 @@ from lpik.control.inputs import (
     TARGET_SHAPES,
     chain_arrays,
     joint_vector,
+    not_numbers,
     rate_limits,
     stacked_rows,
     target_array,
@@ -93,7 +94,7 @@ from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import FULL_P, STALL_P
-from lpik.types import FloatArray
+from lpik.types import FloatArray, real_array
 
 __all__ = ["Lp2Controller", "SceneRows", "StateRows"]
 
@@ -1100,7 +1101,14 @@ class Lp2Controller:
 
     def _checked(self, q0: Any, target: Any, q_prev: Any) -> tuple[Any, Any, Any]:
         for name, value in (("q0", q0), ("q_prev", q_prev), ("target", target)):
-            if value is not None and not np.isfinite(np.asarray(value, dtype=np.float64)).all():
+            if value is None:
+                continue
+            try:
+                finite = np.isfinite(real_array(value)).all()
+            except (TypeError, ValueError) as exc:
+                what = not_numbers(value, exc)
+                raise ValueError(f"{name}: must be numbers, got {what}") from None
+            if not finite:
                 raise ValueError(f"{name}: contains NaN or inf")
         return q0, target, q_prev
 

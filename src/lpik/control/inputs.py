@@ -33,10 +33,15 @@ from lpik.robots.chain import SerialChain
 from lpik.robots.rotations import check_rotation, rotation_defects
 from lpik.robots.tasks import OrientationTask, PositionTask
 from lpik.tolerances import MAX_MAGNITUDE, ROTATION_TOL
-from lpik.types import FloatArray
+from lpik.types import FloatArray, NotRealError, real_array
 
 #: The shapes a target may have: xyz, a rotation, a pose.
 TARGET_SHAPES = ((3,), (3, 3), (4, 4))
+
+
+def not_numbers(value: Any, error: Exception) -> str:
+    """What a value that is not numbers is, for an error message: its type, or booleans."""
+    return str(error) if isinstance(error, NotRealError) else type(value).__name__
 
 
 def positive_number(name: str, value: Any) -> float:
@@ -64,12 +69,11 @@ def joint_rates(name: str, value: Any, n: int) -> FloatArray:
             a limit of 1).
     """
     try:
-        booleans = np.asarray(value).dtype == np.bool_
-        arr = np.array(value, dtype=np.float64)
+        arr = real_array(value)
+    except NotRealError as exc:
+        raise ValueError(f"{name}: must be a number or {n} numbers, got {exc} {value!r}") from None
     except (TypeError, ValueError):
         raise ValueError(f"{name}: must be a number or {n} numbers, got {value!r}") from None
-    if booleans:
-        raise ValueError(f"{name}: must be a number or {n} numbers, got booleans {value!r}")
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
     if arr.shape != (n,):
@@ -94,7 +98,7 @@ def extra_rows(G: Any, h: Any, n: int) -> tuple[FloatArray, FloatArray]:
     arrays = []
     for name, value in (("G", G), ("h", h)):
         try:
-            arrays.append(np.atleast_1d(np.array(value, dtype=np.float64)))
+            arrays.append(np.atleast_1d(real_array(value)))
         except (TypeError, ValueError):
             raise ValueError(f"{name}: must be numbers, got {value!r}"[:200]) from None
     rows = arrays[0].reshape(1, n) if arrays[0].shape == (n,) else arrays[0]
@@ -229,9 +233,9 @@ def chain_arrays(model: TaskModel) -> tuple[FloatArray, FloatArray, FloatArray, 
 def joint_vector(name: str, value: Any, n: int, check_finite: bool) -> FloatArray:
     """A writable C-contiguous float64 copy of a joint vector of length ``n``."""
     try:
-        v = np.array(value, dtype=np.float64, order="C")
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: must be {n} numbers, got {type(value).__name__}") from None
+        v = real_array(value, order="C")
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: must be {n} numbers, got {not_numbers(value, exc)}") from None
     if v.shape != (n,):
         raise ValueError(f"{name}: must have length {n}, got shape {v.shape}")
     if check_finite and not np.isfinite(v).all():
@@ -242,9 +246,9 @@ def joint_vector(name: str, value: Any, n: int, check_finite: bool) -> FloatArra
 def target_array(target: Any, check_finite: bool) -> FloatArray:
     """A writable C-contiguous float64 copy of a target: xyz (3,), a rotation (3, 3) or a pose."""
     try:
-        t = np.array(target, dtype=np.float64, order="C")
-    except (TypeError, ValueError):
-        raise ValueError(f"target: must be numbers, got {type(target).__name__}") from None
+        t = real_array(target, order="C")
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"target: must be numbers, got {not_numbers(target, exc)}") from None
     if t.shape not in TARGET_SHAPES:
         raise ValueError(
             f"target: must be xyz (3,), a rotation (3, 3) or a pose (4, 4), got {t.shape}"
@@ -298,11 +302,9 @@ def stacked_rows(
     ``shapes`` lists the accepted shapes of one row; ``count`` the required B.
     """
     try:
-        arr = np.ascontiguousarray(value, dtype=np.float64)
-        if not arr.flags.writeable:  # the compiled step's signatures take writable arrays
-            arr = arr.copy()
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: must be numbers, got {type(value).__name__}") from None
+        arr = real_array(value, order="C")  # a copy: the compiled step takes writable arrays
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: must be numbers, got {not_numbers(value, exc)}") from None
     if arr.ndim == 0 or arr.shape[1:] not in shapes or arr.shape[0] == 0:
         wanted = " or ".join(str(("B",) + s).replace("'", "") for s in shapes)
         raise ValueError(f"{name}: must have shape {wanted} with B >= 1, got {arr.shape}")

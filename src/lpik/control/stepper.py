@@ -48,6 +48,7 @@ from lpik.command import (
 from lpik.control.commanded import CommandedMotion
 from lpik.control.inputs import (
     STATE_FREE_LIMITS,
+    not_numbers,
     positive_number,
     rate_limits,
     step_limits,
@@ -69,7 +70,7 @@ from lpik.problem import Problem
 from lpik.result import VIOLATES_LIMITS, Result
 from lpik.robots.base import TaskModel
 from lpik.robots.tasks import as_task_model
-from lpik.types import FloatArray
+from lpik.types import FloatArray, real_array
 
 __all__ = ["DEFAULT_METHOD", "Stepper"]
 
@@ -507,8 +508,12 @@ class Stepper:
         return self.applied(problem, result)
 
     def _joints(self, name: str, value: ArrayLike) -> FloatArray:
-        q = np.array(value, dtype=np.float64)
         n = self.model.n_joints
+        try:
+            q = real_array(value)
+        except (TypeError, ValueError) as exc:
+            what = not_numbers(value, exc)
+            raise ValueError(f"{name}: must be {n} numbers, got {what}") from None
         if q.shape != (n,) or not np.isfinite(q).all():
             raise ValueError(f"{name}: must be {n} finite joint coordinates, got {value!r}")
         return q
