@@ -12,7 +12,7 @@ from tests.collision_cases import PULL_IN, Q0, arm, circle_scene
 from tests.core_reference import hard_violation, lp1_reference, lp2_reference
 
 from lpik.collision import DistanceRows, collision_avoidance, field_force, repulsion
-from lpik.collision.avoidance import field_scale
+from lpik.collision.avoidance import damper_row, field_scale
 from lpik.collision.recovery import RECOVERY, inside_rows
 from lpik.command import ClampedTarget
 from lpik.control.simulate import simulate
@@ -20,6 +20,7 @@ from lpik.limits import build_problem, standard_limits
 from lpik.methods import solve
 from lpik.methods.progress import least_error_lp
 from lpik.robots.planar import planar_arm
+from lpik.tolerances import FEASIBILITY_TOL
 
 DT = 0.01
 
@@ -322,3 +323,14 @@ def test_self_collision_rows_keep_the_pandas_hand_off_its_own_base() -> None:
     assert self_bound  # the hand's row against the base column stopped the command
     assert log.min_distance.min() >= 0.02 - 1e-3
     assert np.linalg.norm(log.position_end - [0.05, 0.0, 0.45]) < 1e-3
+
+
+def test_a_pair_inside_the_safety_distance_by_less_than_the_check_tells_is_at_it() -> None:
+    """Its row keeps the distance (no demanded increase that no check could tell from none)."""
+    q0, gradient = np.array([0.3, -0.2]), np.array([0.5, 0.25])
+    rows = {}
+    for depth in (0.0, 0.5 * FEASIBILITY_TOL, 0.99 * FEASIBILITY_TOL, 3 * FEASIBILITY_TOL):
+        row = np.empty(2)
+        rows[depth] = damper_row(0.05 - depth, gradient, q0, 0.1, 0.05, row) - row @ q0
+    assert rows[0.0] == rows[0.5 * FEASIBILITY_TOL] == rows[0.99 * FEASIBILITY_TOL] == 0.0
+    assert rows[3 * FEASIBILITY_TOL] == pytest.approx(-0.1 * 3 * FEASIBILITY_TOL)

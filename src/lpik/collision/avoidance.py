@@ -82,6 +82,13 @@ def damper_row(distance, gradient, q0, share, safety, row):  # type: ignore[no-u
     is, for a pair whose distance hardly depends on ``q`` (its witness point on a
     joint's axis): a row that cannot change by the feasibility tolerance
     constrains nothing but would tie the ratio test at ``p = 0``.
+
+    A pair inside ``d_s`` by no more than :data:`~lpik.tolerances.FEASIBILITY_TOL`
+    is at ``d_s`` for this row, as for the recovery stage
+    (:func:`lpik.collision.recovery.inside_pairs`): its row keeps the distance and
+    demands no increase. An increase the check cannot tell from none, demanded of an
+    arm whose command moves it along the pair, made every step infeasible: the arm
+    stood 21 nm inside ``d_s`` for good, each step the braking safe step.
     """
     n = gradient.shape[0]
     steepest = 0.0
@@ -89,7 +96,10 @@ def damper_row(distance, gradient, q0, share, safety, row):  # type: ignore[no-u
         steepest = max(steepest, abs(gradient[i]))
     if steepest <= FEASIBILITY_TOL:
         return math.nan
-    h = share * (distance - safety)
+    gap = distance - safety
+    if -FEASIBILITY_TOL <= gap < 0.0:  # within the check's tolerance: at d_s
+        gap = 0.0
+    h = share * gap
     for i in range(n):
         row[i] = -gradient[i]
         h += row[i] * q0[i]
