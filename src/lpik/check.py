@@ -60,14 +60,18 @@ def worst_violation(problem: Problem, dq: FloatArray, lam: FloatArray | None = N
 def task_residual(problem: Problem, dq: FloatArray, p: float) -> float:
     """``max |J dq - p dw|``: how far a step is from the linearised task (eqs. 12, 15).
 
-    For a step around the current motion (``problem.last``, :mod:`lpik.continuation`)
-    ``max |J (dq - last) - p (dw - J last)|``, with ``last`` as the bounds clip it.
+    For a step of a moving arm (``problem.last``, :mod:`lpik.continuation`) the smaller
+    of the residuals of its two lines: around the current motion,
+    ``max |J (dq - last) - p (dw - J last)|`` with ``last`` as the bounds clip it, and,
+    where no step around the motion exists, through rest
+    (:func:`lpik.continuation.through_rest`), ``max |J dq - p dw|``.
     """
+    through_rest = float(np.abs(problem.J @ dq - p * problem.dw).max())
     motion = problem.motion
     if motion is None:
-        return float(np.abs(problem.J @ dq - p * problem.dw).max())
+        return through_rest
     kept = problem.J @ motion
-    return float(np.abs(problem.J @ dq - kept - p * (problem.dw - kept)).max())
+    return min(through_rest, float(np.abs(problem.J @ dq - kept - p * (problem.dw - kept)).max()))
 
 
 def check_step(problem: Problem, dq: FloatArray, p: float, lam: FloatArray | None) -> str | None:

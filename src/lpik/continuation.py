@@ -29,6 +29,11 @@ answer back into a step from ``q0``; :func:`around_motion` wraps LP1, LP2,
 LP2 with saturation and Ho's L1 step (which takes LP1's ``p``) so that they do
 both for a problem that carries ``last`` (:func:`lpik.limits.build_problem`
 sets it where there are acceleration limits and the arm moves).
+
+Where the step around the motion is the safe step even after the stall stage,
+the controller's through-rest stage solves the paper's line through ``dq = 0``
+within the same bounds (:func:`through_rest`), which holds the slower motions
+the line around the motion does not; ``p`` is then the share of the command itself.
 """
 
 from __future__ import annotations
@@ -65,6 +70,28 @@ def around_motion(method: Callable[..., Result]) -> Callable[..., Result]:
         return resumed(problem, method(continued(problem), *args, **options))
 
     return solve
+
+
+def through_rest(around: Result, rest: Result) -> Result:
+    """The through-rest stage's choice: ``rest`` where it is a step on the paper's line.
+
+    ``around`` is the step after the stall stage, still the safe step: no step on
+    the line ``J dq = (1 - p) J last + p dw`` within the limits, and none that
+    makes progress off it. That line holds no slowing down of the task's motion:
+    where the last motion itself breaks a row this step (a distance row whose
+    damper allows a little less approach each step than the step before took)
+    every point of it breaks that row, although a slower motion within every limit
+    exists. ``rest`` is the step as ``continuation=False`` takes it: the paper's
+    line through ``dq = 0`` (eq. 12) within the same acceleration band, which
+    holds those motions. Where it is feasible (``rest`` optimal, ``p`` the share
+    of the command itself) that is the step; else ``around``. An arm that crept
+    along an obstacle toward its safety distance otherwise stopped and started
+    again on every other step. Taken after the stall stage, not before it: the
+    progress steps that slide an arm around an obstacle stay as they were (taken
+    before it, the step through rest pushed 5 of 40 arms into the obstacle's
+    damper, where they stayed 0.1 to 0.45 m from goals they had reached).
+    """
+    return rest if rest.status == OPTIMAL else around
 
 
 def continued(problem: Problem) -> Problem:
@@ -111,8 +138,9 @@ def resumed(problem: Problem, result: Result) -> Result:
     (``p = 0``, within :data:`~lpik.tolerances.NO_CHANGE_P`): it would coast
     along the last motion, ``J dq = J last``, which a command it cannot follow
     never turns (the hand drifts away, ever further); it is ``infeasible``,
-    naming what stopped ``p``, and the arm comes to rest within its limits,
-    from where the step is the paper's again.
+    naming what stopped ``p`` (the controller's stages then look for a step
+    through rest: :func:`through_rest`), and the arm comes to rest within its
+    limits, from where the step is the paper's again.
     """
     if result.status == OPTIMAL and result.p <= NO_CHANGE_P:  # no change toward the command
         return safe_step(problem, result.method, INFEASIBLE, result.binding,

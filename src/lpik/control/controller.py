@@ -47,6 +47,7 @@ from lpik.collision.recovery import (
     rows_kept,
 )
 from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX, TargetMotion
+from lpik.continuation import through_rest
 from lpik.control.backend_step import fuses_kinematics, step_functions
 from lpik.control.commanded import REPORTED_AS_FAULT
 from lpik.control.inputs import (
@@ -614,9 +615,31 @@ class Lp2Controller:
             result = self._bounded(q0, target, q_prev, result)
         if watch and (self._watch_stall or self._further):
             result = self._stalled(result, q0, q_prev, count=True)
+        if watch and result.status == INFEASIBLE:
+            result = self._through_rest(q0, target, q_prev, result)
         if self.scene_rows is None:
             return result
         return self._recovered(q0, target, q_prev, result)
+
+    def _through_rest(self, q0: Any, target: Any, q_prev: Any, around: Result) -> Result:
+        """The through-rest stage (:meth:`Stepper.rested <lpik.control.stepper.Stepper.rested>`).
+
+        A moving arm's safe step after the stall stage: the fused step again with
+        the state's ``continuation`` block at -1 (the same command, the paper's line
+        within the same bands, the automatic bound as that step takes it), chosen by
+        :func:`lpik.continuation.through_rest`. With the stall stage only.
+        """
+        flag = int(self._state[layout.CONTINUATION])
+        if (not self._watch_stall or self._on_numpy_engine or q_prev is None
+                or self._state[flag] == 0.0
+                or np.array_equal(np.asarray(q0), np.asarray(q_prev))):  # fmt: skip
+            return around  # (the numpy engine's step has had its own stage)
+        self._state[flag] = -1.0
+        try:
+            rest = self._step(q0, target, q_prev, watch=False)
+        finally:
+            self._state[flag] = 1.0
+        return through_rest(around, rest)
 
     def _recovered(self, q0: Any, target: Any, q_prev: Any, result: Result) -> Result:
         """The recovery stage: from inside the scene's safety distance the distance grows back.
@@ -804,6 +827,8 @@ class Lp2Controller:
         self._last, self._last_code = self._bounded(q0, target, q_prev, result), -1
         if self._watch_stall:
             self._last = self._stalled(self._last, q0, q_prev, count=True)
+        if self._last.status == INFEASIBLE:
+            self._last = self._through_rest(q0, target, q_prev, self._last)
         out[...] = self._last.q
         return self._last.p
 
@@ -986,9 +1011,10 @@ class Lp2Controller:
         (tests hold them equal): for sweeps over configurations (how much of a
         command the arm can follow across its workspace), many robots, or
         sampled starts. Rows the ratio test cannot take go to the HiGHS path
-        one by one, as in :meth:`step`; so do the rows from outside the limits
-        and, where the automatic multiplier bound applies outside the kernel,
-        the rows with ``p < 1``. With a scene every row is a :meth:`step`.
+        one by one, as in :meth:`step`; so do the rows from outside the limits,
+        the safe steps (the stall and through-rest stages) and, where the
+        automatic multiplier bound applies outside the kernel, the rows with
+        ``p < 1``. With a scene every row is a :meth:`step`.
 
         Args:
             q0: Joint coordinates, (B, n).
@@ -1028,7 +1054,7 @@ class Lp2Controller:
     def _rows_again(self, outs: FloatArray, codes: Any) -> Any:
         """The rows to step one by one: those the kernel does not answer itself."""
         infeasible = codes == KERNEL_INFEASIBLE
-        again = (codes != OK) & ~infeasible | (outs[:, self._outside] >= 0)
+        again = (codes != OK) | (outs[:, self._outside] >= 0)  # an infeasible row: the stages
         if self.automatic_bound is not None:
             p = outs[:, self._p]
             again |= ~infeasible & (p < FULL_P) & (outs[:, self._bounded_at] < 0)
@@ -1059,6 +1085,8 @@ class Lp2Controller:
                 res = self._step(Q0[b], T[b], prev, watch=False)
             if (self._watch_stall or self._further) and not numpy_engine:  # row by row
                 res = self._stalled(res, Q0[b], prev, count=False)
+            if res.status == INFEASIBLE:
+                res = self._through_rest(Q0[b], T[b], prev, res)
             fallback[b] = res
             q[b], dq[b], p[b], residual[b] = res.q, res.dq, res.p, res.residual
             pull_scale[b] = res.pull_scale

@@ -45,6 +45,7 @@ from lpik.command import (
     second_order_term,
     task_rows,
 )
+from lpik.continuation import through_rest
 from lpik.control.commanded import CommandedMotion
 from lpik.control.inputs import (
     STATE_FREE_LIMITS,
@@ -67,7 +68,7 @@ from lpik.methods.autobound import bound_for_step, floor_row, singular_memo, sin
 from lpik.methods.progress import StallWatch, further_step, least_error_lp
 from lpik.methods.registry import DEFAULT_METHOD, MethodSpec, get_method, methods_with
 from lpik.problem import Problem
-from lpik.result import VIOLATES_LIMITS, Result
+from lpik.result import INFEASIBLE, VIOLATES_LIMITS, Result
 from lpik.robots.base import TaskModel
 from lpik.robots.tasks import as_task_model
 from lpik.types import FloatArray, real_array
@@ -440,6 +441,29 @@ class Stepper:
             return checked
         return further_step(problem_of(), result, solver=self._solver)
 
+    def rested(
+        self, problem: Problem, result: Result, q_prev: FloatArray | None
+    ) -> tuple[Problem, Result]:
+        """The through-rest stage: a moving arm's safe step, solved through rest where it can be.
+
+        Where the step around the motion (``problem.last``) is still the safe step
+        after the stall stage, the limits, method and bound policy stages again as
+        ``continuation=False`` runs them (the paper's line within the same bands);
+        :func:`lpik.continuation.through_rest` chooses. With the stall stage only:
+        the strict step (``on_stall=None``) is the method's own. Returns the step's
+        problem and result.
+        """
+        if result.status != INFEASIBLE or problem.last is None or self.stall_watch.after is None:
+            return problem, result
+        self.continues = False
+        try:
+            rest_problem = self.limited(problem.q0, problem.dw, q_prev, problem.J)
+            rest_problem, rest = self.bounded(rest_problem, self.solve(rest_problem), q_prev)
+        finally:
+            self.continues = True
+        chosen = through_rest(result, rest)
+        return (rest_problem, rest) if chosen is rest else (problem, result)
+
     def recovered(self, problem: Problem, result: Result) -> Result:
         """The recovery stage: from inside a scene's safety distance, the distance grows back.
 
@@ -503,7 +527,8 @@ class Stepper:
         start = time.perf_counter()
         problem, result = self.bounded(problem, self.solve(problem), prev)
         last = None if prev is None else q - prev
-        result = self.recovered(problem, self.stalled(result, lambda: problem, last))
+        problem, result = self.rested(problem, self.stalled(result, lambda: problem, last), prev)
+        result = self.recovered(problem, result)
         self.solve_time = time.perf_counter() - start
         return self.applied(problem, result)
 

@@ -110,7 +110,8 @@ BLOCKS = (
         CONTINUATION,
         "continuation",
         (1,),
-        "1: under acceleration limits the step is solved around the motion, the command brakes",
+        "1: under acceleration limits the step is solved around the motion, the command brakes;"
+        " -1: the command as with 1, the step through rest (the through-rest stage)",
     ),
     Block(CHAIN, "chain", (1,), "1: the step computes the chain's kinematics (0: a backend's)"),
     Block(Q, "q", ("n",), "the new joint coordinates q0 + dq"),

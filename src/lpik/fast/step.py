@@ -142,8 +142,12 @@ def criterion_and_rows(f_ref, Lam, G, h, q0, c, c_ref, g):
 
 @njit(cache=True)
 def continues(state, q0, q_prev):
-    """Whether the step is solved around the current motion (:mod:`lpik.continuation`)."""
-    if L.vector(state, L.CONTINUATION)[0] == 0.0:
+    """Whether the step is solved around the current motion (:mod:`lpik.continuation`).
+
+    Not where the ``continuation`` block is 0 (off) or -1 (the through-rest stage's
+    step: :func:`lpik.continuation.through_rest`).
+    """
+    if L.vector(state, L.CONTINUATION)[0] <= 0.0:
         return False
     for i in range(q0.shape[0]):
         if q0[i] != q_prev[i]:
