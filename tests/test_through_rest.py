@@ -42,7 +42,8 @@ def wall_ahead(arm, q0, speed: float, ahead: float):  # type: ignore[no-untyped-
 
 def both_stages(arm, q0, last, G, h, target, saturate=True, **options):  # type: ignore[no-untyped-def]
     """The step around the motion (the method on the stepper's problem), then the
-    through-rest stage on it, in the numpy layers and in the fused step; and the problem."""
+    through-rest stage on it, in the numpy layers and in the fused step; the problem, and
+    the stage's own: the same command within the limits, without the stops ahead."""
     method = "lp2s" if saturate else "lp2"
     stepper = Stepper(arm, dt=DT, qdd_max=QDD_MAX, rows=(G, h, None), method=method, **options)
     fused = Lp2Controller(arm, dt=DT, qdd_max=QDD_MAX, G=G, h=h, saturate=saturate,
@@ -51,12 +52,14 @@ def both_stages(arm, q0, last, G, h, target, saturate=True, **options):  # type:
     problem = stepper.problem(q0, target, q_prev)
     around = stepper.solve(problem)
     rested = stepper.rested(problem, around, q_prev)[1]
+    stepper.continues = False  # as the stage builds it
+    rest_problem = stepper.limited(q0, problem.dw, q_prev, problem.J)
     fused.step(q0, target, q_prev)  # the state the stage reads
     # the stage's callers hand it the safe steps only
     rest = (
         fused._through_rest(q0, target, q_prev, around) if around.status == INFEASIBLE else around
     )
-    return around, rested, rest, problem
+    return around, rested, rest, problem, rest_problem
 
 
 def test_an_arm_slowly_nearing_a_wall_takes_the_step_through_rest_not_the_safe_step() -> None:
@@ -64,14 +67,14 @@ def test_an_arm_slowly_nearing_a_wall_takes_the_step_through_rest_not_the_safe_s
     q0 = np.array([0.4, 0.6, 0.5])
     last, G, h = wall_ahead(arm, q0, 2e-4, 0.5)  # the last step would pass the wall twice over
     target = np.append(arm.position(q0)[:2] + [0.2, 0.0], 0.0)  # beyond the wall
-    around, numpy_step, fused_step, problem = both_stages(arm, q0, last, G, h, target)
+    around, numpy_step, fused_step, problem, rest = both_stages(arm, q0, last, G, h, target)
     # no step along the line around the motion (HiGHS), one through rest
     assert around.status == INFEASIBLE and not lp1_reference(continued(problem)).feasible
-    assert lp1_reference(problem.replace(last=None)).feasible
+    assert lp1_reference(rest).feasible
     for result in (numpy_step, fused_step):
         assert result.status == OPTIMAL and 0.0 < result.p < 1.0
         assert result.binding == "row 1"
-        assert hard_violation(problem, result.q) <= 1e-12
+        assert hard_violation(rest, result.q) <= 1e-12
         # the paper's line: J dq = p dw (eq. 12), the command itself
         dq = result.q - q0
         assert np.abs(problem.J @ dq - result.p * problem.dw).max() <= 1e-12
@@ -102,7 +105,9 @@ def test_the_safe_step_only_where_neither_line_has_a_step(
     last, G, h = wall_ahead(arm, q0, speed, ahead)
     target = np.append(arm.position(q0)[:2] + np.array(reach), 0.0)
     options = {"lambda_bound": None, "saturate": False}  # LP2 itself
-    around, numpy_step, fused_step, problem = both_stages(arm, q0, last, G, h, target, **options)
+    around, numpy_step, fused_step, problem, rest = both_stages(
+        arm, q0, last, G, h, target, **options
+    )
     assert (fused_step.status, fused_step.binding) == (numpy_step.status, numpy_step.binding)
     assert fused_step.p == pytest.approx(numpy_step.p, abs=1e-9)
     np.testing.assert_allclose(fused_step.q, numpy_step.q, atol=1e-9, rtol=0)
@@ -111,9 +116,38 @@ def test_the_safe_step_only_where_neither_line_has_a_step(
         return
     if numpy_step.status == INFEASIBLE:  # neither line holds a step within tighter limits
         assert not lp2_reference(continued(problem), margin=-1e-9).feasible
-        assert not lp2_reference(problem.replace(last=None), margin=-1e-9).feasible
+        assert not lp2_reference(rest, margin=-1e-9).feasible
         return
-    assert hard_violation(problem, numpy_step.q) <= 1e-9
+    # every limit: the acceleration band, end-stops, velocity limits and rows (the stops
+    # ahead of the step around the motion are not limits: the step through rest drops them)
+    assert hard_violation(rest, numpy_step.q) <= 1e-9
     assert task_residual(problem, numpy_step.q - q0, numpy_step.p) <= 1e-9
-    reference = lp2_reference(problem.replace(last=None))  # LP2's largest p on the paper's line
+    reference = lp2_reference(rest)  # LP2's largest p on the paper's line
     assert reference.feasible and numpy_step.p == pytest.approx(reference.p, abs=1e-7)
+
+
+def test_a_stretched_arm_s_whole_step_batch_row_and_step_into_take_the_step_through_rest() -> None:
+    """Near a stretched pose the progress step's motion buys too little to move: the stage."""
+    arm = planar_arm([0.864, 0.697, 0.494], qd_max=1.0)
+    q0 = np.array([-0.2643, 0.003, 0.0039])
+    last, G, h = wall_ahead(arm, q0, 3.78e-4, 0.377)
+    target = np.append(arm.position(q0)[:2] + [-0.064, 0.307], 0.0)
+    q_prev = q0 - last
+
+    def fused() -> Lp2Controller:
+        return Lp2Controller(arm, dt=DT, qdd_max=QDD_MAX, G=G, h=h, compile="now")
+
+    stepper = Stepper(arm, dt=DT, qdd_max=QDD_MAX, rows=(G, h, None))
+    problem = stepper.problem(q0, target, q_prev)
+    assert stepper.solve(problem).status == INFEASIBLE  # the method's step around the motion
+    whole = stepper.step(q0, target, q_prev)
+    assert whole.status == OPTIMAL and whole.p > 0.0
+    assert np.abs(problem.J @ (whole.q - q0) - whole.p * problem.dw).max() <= 1e-12
+    out = np.empty(3)
+    controller = fused()
+    p_into = controller.step_into(q0, target, q_prev, out=out)
+    for q, p in ((fused().step(q0, target, q_prev).q, None), (out, p_into),
+                 (fused().step_batch([q0], [target], [q_prev]).q[0], None)):  # fmt: skip
+        np.testing.assert_allclose(q, whole.q, atol=1e-12, rtol=0)
+        assert p is None or p == pytest.approx(whole.p, abs=1e-12)
+    assert controller.last_status == OPTIMAL

@@ -81,15 +81,16 @@ def through_rest(around: Result, rest: Result) -> Result:
     where the last motion itself breaks a row this step (a distance row whose
     damper allows a little less approach each step than the step before took)
     every point of it breaks that row, although a slower motion within every limit
-    exists. ``rest`` is the step as ``continuation=False`` takes it: the paper's
-    line through ``dq = 0`` (eq. 12) within the same acceleration band, which
-    holds those motions. Where it is feasible (``rest`` optimal, ``p`` the share
-    of the command itself) that is the step; else ``around``. An arm that crept
-    along an obstacle toward its safety distance otherwise stopped and started
-    again on every other step. Taken after the stall stage, not before it: the
-    progress steps that slide an arm around an obstacle stay as they were (taken
-    before it, the step through rest pushed 5 of 40 arms into the obstacle's
-    damper, where they stayed 0.1 to 0.45 m from goals they had reached).
+    exists. ``rest`` is the step on the paper's line through ``dq = 0`` (eq. 12)
+    with the same command, within the same bounds (the acceleration band around the
+    motion and its stops ahead), which holds those motions. Where it is feasible
+    (``rest`` optimal, ``p`` the share of the command itself) that is the step;
+    else ``around``. An arm that crept along an obstacle toward its safety
+    distance otherwise stopped and started again on every other step. Taken after
+    the stall stage, not before it: the progress steps that slide an arm around an
+    obstacle stay as they were (taken before it, the step through rest pushed 5 of
+    40 arms into the obstacle's damper, where they stayed 0.1 to 0.45 m from goals
+    they had reached).
     """
     return rest if rest.status == OPTIMAL else around
 

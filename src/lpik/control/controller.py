@@ -626,7 +626,8 @@ class Lp2Controller:
 
         A moving arm's safe step after the stall stage: the fused step again with
         the state's ``continuation`` block at -1 (the same command, the paper's line
-        within the same bands, the automatic bound as that step takes it), chosen by
+        within the same bounds, the stops ahead kept, the automatic bound as that
+        step takes it: :func:`lpik.fast.step.stops_ahead`), chosen by
         :func:`lpik.continuation.through_rest`. With the stall stage only.
         """
         flag = int(self._state[layout.CONTINUATION])
@@ -1054,7 +1055,9 @@ class Lp2Controller:
     def _rows_again(self, outs: FloatArray, codes: Any) -> Any:
         """The rows to step one by one: those the kernel does not answer itself."""
         infeasible = codes == KERNEL_INFEASIBLE
-        again = (codes != OK) | (outs[:, self._outside] >= 0)  # an infeasible row: the stages
+        again = (codes != OK) & ~infeasible | (outs[:, self._outside] >= 0)
+        if self._watch_stall:  # a safe step: the stall and through-rest stages
+            again |= infeasible
         if self.automatic_bound is not None:
             p = outs[:, self._p]
             again |= ~infeasible & (p < FULL_P) & (outs[:, self._bounded_at] < 0)

@@ -149,6 +149,10 @@ class Stepper:
         ValueError: Naming the argument that is wrong.
     """
 
+    #: While the through-rest stage builds its problem (:meth:`rested`): the limits
+    #: stage gives the problem of the step around the motion without ``last``.
+    _through_rest = False
+
     def __init__(
         self,
         model: TaskModel,
@@ -356,6 +360,8 @@ class Stepper:
                           **self.weights)  # fmt: skip
         if self.avoidance is not None:  # the field's force, within the step's own room
             P = self.avoidance.with_field(P, self.dt)
+        if self._through_rest and P.last is not None:  # the stops ahead kept, through rest
+            P = P.replace(last=None)
         return P if bound is None else _under_bound(P, bound)
 
     def solve(self, problem: Problem, *, path: str | None = None) -> Result:
@@ -447,20 +453,21 @@ class Stepper:
         """The through-rest stage: a moving arm's safe step, solved through rest where it can be.
 
         Where the step around the motion (``problem.last``) is still the safe step
-        after the stall stage, the limits, method and bound policy stages again as
-        ``continuation=False`` runs them (the paper's line within the same bands);
-        :func:`lpik.continuation.through_rest` chooses. With the stall stage only:
-        the strict step (``on_stall=None``) is the method's own. Returns the step's
-        problem and result.
+        after the stall stage, the limits, method and bound policy stages again with
+        the same command, on the paper's line through rest within the same bounds
+        (the stops ahead kept: :meth:`limited` drops ``last`` while the stage builds
+        its problem); :func:`lpik.continuation.through_rest` chooses. With
+        the stall stage only: the strict step (``on_stall=None``) is the method's own.
+        Returns the step's problem and result.
         """
         if result.status != INFEASIBLE or problem.last is None or self.stall_watch.after is None:
             return problem, result
-        self.continues = False
+        self._through_rest = True
         try:
             rest_problem = self.limited(problem.q0, problem.dw, q_prev, problem.J)
             rest_problem, rest = self.bounded(rest_problem, self.solve(rest_problem), q_prev)
         finally:
-            self.continues = True
+            self._through_rest = False
         chosen = through_rest(result, rest)
         return (rest_problem, rest) if chosen is rest else (problem, result)
 

@@ -147,7 +147,16 @@ def continues(state, q0, q_prev):
     Not where the ``continuation`` block is 0 (off) or -1 (the through-rest stage's
     step: :func:`lpik.continuation.through_rest`).
     """
-    if L.vector(state, L.CONTINUATION)[0] <= 0.0:
+    return L.vector(state, L.CONTINUATION)[0] > 0.0 and stops_ahead(state, q0, q_prev)
+
+
+@njit(cache=True)
+def stops_ahead(state, q0, q_prev):
+    """Whether the step keeps the moving arm's stops ahead (:func:`fading_in_state`).
+
+    Around the motion and through rest alike (the ``continuation`` block 1 or -1).
+    """
+    if L.vector(state, L.CONTINUATION)[0] == 0.0:
         return False
     for i in range(q0.shape[0]):
         if q0[i] != q_prev[i]:
@@ -187,7 +196,7 @@ def singular_ahead(state, q0, q_prev, J, rows):
     ahead = L.vector(state, L.SINGULAR)
     ahead[0] = math.inf
     settings = L.vector(state, L.AUTO_BOUND)  # (on, approach time, activation, floor, probe)
-    if not (settings[2] > 0.0 and continues(state, q0, q_prev)):
+    if not (settings[2] > 0.0 and stops_ahead(state, q0, q_prev)):
         return
     n, m = q0.shape[0], J.shape[0]
     J6 = L.matrix_at(state, L.PREV_JACOBIAN6, 6, n)
@@ -290,7 +299,7 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     dq, lam = L.vector(state, L.DQ), L.vector(state, L.LAM)
     moving = continues(state, q0, q_prev)
     fading, own = math.inf, math.inf
-    if moving:
+    if stops_ahead(state, q0, q_prev):
         fading, own = fading_in_state(state, q0, q_prev, J, dw, True)
     outside = step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading, own)
     origin = continue_motion(state, q0, q_prev, J, dw, lower, upper) if moving else q0
