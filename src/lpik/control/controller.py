@@ -54,7 +54,7 @@ from lpik.control.inputs import (
     TARGET_SHAPES,
     chain_arrays,
     joint_vector,
-    not_numbers,
+    numbers_of,
     rate_limits,
     stacked_rows,
     target_array,
@@ -95,7 +95,7 @@ from lpik.problem import Problem, reference_configuration
 from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import FULL_P, STALL_P
-from lpik.types import FloatArray, real_array
+from lpik.types import FloatArray
 
 __all__ = ["Lp2Controller", "SceneRows", "StateRows"]
 
@@ -1134,12 +1134,7 @@ class Lp2Controller:
         for name, value in (("q0", q0), ("q_prev", q_prev), ("target", target)):
             if value is None:
                 continue
-            try:
-                finite = np.isfinite(real_array(value)).all()
-            except (TypeError, ValueError) as exc:
-                what = not_numbers(value, exc)
-                raise ValueError(f"{name}: must be numbers, got {what}") from None
-            if not finite:
+            if not np.isfinite(numbers_of(name, value)).all():
                 raise ValueError(f"{name}: contains NaN or inf")
         return q0, target, q_prev
 

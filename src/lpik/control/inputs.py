@@ -39,9 +39,18 @@ from lpik.types import FloatArray, NotRealError, real_array
 TARGET_SHAPES = ((3,), (3, 3), (4, 4))
 
 
-def not_numbers(value: Any, error: Exception) -> str:
-    """What a value that is not numbers is, for an error message: its type, or booleans."""
-    return str(error) if isinstance(error, NotRealError) else type(value).__name__
+def numbers_of(name: str, value: Any, wanted: str = "numbers", order: str = "K") -> FloatArray:
+    """``value`` as a new float64 array (:func:`lpik.types.real_array`), or a ValueError.
+
+    Raises:
+        ValueError: ``"<name>: must be <wanted>, got <what>"``, ``what`` the value's
+            type, or the booleans or complex numbers it holds.
+    """
+    try:
+        return real_array(value, order=order)
+    except (TypeError, ValueError) as exc:
+        what = str(exc) if isinstance(exc, NotRealError) else type(value).__name__
+        raise ValueError(f"{name}: must be {wanted}, got {what}") from None
 
 
 def positive_number(name: str, value: Any) -> float:
@@ -232,10 +241,7 @@ def chain_arrays(model: TaskModel) -> tuple[FloatArray, FloatArray, FloatArray, 
 
 def joint_vector(name: str, value: Any, n: int, check_finite: bool) -> FloatArray:
     """A writable C-contiguous float64 copy of a joint vector of length ``n``."""
-    try:
-        v = real_array(value, order="C")
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: must be {n} numbers, got {not_numbers(value, exc)}") from None
+    v = numbers_of(name, value, f"{n} numbers", order="C")
     if v.shape != (n,):
         raise ValueError(f"{name}: must have length {n}, got shape {v.shape}")
     if check_finite and not np.isfinite(v).all():
@@ -245,10 +251,7 @@ def joint_vector(name: str, value: Any, n: int, check_finite: bool) -> FloatArra
 
 def target_array(target: Any, check_finite: bool) -> FloatArray:
     """A writable C-contiguous float64 copy of a target: xyz (3,), a rotation (3, 3) or a pose."""
-    try:
-        t = real_array(target, order="C")
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"target: must be numbers, got {not_numbers(target, exc)}") from None
+    t = numbers_of("target", target, order="C")
     if t.shape not in TARGET_SHAPES:
         raise ValueError(
             f"target: must be xyz (3,), a rotation (3, 3) or a pose (4, 4), got {t.shape}"
@@ -301,10 +304,7 @@ def stacked_rows(
 
     ``shapes`` lists the accepted shapes of one row; ``count`` the required B.
     """
-    try:
-        arr = real_array(value, order="C")  # a copy: the compiled step takes writable arrays
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: must be numbers, got {not_numbers(value, exc)}") from None
+    arr = numbers_of(name, value, order="C")  # a copy: the compiled step takes writable arrays
     if arr.ndim == 0 or arr.shape[1:] not in shapes or arr.shape[0] == 0:
         wanted = " or ".join(str(("B",) + s).replace("'", "") for s in shapes)
         raise ValueError(f"{name}: must have shape {wanted} with B >= 1, got {arr.shape}")

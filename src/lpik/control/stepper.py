@@ -49,7 +49,7 @@ from lpik.continuation import through_rest
 from lpik.control.commanded import CommandedMotion
 from lpik.control.inputs import (
     STATE_FREE_LIMITS,
-    not_numbers,
+    numbers_of,
     positive_number,
     rate_limits,
     step_limits,
@@ -71,7 +71,7 @@ from lpik.problem import Problem
 from lpik.result import INFEASIBLE, VIOLATES_LIMITS, Result
 from lpik.robots.base import TaskModel
 from lpik.robots.tasks import as_task_model
-from lpik.types import FloatArray, real_array
+from lpik.types import FloatArray
 
 __all__ = ["DEFAULT_METHOD", "Stepper"]
 
@@ -541,11 +541,7 @@ class Stepper:
 
     def _joints(self, name: str, value: ArrayLike) -> FloatArray:
         n = self.model.n_joints
-        try:
-            q = real_array(value)
-        except (TypeError, ValueError) as exc:
-            what = not_numbers(value, exc)
-            raise ValueError(f"{name}: must be {n} numbers, got {what}") from None
+        q = numbers_of(name, value, f"{n} numbers")
         if q.shape != (n,) or not np.isfinite(q).all():
             raise ValueError(f"{name}: must be {n} finite joint coordinates, got {value!r}")
         return q
