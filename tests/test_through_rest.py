@@ -123,7 +123,8 @@ def test_the_safe_step_only_where_neither_line_has_a_step(
     assert hard_violation(rest, numpy_step.q) <= 1e-9
     assert task_residual(problem, numpy_step.q - q0, numpy_step.p) <= 1e-9
     reference = lp2_reference(rest)  # LP2's largest p on the paper's line
-    assert reference.feasible and numpy_step.p == pytest.approx(reference.p, abs=1e-7)
+    # HiGHS solves to its tolerances (1e-7), which a nearly stretched arm's p amplifies
+    assert reference.feasible and numpy_step.p == pytest.approx(reference.p, rel=1e-5, abs=1e-7)
 
 
 def test_a_stretched_arm_s_whole_step_batch_row_and_step_into_take_the_step_through_rest() -> None:
