@@ -144,6 +144,34 @@ def test_joint_coordinates_and_targets_are_real_numbers(field: str, bad, kind: s
         batch([args[0]], [args[1]], [args[2]])
 
 
+@pytest.mark.parametrize("size", [1e13, 1e200, -1e300])
+def test_a_target_too_large_in_size_is_named(size: float) -> None:
+    """A target 1e200 m away overflowed the command law's norm of the difference: the
+    arm stood still, status ``optimal`` and ``p = 1``. Every way to give a target names it.
+    """
+    q = np.array([0.0, 0.1, 0.2, 0.3])
+    target = [1.5, size, 0.0]
+    out = np.empty(4)
+    controller = Lp2Controller(ARM, dt=0.01, qdd_max=5.0)
+    steps = [controller.step, Stepper(ARM, dt=0.01, qdd_max=5.0).step,
+             lambda *a: controller.step_into(*a, out=out),
+             lambda *a: controller.step(a[0], np.array(a[1]), a[2])]  # fmt: skip
+    for step in steps:
+        with pytest.raises(
+            ValueError, match=r"^target: entry \S+ at index 1 is larger than 1e\+12"
+        ):
+            step(q, target, q)
+    with pytest.raises(ValueError, match=r"^targets: entry \S+ at index \(1, 1\) is larger"):
+        controller.step_batch([q, q], [[1.5, 1.0, 0.0], target], [q, q])
+    with pytest.raises(ValueError, match=r"^target: entry \S+ at index 1 is larger"):
+        ClampedTarget(target)
+    assert controller.step(q, [1.5, 1e12, 0.0], q).status == "optimal"  # the largest size it takes
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        assert main(["simulate", "reach", "--robot", "panda", "--target", f"0.5,0,{size}"]) == 2
+    assert err.getvalue().count("\n") == 1 and "is larger than 1e+12" in err.getvalue()
+
+
 def test_a_ragged_limit_is_named() -> None:
     """The check for booleans reads the value inside the conversion's guard."""
     with pytest.raises(ValueError, match="^qdd_max: must be a number or 4 numbers"):

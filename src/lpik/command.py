@@ -39,10 +39,11 @@ from typing import Any, Protocol
 import numpy as np
 
 from lpik.bands import braking_room
+from lpik.problem import check_magnitude
 from lpik.robots.base import TaskModel
 from lpik.robots.rotations import check_rotation
 from lpik.robots.tasks import pose_difference
-from lpik.types import FloatArray
+from lpik.types import FloatArray, numbers_of
 
 #: Default largest commanded linear speed of the task point [m/s].
 DEFAULT_V_MAX = 0.5
@@ -561,15 +562,23 @@ def _speed(name: str, value: float) -> float:
     return float(value)
 
 
-def _check_target(target: Any) -> None:
-    try:
-        t = np.asarray(target, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"target: must be numbers, got {type(target).__name__}") from None
+def checked_target(target: Any) -> FloatArray:
+    """``target`` as the numbers of a command, or a ValueError naming ``target``.
+
+    Real numbers (no booleans or complex numbers: :func:`lpik.types.numbers_of`),
+    finite, none larger in size than :data:`~lpik.tolerances.MAX_MAGNITUDE` (a target
+    1e200 m away overflowed the law's norm of the difference: the arm stood still and
+    the step said ``p = 1``), and the rotation part of a rotation (3, 3) or a pose
+    (4, 4) a rotation. The one check of a target's values on every path; the compiled
+    step makes the same tests (:func:`lpik.fast.kinematics.target_pose`).
+    """
+    t = numbers_of("target", target)
     if not np.isfinite(t).all():
         raise ValueError("target: contains NaN or inf")
+    check_magnitude("target", t)
     if t.shape in ((3, 3), (4, 4)):
         check_rotation("target", t)
+    return t
 
 
 @dataclass(frozen=True, eq=False)
@@ -594,7 +603,7 @@ class ClampedTarget:
     w_max: float = DEFAULT_W_MAX
 
     def __post_init__(self) -> None:
-        _check_target(self.target)
+        checked_target(self.target)
         object.__setattr__(self, "v_max", _speed("v_max", self.v_max))
         object.__setattr__(self, "w_max", _speed("w_max", self.w_max))
 

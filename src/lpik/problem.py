@@ -56,12 +56,15 @@ def _vector(name: str, value: Any, size: int, *, allow_inf: bool = False) -> Flo
         raise InvalidProblemError(
             name, f"contains inf at index {int(np.argmax(~np.isfinite(arr)))}"
         )
-    _check_magnitude(name, arr, bound=allow_inf)
+    check_magnitude(name, arr, bound=allow_inf)
     return arr
 
 
-def _check_magnitude(name: str, arr: FloatArray, *, bound: bool = False) -> None:
-    """Raise naming ``name`` when a finite entry of ``arr`` exceeds ``MAX_MAGNITUDE`` in size."""
+def check_magnitude(name: str, arr: FloatArray, *, bound: bool = False) -> None:
+    """Raise naming ``name`` when a finite entry of ``arr`` exceeds ``MAX_MAGNITUDE`` in size.
+
+    ``bound``: ``arr`` holds bounds, where inf means none (only finite entries count).
+    """
     big = np.abs(arr) > MAX_MAGNITUDE
     if bound:
         big &= np.isfinite(arr)
@@ -107,7 +110,7 @@ def _matrix(name: str, value: Any, n: int, default_diag: float) -> FloatArray:
         )
     if not np.isfinite(arr).all():
         raise InvalidProblemError(name, "contains NaN or inf")
-    _check_magnitude(name, arr)
+    check_magnitude(name, arr)
     scale = max(1.0, float(np.abs(arr).max()))
     if np.abs(arr - arr.T).max() > SYMMETRY_RTOL * scale:
         raise InvalidProblemError(name, "must be symmetric")
@@ -218,7 +221,7 @@ class Problem:
             raise InvalidProblemError("J", f"must be a non-empty m x n matrix, got shape {J.shape}")
         if not np.isfinite(J).all():
             raise InvalidProblemError("J", "contains NaN or inf")
-        _check_magnitude("J", J)
+        check_magnitude("J", J)
         object.__setattr__(self, "J", J)
         return J.shape
 
@@ -291,7 +294,7 @@ class Problem:
             raise InvalidProblemError("G", f"must be an r x {n} matrix, got shape {G.shape}")
         if not np.isfinite(G).all():
             raise InvalidProblemError("G", "contains NaN or inf")
-        _check_magnitude("G", G)
+        check_magnitude("G", G)
         r = G.shape[0]
         set_(self, "G", G)
         set_(self, "h", _vector("h", self.h, r))

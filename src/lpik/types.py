@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -48,3 +50,17 @@ def real_array(value: object, order: str = "K") -> FloatArray:
     if found:
         raise NotRealError(found)
     return np.array(arr, dtype=np.float64, order=order)
+
+
+def numbers_of(name: str, value: Any, wanted: str = "numbers", order: str = "K") -> FloatArray:
+    """``value`` as a new float64 array (:func:`real_array`), or a ValueError.
+
+    Raises:
+        ValueError: ``"<name>: must be <wanted>, got <what>"``, ``what`` the value's
+            type, or the booleans or complex numbers it holds.
+    """
+    try:
+        return real_array(value, order=order)
+    except (TypeError, ValueError) as exc:
+        what = str(exc) if isinstance(exc, NotRealError) else type(value).__name__
+        raise ValueError(f"{name}: must be {wanted}, got {what}") from None

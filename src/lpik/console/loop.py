@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 
 from lpik.collision.model import as_avoidance
+from lpik.command import checked_target
 from lpik.console.record import Recorder, Replay, read_replay, recording_path
 from lpik.console.robot import ConsoleRobot
 from lpik.console.stepper import Settings, make_stepper
-from lpik.robots.rotations import check_rotation
 from lpik.types import FloatArray
 
 #: Seconds behind schedule after which the loop stops catching up and restarts its clock.
@@ -266,14 +266,11 @@ class ControlLoop:
         target lies in its plane (z is set to 0).
 
         Raises:
-            ValueError: For a target of the wrong shape or with values that are not finite.
+            ValueError: For a target of the wrong shape or with values a command cannot take
+                (:func:`lpik.command.checked_target`).
         """
-        value = np.array(target, dtype=float)
-        if not np.isfinite(value).all():
-            raise ValueError("target: contains NaN or inf")
-        if value.shape == (4, 4):
-            check_rotation("target", value)
-        elif value.shape != (3,):
+        value = checked_target(target)
+        if value.shape not in ((3,), (4, 4)):
             raise ValueError(f"target: must be xyz (3,) or a pose (4, 4), got shape {value.shape}")
         if self.robot.orientation:
             if value.shape == (3,):

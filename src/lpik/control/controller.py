@@ -91,7 +91,7 @@ from lpik.methods.progress import (
     progress_result,
     stall_limit,
 )
-from lpik.problem import Problem, reference_configuration
+from lpik.problem import Problem, check_magnitude, reference_configuration
 from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import FULL_P, STALL_P
@@ -1038,6 +1038,7 @@ class Lp2Controller:
         B = Q0.shape[0]
         Qp = Q0 if q_prev is None else stacked_rows("q_prev", q_prev, ((n,),), B)
         T = stacked_rows("targets", targets, TARGET_SHAPES, B)
+        check_magnitude("targets", T)  # as checked_target does for one target
         task_value(self.model, T[0])  # every row has the same shape: it must fit the task
         self._ready_for(T.ndim - 1)
         outs, codes = np.empty((B, self._out.shape[0])), np.empty(B, dtype=np.int64)

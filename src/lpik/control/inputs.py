@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik.command import TASK_ROWS, target_fits, task_rows
+from lpik.command import TASK_ROWS, checked_target, target_fits, task_rows
 from lpik.limits import (
     AccelerationLimits,
     AutomaticMultiplierBounds,
@@ -33,24 +33,10 @@ from lpik.robots.chain import SerialChain
 from lpik.robots.rotations import check_rotation, rotation_defects
 from lpik.robots.tasks import OrientationTask, PositionTask
 from lpik.tolerances import MAX_MAGNITUDE, ROTATION_TOL
-from lpik.types import FloatArray, NotRealError, real_array
+from lpik.types import FloatArray, NotRealError, numbers_of, real_array
 
 #: The shapes a target may have: xyz, a rotation, a pose.
 TARGET_SHAPES = ((3,), (3, 3), (4, 4))
-
-
-def numbers_of(name: str, value: Any, wanted: str = "numbers", order: str = "K") -> FloatArray:
-    """``value`` as a new float64 array (:func:`lpik.types.real_array`), or a ValueError.
-
-    Raises:
-        ValueError: ``"<name>: must be <wanted>, got <what>"``, ``what`` the value's
-            type, or the booleans or complex numbers it holds.
-    """
-    try:
-        return real_array(value, order=order)
-    except (TypeError, ValueError) as exc:
-        what = str(exc) if isinstance(exc, NotRealError) else type(value).__name__
-        raise ValueError(f"{name}: must be {wanted}, got {what}") from None
 
 
 def positive_number(name: str, value: Any) -> float:
@@ -256,10 +242,8 @@ def target_array(target: Any, check_finite: bool) -> FloatArray:
         raise ValueError(
             f"target: must be xyz (3,), a rotation (3, 3) or a pose (4, 4), got {t.shape}"
         )
-    if (check_finite or t.ndim == 2) and not np.isfinite(t).all():
-        raise ValueError("target: contains NaN or inf")
-    if t.ndim == 2:
-        check_rotation("target", t)
+    if check_finite or t.ndim == 2:  # else the compiled step checks it (BAD_INPUT)
+        checked_target(t)
     return t
 
 
@@ -274,7 +258,7 @@ def task_value(model: TaskModel, target: Any) -> FloatArray:
         ValueError: Naming ``target`` when it is not a task value, or leaves a part
             the task controls (an xyz for a pose task: no rotation is made up).
     """
-    t = target_array(target, check_finite=False)
+    t = target_array(target, check_finite=True)
     rows = task_rows(model)
     if not target_fits(t.shape != (3, 3), t.shape != (3,), rows):
         wanted = "a pose (4, 4)" + (", or a rotation (3, 3)" if rows.min() >= 3 else "")

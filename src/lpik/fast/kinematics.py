@@ -21,7 +21,7 @@ from numba import float64, njit
 
 from lpik.fast.views import flat, matrix
 from lpik.robots.rotations import rotation_defect as _rotation_defect
-from lpik.tolerances import ROTATION_TOL
+from lpik.tolerances import MAX_MAGNITUDE, ROTATION_TOL
 
 
 @njit(cache=True)
@@ -184,14 +184,16 @@ rotation_defect = njit(cache=True)(_rotation_defect)
 def target_pose(target, T):
     """The commanded pose ``T`` (4, 4) from xyz (3,), a rotation (3, 3) or a pose (4, 4).
 
-    Returns False for any other shape, a value that is not finite, or a rotation
-    part farther from a rotation than :data:`~lpik.tolerances.ROTATION_TOL`
-    (:func:`lpik.robots.rotations.rotation_defect`, compiled here).
+    Returns False for any other shape, a value that is not finite or larger in size
+    than :data:`~lpik.tolerances.MAX_MAGNITUDE`, or a rotation part farther from a
+    rotation than :data:`~lpik.tolerances.ROTATION_TOL`
+    (:func:`lpik.robots.rotations.rotation_defect`, compiled here): the tests of
+    :func:`lpik.command.checked_target`, which names what is wrong.
     """
     shape = target.shape
     values = flat(target)
     for k in range(values.size):
-        if not math.isfinite(values[k]):
+        if not (math.isfinite(values[k]) and abs(values[k]) <= MAX_MAGNITUDE):
             return False
     for a in range(4):
         for b in range(4):

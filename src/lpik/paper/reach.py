@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX
+from lpik.command import DEFAULT_V_MAX, DEFAULT_W_MAX, checked_target
 from lpik.paper.scenarios import PLANAR, PaperArm, Setup
 from lpik.robots.arm import Arm, as_arm
 from lpik.robots.planar import planar_arm
@@ -38,6 +38,7 @@ def reach_setup(robot: str | Arm, target: Sequence[float]) -> Setup:
     point = np.asarray(target, dtype=np.float64).reshape(-1)
     if point.size not in (2, 3) or not np.isfinite(point).all():
         raise ValueError(f"--target: must be 3 finite numbers X,Y,Z [m], got {list(target)}")
+    checked_target(point)  # none too large in size
     if robot == PLANAR:
         if point.size == 3 and point[2] != 0.0:
             raise ValueError("--target: the planar arm moves in the plane z = 0")
