@@ -284,9 +284,24 @@ def test_an_interrupted_map_resumes_to_the_same_map(planar_map, one_worker, tmp_
 def test_a_region_too_large_is_refused_before_any_work(tmp_path) -> None:
     out = tmp_path / "huge"
     with pytest.raises(ValueError, match=r"region: the map .* needs up to [\d,.]+ GB on disk"):
-        run_map(
-            "panda", (-1e3, 1e3, -1e3, 1e3, 0, 10), 0.001, orientations=50, directions=26, out=out
-        )
+        run_map("panda", (-50, 50, -50, 50, 0, 10), 0.001, orientations=50, directions=26, out=out)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [({"resolution": 1e-300}, r"resolution: 1e\+300 cells along x, more than 100,000"),
+     ({"region": (0, 1e200, 0, 1, 0, 1)}, r"resolution: 2e\+200 cells along x"),
+     ({"speed": 1e200}, r"speed: must be > 0 \(at most 1e\+12\), got 1e\+200"),
+     ({"dt": 2.0}, r"dt: must be > 0 \(at most 1\), got 2\.0")],
+)  # fmt: skip
+def test_a_grid_or_a_step_too_large_is_named_before_any_work(tmp_path, options, message) -> None:  # type: ignore[no-untyped-def]
+    """A resolution of 1e-300 m overflowed the count of cells (an OverflowError); a speed
+    or period of 1e200 was named only as the step's internal ``dw``."""
+    out = tmp_path / "map"
+    arguments = {"region": (0, 1, 0, 1, 0, 1), "resolution": 0.5, **options}
+    with pytest.raises(ValueError, match=f"^{message}"):
+        run_map("panda", out=out, **arguments)
     assert not out.exists()
 
 
@@ -352,6 +367,17 @@ def test_an_unreachable_scheduler_is_one_line_and_exit_2(tmp_path, monkeypatch) 
     )
     assert status == 2 and out == ""
     assert err.count("\n") == 1 and "--scheduler: cannot reach 'tcp://127.0.0.1:9'" in err
+
+
+def test_a_store_that_cannot_be_made_names_out(tmp_path) -> None:
+    """The operating system's error alone ('Not a directory') did not say which option."""
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    out = str(blocker / "map")
+    status, _, err = _lpik("map", "--robot", "planar", "--region=0,1,0,1", "--resolution", "1",
+                           "--out", out, "--workers", "1")  # fmt: skip
+    assert status == 2
+    assert err.count("\n") == 1 and err.startswith(f"lpik: error: --out: cannot write {out!r}")
 
 
 def test_base_placement_ranks_the_bases_by_the_weakest_task_row(two_workers, tmp_path) -> None:

@@ -23,6 +23,10 @@ PSD_RTOL = 1e-12
 #: up to 11 rows and 200 joints stays finite, and HiGHS (which refuses matrix
 #: entries above 1e15 and reads bounds from 1e20 on as infinite) still solves.
 MAX_MAGNITUDE = 1e12
+#: Longest control period [s] the command line takes (``lpik simulate``, ``lpik map``): a
+#: period above a second is no control loop, and the step bounds (velocity limits times
+#: dt) stay far within :data:`MAX_MAGNITUDE`.
+MAX_DT = 1.0
 
 # ----------------------------------------------------------------- targets
 #: A rotation target R (or a pose's rotation part) must have max |R^T R - I| at

@@ -142,6 +142,10 @@ def run(args: argparse.Namespace) -> int:
         run = _compute(args, robot, region, options)
     except ValueError as exc:  # the API names its arguments; the command line, its options
         raise ValueError(_as_option(str(exc))) from None
+    except OSError as exc:  # the store cannot be made where --out says
+        if exc.filename is None or not str(exc.filename).startswith(str(args.out)):
+            raise
+        raise OSError(f"--out: cannot write {args.out!r}: {exc.strerror or exc}") from None
     return _report(args, run, axis, value)
 
 

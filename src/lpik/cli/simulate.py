@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 from lpik.defaults import DEFAULT_METHOD, DEFAULT_MODE, DEFAULT_ON_STALL, MODES
-from lpik.tolerances import MAX_MAGNITUDE
+from lpik.tolerances import MAX_DT, MAX_MAGNITUDE
 
 if TYPE_CHECKING:
     from lpik.control.log import SimulationLog
@@ -41,10 +41,6 @@ if TYPE_CHECKING:
 #: step on the planar arm, hence about 1 GB here) and the CSV takes about 150
 #: bytes a step, so a run this long still fits a laptop.
 MAX_STEPS = 1_000_000
-#: Longest control period [s]: a period above a second is no control loop, and
-#: the step bounds (velocity limits times dt) stay far within the size cap of a
-#: problem (``lpik.tolerances.MAX_MAGNITUDE``).
-MAX_DT = 1.0
 #: Most frames of an animated GIF.
 MAX_FRAMES = 1000
 #: ``--out``'s name for standard output.

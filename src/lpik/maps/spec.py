@@ -15,6 +15,7 @@ import numpy as np
 
 from lpik.command import DEFAULT_V_MAX
 from lpik.defaults import DEFAULT_METHOD
+from lpik.tolerances import MAX_DT, MAX_MAGNITUDE
 from lpik.types import FloatArray
 from lpik.version import __version__
 
@@ -78,9 +79,16 @@ class MapSpec:
                 raise ValueError(f"region: {axis}min {region[k]:g} exceeds {axis}max "
                                  f"{region[k + 1]:g}")  # fmt: skip
         object.__setattr__(self, "region", region)
-        for name in ("resolution", "speed", "dt"):
-            if not _number(name, getattr(self, name)) > 0:
-                raise ValueError(f"{name}: must be > 0, got {getattr(self, name)!r}")
+        for name, top in (("resolution", MAX_MAGNITUDE), ("speed", MAX_MAGNITUDE), ("dt", MAX_DT)):
+            if not 0 < _number(name, getattr(self, name)) <= top:
+                raise ValueError(f"{name}: must be > 0 (at most {top:g}), got "
+                                 f"{getattr(self, name)!r}")  # fmt: skip
+        for axis, k in zip("xyz", range(0, 6, 2)):  # before any cell is counted in integers
+            cells = (region[k + 1] - region[k]) / float(self.resolution)
+            if cells > MAX_CELLS_PER_AXIS:
+                raise ValueError(f"resolution: {cells:.3g} cells along {axis}, more than "
+                                 f"{MAX_CELLS_PER_AXIS:,}; use a coarser resolution or a "
+                                 f"smaller region")  # fmt: skip
         for name in ("orientations", "directions", "seeds"):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
                 raise ValueError(f"{name}: must be a whole number >= 1, got "
