@@ -449,6 +449,7 @@ CONTROLLER_BAD = [
     ({"dt": 0.0}, "dt"),
     ({"dt": np.nan}, "dt"),
     ({"dt": "1ms"}, "dt"),
+    ({"dt": 1e-200}, "dt"),  # dt^2 was 0: the compiled step read a robot at rest as outside
     ({"v_max": -1.0}, "v_max"),
     ({"w_max": np.nan}, "w_max"),
     ({"v_max": "fast"}, "v_max"),

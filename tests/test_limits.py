@@ -128,7 +128,7 @@ def test_standard_limits_of_a_model() -> None:
     assert isinstance(standard_limits(arm, lambda_bound=0.5)[-1], MultiplierBounds)
 
 
-@pytest.mark.parametrize("dt", [0.0, -0.01, float("nan"), float("inf"), "0.01"])
+@pytest.mark.parametrize("dt", [0.0, -0.01, float("nan"), float("inf"), "0.01", True, 1e-200, 1e13])
 def test_bad_dt_is_named(dt: object) -> None:
     with pytest.raises(ValueError, match="^dt:"):
         build_problem(J, [0.0, 0.0], Q0, [], dt=dt)  # type: ignore[arg-type]

@@ -31,7 +31,7 @@ import numpy as np
 from lpik import bands, labels
 from lpik.continuation import fading_steps
 from lpik.problem import Problem
-from lpik.tolerances import MAX_MAGNITUDE, SINGULAR_ACTIVATION
+from lpik.tolerances import MAX_MAGNITUDE, MIN_DT, SINGULAR_ACTIVATION
 from lpik.types import FloatArray
 
 
@@ -285,6 +285,19 @@ def standard_limits(
     return limits
 
 
+def control_period(dt: Any) -> float:
+    """``dt`` as a float when it is a control period a step takes, else a ValueError naming it.
+
+    A real number (no boolean) from :data:`~lpik.tolerances.MIN_DT` to
+    :data:`~lpik.tolerances.MAX_MAGNITUDE` [s]: the one rule of every way to set up steps
+    (:func:`build_problem`, the stepper and the controller, ``simulate``).
+    """
+    real = isinstance(dt, numbers.Real) and not isinstance(dt, bool)
+    if not (real and MIN_DT <= dt <= MAX_MAGNITUDE):  # (NaN fails the comparison)
+        raise ValueError(f"dt: must be a number in [{MIN_DT:g}, {MAX_MAGNITUDE:g}] [s], got {dt!r}")
+    return float(dt)
+
+
 def build_problem(
     J: Any,
     dw: Any,
@@ -327,8 +340,7 @@ def build_problem(
     Raises:
         ValueError: Naming the bad argument or field.
     """
-    if not (isinstance(dt, int | float) and np.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt: must be a finite number > 0, got {dt!r}")
+    dt = control_period(dt)
     q0 = np.asarray(q0, dtype=np.float64)
     n = q0.size
     context = StepContext(

@@ -23,6 +23,12 @@ PSD_RTOL = 1e-12
 #: up to 11 rows and 200 joints stays finite, and HiGHS (which refuses matrix
 #: entries above 1e15 and reads bounds from 1e20 on as infinite) still solves.
 MAX_MAGNITUDE = 1e12
+#: Shortest control period [s] a step takes (:func:`lpik.limits.control_period`): no control
+#: loop runs faster than a nanosecond, and the acceleration limits' share of a step
+#: (``qdd_max dt^2``) stays far from the smallest double. With ``dt = 1e-200`` s, ``dt^2``
+#: was 0: the compiled step read a robot at rest as outside its velocity limits, the
+#: numpy path did not.
+MIN_DT = 1e-9
 #: Longest control period [s] the command line takes (``lpik simulate``, ``lpik map``): a
 #: period above a second is no control loop, and the step bounds (velocity limits times
 #: dt) stay far within :data:`MAX_MAGNITUDE`.

@@ -40,7 +40,7 @@ from lpik.command import CommandLaw
 from lpik.control.log import SimulationLog
 from lpik.control.stepper import DEFAULT_METHOD, Stepper
 from lpik.defaults import DEFAULT_MODE, DEFAULT_ON_STALL
-from lpik.limits import LambdaBound, Limit
+from lpik.limits import LambdaBound, Limit, control_period
 from lpik.result import Result
 from lpik.robots.base import TaskModel
 from lpik.robots.tasks import as_task_model
@@ -133,8 +133,7 @@ def simulate(
     """
     if not (isinstance(steps, int | np.integer) and steps > 0):
         raise ValueError(f"steps: must be a whole number > 0, got {steps!r}")
-    if not (isinstance(dt, int | float) and np.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt: must be a finite number > 0, got {dt!r}")
+    dt = control_period(dt)
     model = as_task_model(model)  # a chain alone: its pose task
     q = np.array(q0, dtype=np.float64)
     n = model.n_joints

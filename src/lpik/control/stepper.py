@@ -63,6 +63,7 @@ from lpik.limits import (
     LambdaBound,
     Limit,
     build_problem,
+    control_period,
 )
 from lpik.methods.autobound import bound_for_step, floor_row, singular_memo, singular_steps
 from lpik.methods.progress import StallWatch, further_step, least_error_lp
@@ -176,7 +177,7 @@ class Stepper:
         mode: str = DEFAULT_MODE,
     ) -> None:
         self.model = model = as_task_model(model)
-        self.dt = positive_number("dt", dt)
+        self.dt = control_period(dt)
         self.v_max, self.w_max = positive_number("v_max", v_max), positive_number("w_max", w_max)
         self.spec: MethodSpec = get_method(method)
         self.method = self.spec.name
