@@ -16,7 +16,9 @@ which joint, which kind and which side without reading the words:
 - an extra row ``G q <= h``: the row's own label (default ``"row 1"``;
   ``kind`` ``"row"``); a distance row of collision avoidance:
   ``"collision panda_link5 - shelf"`` (``kind`` ``"collision"``);
-- ``p < 1`` with no limit active (``J`` cannot produce ``dw``): ``"singularity"``.
+- ``p < 1`` with no limit active (``J`` cannot produce ``dw``): ``"singularity"``;
+  a joint held at one value whose motion ``J`` needs along a direction the free
+  joints have lost is named instead (:func:`lpik.methods.singular.held_joint_code`).
 
 A step from a state outside its limits (status ``recovering``) names the
 limit the state is outside of, with ``recovering = True``.

@@ -65,7 +65,7 @@ __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kern
 
 #: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
 _HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
-            "_held", "_held_share", "_finite", "_facet_rows", "_basic_values",
+            "_held", "_held_share", "_finite", "_facet_rows", "_basic_values", "_pinned_code",
             "singularity_code")  # fmt: skip
 _loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
 _singular_helpers = {name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS}

@@ -76,6 +76,18 @@ def _worth_it(best, dq, p_before, p_after):
 
 
 @njit(cache=True)
+def _names_free_joint(binding, lower, upper):
+    """Whether ``binding`` is a bound of a joint not yet held (``lower != upper``).
+
+    A held joint (saturated, or pinned by its bounds) that stops a pass along a
+    direction the free joints have lost (:func:`lpik.methods.singular._pinned_code`)
+    ends the passes: saturating another joint does not give that direction back.
+    """
+    n = lower.shape[0]
+    return 0 <= binding < 2 * n and lower[binding // 2] != upper[binding // 2]
+
+
+@njit(cache=True)
 def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, lam, ws, best):
     """LP2 with saturation (eqs. 15-18 over the free joints); writes ``dq`` and ``lam``.
 
@@ -101,7 +113,7 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
                                           lam_max, G, g, dq, lam, ws, SINGULAR_PATH_ALWAYS,
                                           MAX_SCHUR_CONDITION)  # fmt: skip
     # an infeasible first pass saturates the joint its conflict names, as the numpy method
-    stuck = code == INFEASIBLE and 0 <= binding < 2 * n
+    stuck = code == INFEASIBLE and _names_free_joint(binding, lower, upper)
     if code != OK and not stuck:
         return code, p, binding, residual
     first_binding = binding
@@ -112,7 +124,7 @@ def lp2s_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, 
     for i in range(n):
         if lower[i] != upper[i]:
             free += 1
-    while p < FULL_P and 0 <= binding < 2 * n and free - 1 >= m:
+    while p < FULL_P and _names_free_joint(binding, lower, upper) and free - 1 >= m:
         if code == OK:  # the best pass so far (while stuck: the first pass's safe step)
             _keep(best, dq, lam)
             best_pull = pull[0]

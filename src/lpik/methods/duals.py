@@ -11,6 +11,7 @@ import numpy as np
 
 from lpik.highs import HighsSolver, LinearProgram, LpSolution
 from lpik.labels import SINGULARITY
+from lpik.methods.singular import held_joint_code
 from lpik.problem import Problem
 from lpik.result import OPTIMAL
 from lpik.tolerances import ACTIVE_RTOL, DUAL_TOL, FULL_P, RELAX, RELAX_GAIN, RELAX_SCALES
@@ -52,7 +53,9 @@ def binding_from_duals(
     multipliers at ``lam_slice``, ``p`` last) and the labels from ``problem``.
     Joints flagged in ``pinned`` (LP2's joints held at one value, saturated
     ones included) are not limits that stop ``p`` here: LP2's ratio test
-    resolves the criterion without them, and so they are never named.
+    resolves the criterion without them, and so their duals are not read; one is
+    named only where it moves the task along a direction the free joints have
+    lost (:func:`_held_or_singular`), as on LP2's singular path.
     """
     if p >= FULL_P:
         return None
@@ -96,13 +99,27 @@ def binding_from_duals(
                 candidates.append((abs(sol.row_dual[n_eq + i]), problem.row_labels[i]))
                 active.append((lp.A.shape[1] + n_eq + i, None, problem.row_labels[i]))
     if not candidates:
-        return SINGULARITY
+        return _held_or_singular(problem)
     best = max(candidates, key=lambda item: item[0])
     if not relaxed and (best[0] <= DUAL_TOL or _degenerate(sol, lp, active, p)):
         label = _binding_after_relaxing(problem, lp, active, p, n_eq, lam_slice)
         if label is not None:
             return label
     return best[1]
+
+
+def _held_or_singular(problem: Problem) -> str:
+    """What holds ``p`` where no active limit does: a pinned joint, else :data:`SINGULARITY`.
+
+    A joint held at one value (``lower == upper``) that moves the task along a
+    direction the free joints have lost holds ``p`` (:func:`lpik.methods.singular.held_joint_code`,
+    the rule of LP2's singular path); otherwise ``J`` cannot produce ``dw``.
+    """
+    lower, upper, lower_labels, upper_labels = problem.step_bounds()
+    code = held_joint_code(problem.J, problem.dw, lower, upper)
+    if code < 0:
+        return SINGULARITY
+    return upper_labels[code // 2] if code % 2 else lower_labels[code // 2]
 
 
 def _degenerate(
@@ -145,7 +162,7 @@ def _binding_after_relaxing(
             label = binding_from_duals(problem, sol, relaxed_lp, p_relaxed, n_eq, lam_slice,
                                        relaxed=True)  # fmt: skip
             return label if label in labels else None
-    return SINGULARITY
+    return _held_or_singular(problem)
 
 
 def _relaxed(

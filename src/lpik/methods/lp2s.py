@@ -56,6 +56,20 @@ def joint_bound_index(problem: Problem) -> dict[str, tuple[int, int]]:
     return index
 
 
+def _names_free_joint(problem: Problem, result: Result, index: dict[str, tuple[int, int]]) -> bool:
+    """Whether ``result`` is stopped by a bound of a joint ``problem`` does not hold yet.
+
+    A held joint (saturated, or pinned by its bounds) named along a direction the free
+    joints have lost (:func:`lpik.methods.singular._pinned_code`) ends the passes:
+    saturating another joint does not give that direction back.
+    """
+    if result.binding not in index:
+        return False
+    lower, upper = problem.step_bounds()[:2]
+    joint = index[result.binding][0]
+    return bool(lower[joint] != upper[joint])
+
+
 def saturated(problem: Problem, joint: int, side: int) -> Problem:
     """``problem`` with ``joint`` fixed at its lower (``side`` 0) or upper (1) bound on ``dq``."""
     lower, upper = problem.step_bounds()[:2]
@@ -118,7 +132,7 @@ def saturation_passes(
     while (
         (stuck or current_result.moved)
         and current_result.p < FULL_P
-        and current_result.binding in index
+        and _names_free_joint(current, current_result, index)
         and free - 1 >= problem.m
     ):
         candidate = saturated(current, *index[current_result.binding])

@@ -282,7 +282,7 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
         wmax, fmax = max(wmax, abs(dw[a])), max(fmax, abs(w_fixed[a]))
     tol = 0.25 * EQUALITY_RTOL * max(1.0, wmax, fmax)
     sing = singularity_code(n, m, r)
-    fixed, p_fix = False, 0.0
+    fixed, p_fix, fixer = False, 0.0, sing  # fixer: what fixes p (a pinned joint, else sing)
     for i in range(regular, m):
         # J as the nearby matrix of lower rank: only the pinned joints' motion lies along u_i
         ti = 0.0
@@ -291,10 +291,14 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
         if abs(e[i]) > tol:
             v = ti / e[i]
             if fixed and abs(v - p_fix) > INTERVAL_TOL * max(1.0, abs(v)):
-                return _stop(lower, upper, dq, sing)
+                return _stop(lower, upper, dq, _pinned_code(U, regular, J, dw, w_fixed, lower,
+                                                            upper, False, sing))  # fmt: skip
             fixed, p_fix = True, v
         elif abs(ti) > tol:
-            return _stop(lower, upper, dq, sing)
+            return _stop(lower, upper, dq, _pinned_code(U, regular, J, dw, w_fixed, lower, upper,
+                                                        False, sing))  # fmt: skip
+    if fixed:
+        fixer = _pinned_code(U, regular, J, dw, w_fixed, lower, upper, True, sing)
     # --- bounds on dq and the rows: alpha + beta p <= 0 ---
     count = 2 * n + r
     alpha, beta = np.empty(count), np.empty(count)
@@ -313,8 +317,7 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
         return _stop(lower, upper, dq, stuck)
     # --- every multiplier held at one value (the automatic bound's floor, B = 0) ---
     held = _held(lam_min, lam_max)
-    fixer = sing  # what fixes p: the singularity, or a held multiplier
-    if held:
+    if held:  # or a held multiplier fixes p
         stop, fixed, p_fix, fixer = _held_share(U, regular, al, bl, lam_min, n, fixed, p_fix,
                                                 fixer)  # fmt: skip
         if stop >= 0:
@@ -402,6 +405,69 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
     if not ok:
         return CHECK_FAILED, p, binding, res
     return OK, p, binding, res
+
+
+def _pinned_code(U, regular, J, dw, w_fixed, lower, upper, raise_p, sing):
+    """The limit of the pinned joint that stops the task where the free joints cannot move.
+
+    A joint with ``lower == upper`` (at an end-stop with no room left, or braking
+    at its acceleration limit) leaves eq. 18 over the free joints; where its column
+    of ``J`` moves the task within the directions the free joints have lost (the
+    columns ``u_i``, ``i >= regular``, of ``U``), that joint's limit stops the step,
+    not a singular configuration (an arm with two joints braking was told
+    "singularity" far from one). The motion the pinned joints would have to add,
+    projected on the lost directions (basis-free, so that both SVDs agree): ``dw``
+    itself where they fix ``p`` (``raise_p``: a larger ``p`` needs more of it), else
+    ``p dw - w_fixed`` at the least-squares ``p`` in [0, 1] (no ``p`` makes the
+    pinned joints' motion ``w_fixed`` fit the command there). The pinned joint whose
+    column moves the task most along it binds, on its upper side where it would have
+    to move up; ``sing`` where no pinned joint moves the task along it.
+    """
+    m, n = J.shape
+    along_dw, along_w, dw_dw, dw_w = np.zeros(m), np.zeros(m), 0.0, 0.0
+    for i in range(regular, m):
+        for a in range(m):
+            along_dw[i] += U[a, i] * dw[a]
+            along_w[i] += U[a, i] * w_fixed[a]
+        dw_dw += along_dw[i] * along_dw[i]
+        dw_w += along_dw[i] * along_w[i]
+    p = 1.0 if raise_p else (min(max(dw_w / dw_dw, 0.0), 1.0) if dw_dw > 0.0 else 0.0)
+    need, norm = np.zeros(m), 0.0
+    for i in range(regular, m):
+        need[i] = along_dw[i] if raise_p else p * along_dw[i] - along_w[i]
+        norm += need[i] * need[i]
+    best, code, size = 0.0, sing, 0.0
+    for j in range(n):
+        c = 0.0  # need . J_j within the lost directions
+        for i in range(regular, m):
+            share = 0.0
+            for a in range(m):
+                share += U[a, i] * J[a, j]
+                size = max(size, abs(J[a, j]))
+            c += need[i] * share
+        if lower[j] == upper[j] and abs(c) > best:
+            best, code = abs(c), 2 * j + (1 if c > 0.0 else 0)
+    return code if best > SINGULAR_RTOL * size * math.sqrt(norm) else sing
+
+
+def held_joint_code(J, dw, lower, upper):
+    """:func:`_pinned_code` of a step whose ``p`` no active limit holds, for HiGHS's path.
+
+    The lost directions are those of ``J`` over the free joints (``lower != upper``),
+    from numpy's SVD; the pinned joints would have to raise ``p``. Returns the binding
+    code ``2 j + side`` of a pinned joint, or -1 where none moves the task along them
+    (then it is a singular configuration). :func:`lpik.methods.duals.binding_from_duals`
+    names it, so that HiGHS's path says what the ratio test says.
+    """
+    m, n = J.shape
+    free = lower != upper
+    if free.all():
+        return -1
+    U, sv, _ = np.linalg.svd(J[:, free]) if free.any() else (np.eye(m), np.zeros(0), None)
+    smax = sv[0] if sv.size else 0.0
+    regular = int(np.sum((sv > SINGULAR_RTOL * smax) & (sv > SINGULAR_FLOOR)))
+    w_fixed = J[:, ~free] @ lower[~free]
+    return int(_pinned_code(U, regular, J, dw, w_fixed, lower, upper, True, -1))
 
 
 def _held(lam_min, lam_max):
