@@ -284,8 +284,9 @@ def test_load_peers_skips_missing_broken_and_mismatched(monkeypatch: pytest.Monk
 
 def test_unknown_peer_and_bad_rounds_are_input_errors(capsys: pytest.CaptureFixture) -> None:
     assert main(["bench", "--quick", "--peers", "nope"]) == 2
-    assert "peers: unknown nope" in capsys.readouterr().err
+    assert "lpik: error: --peers: unknown nope" in capsys.readouterr().err
     assert main(["bench", "--quick", "--rounds", "0"]) == 2
+    assert "lpik: error: --rounds: must be >= 1" in capsys.readouterr().err  # the option's name
 
 
 def test_regenerating_the_page_keeps_the_sections_other_tools_wrote() -> None:

@@ -71,15 +71,21 @@ def run(args: argparse.Namespace) -> int:
     if args.peers is not None:
         peers = () if args.peers == "none" else tuple(p for p in args.peers.split(",") if p)
     command = "lpik " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else "lpik bench"
-    with compile_progress("lpik bench"):  # a first run compiles the compiled path
-        records = run_benchmark(
-            robot,
-            quick=args.quick,
-            rounds=args.rounds,
-            peers=peers,
-            cold=False if args.no_cold else None,
-            command=command,
-        )
+    try:
+        with compile_progress("lpik bench"):  # a first run compiles the compiled path
+            records = run_benchmark(
+                robot,
+                quick=args.quick,
+                rounds=args.rounds,
+                peers=peers,
+                cold=False if args.no_cold else None,
+                command=command,
+            )
+    except ValueError as exc:  # the runner names its arguments; the command line, its options
+        head, sep, rest = str(exc).partition(": ")
+        if not (sep and head in ("rounds", "peers")):
+            raise
+        raise ValueError(f"--{head}: {rest}") from None
     dicts = [r.to_dict() for r in records]
     if args.json:
         print(json.dumps(dicts, indent=1, allow_nan=False, default=_jsonable))
