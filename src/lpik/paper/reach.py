@@ -38,7 +38,10 @@ def reach_setup(robot: str | Arm, target: Sequence[float]) -> Setup:
     point = np.asarray(target, dtype=np.float64).reshape(-1)
     if point.size not in (2, 3) or not np.isfinite(point).all():
         raise ValueError(f"--target: must be 3 finite numbers X,Y,Z [m], got {list(target)}")
-    checked_target(point)  # none too large in size
+    try:
+        checked_target(point)  # none too large in size
+    except ValueError as exc:
+        raise ValueError(f"--{exc}") from None  # the command line's name, --target
     if robot == PLANAR:
         if point.size == 3 and point[2] != 0.0:
             raise ValueError("--target: the planar arm moves in the plane z = 0")
