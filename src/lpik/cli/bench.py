@@ -18,6 +18,8 @@ import argparse
 import json
 import sys
 
+from lpik.cli import as_option
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Register ``lpik bench``."""
@@ -82,10 +84,7 @@ def run(args: argparse.Namespace) -> int:
                 command=command,
             )
     except ValueError as exc:  # the runner names its arguments; the command line, its options
-        head, sep, rest = str(exc).partition(": ")
-        if not (sep and head in ("rounds", "peers")):
-            raise
-        raise ValueError(f"--{head}: {rest}") from None
+        raise ValueError(as_option(str(exc), ("rounds", "peers"))) from None
     dicts = [r.to_dict() for r in records]
     if args.json:
         print(json.dumps(dicts, indent=1, allow_nan=False, default=_jsonable))

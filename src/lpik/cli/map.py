@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from lpik.cli import as_option
 from lpik.defaults import DEFAULT_METHOD
 
 
@@ -188,10 +189,7 @@ _OPTION_NAMES = (
 
 
 def _as_option(message: str) -> str:
-    head, sep, rest = message.partition(": ")
-    if sep and head in _OPTION_NAMES:
-        return f"--{'place' if head == 'task' else head}: {rest}"
-    return message
+    return as_option(message, _OPTION_NAMES, {"task": "place"})
 
 
 def _report(args: argparse.Namespace, run: Any, axis: str, value: float | None) -> int:

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from lpik.highs import HighsSolver, LinearProgram, LpSolution
-from lpik.labels import SINGULARITY
-from lpik.methods.singular import held_joint_code
+from lpik.labels import code_labels
+from lpik.methods.singular import held_joint_code, singularity_code
 from lpik.problem import Problem
 from lpik.result import OPTIMAL
 from lpik.tolerances import ACTIVE_RTOL, DUAL_TOL, FULL_P, RELAX, RELAX_GAIN, RELAX_SCALES
@@ -116,10 +116,9 @@ def _held_or_singular(problem: Problem) -> str:
     the rule of LP2's singular path); otherwise ``J`` cannot produce ``dw``.
     """
     lower, upper, lower_labels, upper_labels = problem.step_bounds()
-    code = held_joint_code(problem.J, problem.dw, lower, upper)
-    if code < 0:
-        return SINGULARITY
-    return upper_labels[code // 2] if code % 2 else lower_labels[code // 2]
+    table = code_labels(lower_labels, upper_labels, problem.m, problem.row_labels)
+    sing = singularity_code(problem.n, problem.m, problem.G.shape[0])
+    return table[held_joint_code(problem.J, problem.dw, lower, upper, sing)]
 
 
 def _degenerate(

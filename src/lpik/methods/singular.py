@@ -450,24 +450,25 @@ def _pinned_code(U, regular, J, dw, w_fixed, lower, upper, raise_p, sing):
     return code if best > SINGULAR_RTOL * size * math.sqrt(norm) else sing
 
 
-def held_joint_code(J, dw, lower, upper):
+def held_joint_code(J, dw, lower, upper, sing):
     """:func:`_pinned_code` of a step whose ``p`` no active limit holds, for HiGHS's path.
 
     The lost directions are those of ``J`` over the free joints (``lower != upper``),
     from numpy's SVD; the pinned joints would have to raise ``p``. Returns the binding
-    code ``2 j + side`` of a pinned joint, or -1 where none moves the task along them
-    (then it is a singular configuration). :func:`lpik.methods.duals.binding_from_duals`
-    names it, so that HiGHS's path says what the ratio test says.
+    code ``2 j + side`` of a pinned joint, or ``sing`` (:func:`singularity_code`) where
+    none moves the task along them: then it is a singular configuration.
+    :func:`lpik.methods.duals.binding_from_duals` names it, so that HiGHS's path says
+    what the ratio test says.
     """
     m, n = J.shape
     free = lower != upper
     if free.all():
-        return -1
+        return sing
     U, sv, _ = np.linalg.svd(J[:, free]) if free.any() else (np.eye(m), np.zeros(0), None)
     smax = sv[0] if sv.size else 0.0
     regular = int(np.sum((sv > SINGULAR_RTOL * smax) & (sv > SINGULAR_FLOOR)))
     w_fixed = J[:, ~free] @ lower[~free]
-    return int(_pinned_code(U, regular, J, dw, w_fixed, lower, upper, True, -1))
+    return int(_pinned_code(U, regular, J, dw, w_fixed, lower, upper, True, sing))
 
 
 def _held(lam_min, lam_max):
