@@ -203,6 +203,12 @@ def test_lp2_ratio_test_and_highs_paths_agree(case: Case) -> None:
     slow = lp2(P, path="highs")
     if fast.status != slow.status and worst_violation(P, slow.dq).amount > 1e-9:
         return  # HiGHS's retry at its looser 1e-7 tolerance kept a step the exact rows refuse
+    if fast.status != slow.status and slow.residual > 1e-9:
+        # HiGHS's step off the line J dq = p dw within its tolerance: with dw = 0 and J regular
+        # (det 2.9e-3) the exact step is dq = 0, whose multipliers J^-T f (-0.7004) break
+        # lam_min (-0.6953): the ratio test's infeasible is exact; HiGHS's J dq = 5.3e-8
+        # moved lam within bounds (a find of a fresh clone's random examples)
+        return
     assert fast.status == slow.status
     if not fast.moved:
         return
