@@ -181,8 +181,15 @@ MOTION_WEIGHT = 1e-2
 #: Braking at every angle above 90 degrees (0 here) stopped the drift but, braking and
 #: then speeding up again, raised that goal's acceleration reversals from 151 to 253;
 #: from 120 degrees on (0.5) the reversals stayed 154 and the drift fell from 518 to 150
-#: steps of growing error.
+#: steps of growing error. The same test says when an exact step with ``p <= STALL_P``
+#: that no acceleration limit holds drifts, and stalls (:func:`lpik.methods.progress.drifts`).
 COASTING_DRIFT_COSINE = 0.5
+#: Under acceleration limits, a step held by an acceleration limit while the arm's last
+#: motion carries the tool along the command (``J last`` within this cosine of ``dw``'s
+#: direction, about 8 degrees) keeps its direction: it speeds up (or slows down) as fast
+#: as the arm can, and the stall stage leaves it as it leaves a start from rest
+#: (:func:`lpik.methods.progress.moves_along`).
+ALONG_COMMAND_COSINE = 0.99
 #: After a progress step, the way each joint left the center in the arm's last step is
 #: cheaper by this share of ``MOTION_WEIGHT`` (times its share of the largest deviation:
 #: :func:`lpik.methods.progress.motion_prices`), so that two nearly tied vertices of the

@@ -72,6 +72,10 @@ NOT_STALLED, STALLED, STALLED_NO_GAIN = 0, 1, 2
 #: The stall stage's rule (:mod:`lpik.methods.progress`), compiled as it is.
 _stall_limit = njit(cache=True)(rule.stall_limit)
 _may_stall = compiled_twin(rule.may_stall, stall_limit=_stall_limit)
+_motion_cosine = njit(cache=True)(rule.motion_cosine)
+_moves_along = compiled_twin(rule.moves_along, motion_cosine=_motion_cosine)
+_coasts_away = compiled_twin(rule.coasts_away, motion_cosine=_motion_cosine)
+_drifts = compiled_twin(rule.drifts, coasts_away=_coasts_away)
 _held_at_speed = compiled_twin(rule.held_at_speed, clearly_regular=clearly_regular)
 _stalls = compiled_twin(rule.stalls, may_stall=_may_stall)
 _exact_weight = njit(cache=True)(rule.exact_weight)
@@ -79,7 +83,7 @@ _makes_progress = njit(cache=True)(rule.makes_progress)
 _scale = njit(cache=True)(rule.progress_scale)
 _in_band = njit(cache=True)(rule.in_band)
 _motion_prices = njit(cache=True)(rule.motion_prices)
-_progress_center = njit(cache=True)(rule.progress_center)
+_progress_center = compiled_twin(rule.progress_center, coasts_away=_coasts_away)
 #: Degenerate pivots in a row after which the simplex prices by Bland's rule.
 _BLAND_AFTER = 30
 #: Fresh factorisations of the optimal basis before the answer stands.
@@ -557,7 +561,9 @@ def stall_stage(state, q0, q_prev, exact_dq, p, held, velocity, engaged, floor, 
     :func:`~lpik.methods.progress.stalled_step`'s blend, written into ``dq``, with
     ``max |J dq - dw|`` in ``residual[0]``. One call, so that a stalled step of a
     control loop costs one compiled call and the Result. Returns :data:`NOT_STALLED`,
-    :data:`STALLED` or :data:`STALLED_NO_GAIN` (:func:`~lpik.methods.progress.makes_progress`).
+    :data:`STALLED` or :data:`STALLED_NO_GAIN` (:func:`~lpik.methods.progress.makes_progress`;
+    a step that brakes a motion carrying the tool away from the command,
+    :func:`~lpik.methods.progress.drifts`, is :data:`STALLED` without a gain).
     """
     moving = continues(state, q0, q_prev)
     keeping = _in_band(engaged, moving)
@@ -565,22 +571,26 @@ def stall_stage(state, q0, q_prev, exact_dq, p, held, velocity, engaged, floor, 
     J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
     # at_speed counts only for a step not solved around a motion, outside the band
     at_speed = not (moving or keeping) and _held_at_speed(velocity, J)
-    if not _may_stall(p, held, moving, keeping, at_speed):
+    last = np.empty(n)
+    for i in range(n):
+        last[i] = q0[i] - q_prev[i]
+    along, drifting = _moves_along(J, dw, last, moving), _drifts(J, dw, last, moving, held)
+    if not _may_stall(p, held, moving, keeping, at_speed, along):
         return NOT_STALLED
     code, before, after = progress_in_state(state, q0, q_prev, dq, floor, exact_dq, engaged)
     if code != SOLVED:
         return NOT_STALLED
     exact_after = _task_error(J, dw, exact_dq)[0]
-    if not _stalls(
-        p, before - exact_after, before - after, held, moving, keeping, _scale(dw), at_speed
-    ):
+    gains = (before - exact_after, before - after)
+    if not _stalls(p, *gains, held, moving, keeping, _scale(dw), at_speed, along, drifting):
         return NOT_STALLED
     weight = _exact_weight(p)
     if weight != 0.0:
         for i in range(n):
             dq[i] = weight * exact_dq[i] + (1.0 - weight) * dq[i]
     after, residual[0] = _task_error(J, dw, dq)
-    return STALLED if _makes_progress(before, after, _scale(dw)) else STALLED_NO_GAIN
+    # a step that brakes a drifting motion stands without a gain (rule.stalls)
+    return STALLED if drifting or _makes_progress(before, after, _scale(dw)) else STALLED_NO_GAIN
 
 
 @njit(cache=True)
