@@ -27,7 +27,8 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import replace
 from functools import partial
 from typing import Any
@@ -463,14 +464,30 @@ class Stepper:
         """
         if result.status != INFEASIBLE or problem.last is None or self.stall_watch.after is None:
             return problem, result
-        self._through_rest = True
-        try:
-            rest_problem = self.limited(problem.q0, problem.dw, q_prev, problem.J)
+        rest_problem = self.rest_problem(problem, q_prev)
+        with self._resting():  # (the bound policy builds the problem again under its bound)
             rest_problem, rest = self.bounded(rest_problem, self.solve(rest_problem), q_prev)
-        finally:
-            self._through_rest = False
         chosen = through_rest(result, rest)
         return (rest_problem, rest) if chosen is rest else (problem, result)
+
+    def rest_problem(self, problem: Problem, q_prev: FloatArray | None) -> Problem:
+        """The through-rest stage's problem (:meth:`rested`) after the step ``problem``.
+
+        The limits stage again with ``problem``'s command: the paper's line through
+        rest within the same bounds, the stops ahead of the motion kept (:meth:`limited`
+        drops ``last`` while the stage builds its problem).
+        """
+        with self._resting():
+            return self.limited(problem.q0, problem.dw, q_prev, problem.J)
+
+    @contextmanager
+    def _resting(self) -> Iterator[None]:
+        """Within: :meth:`limited` builds the through-rest stage's problems."""
+        self._through_rest = True
+        try:
+            yield
+        finally:
+            self._through_rest = False
 
     def recovered(self, problem: Problem, result: Result) -> Result:
         """The recovery stage: from inside a scene's safety distance, the distance grows back.
