@@ -15,13 +15,14 @@ from lpik import Lp2Controller, home_configuration
 from lpik.collision.avoidance import INACTIVE_RHS
 from lpik.control.stepper import Stepper
 from lpik.defaults import DEFAULT_ON_STALL
-from lpik.labels import bound_label
+from lpik.labels import bound_label, collision_label, row_label
 from lpik.methods.progress import (
     MOTION_WEIGHT,
     StallWatch,
     at_speed,
     drifts,
     exact_weight,
+    held_by_row,
     is_stall,
     least_error_lp,
     may_stall,
@@ -464,6 +465,9 @@ def test_a_drift_stalls_whatever_the_gains_but_a_turn_at_the_acceleration_limits
     assert is_stall(STALL_P / 2, 0.0, -1.0, None, True, drifting=True)
     assert not is_stall(STALL_P / 2, 0.0, -1.0, ACCELERATION, True)
     assert not is_stall(2 * STALL_P, 0.0, -1.0, None, True, drifting=True)  # p turns it
+    # a collision pair's damper (or a user's row) holding the step: the damper shapes it
+    assert held_by_row(collision_label("panda_link4", "ball")) and held_by_row(row_label(0, "r"))
+    assert not held_by_row(ACCELERATION) and not held_by_row(None)
 
 
 def test_the_stalled_step_is_continuous_in_p() -> None:

@@ -87,6 +87,7 @@ from lpik.methods.autobound import floor_row
 from lpik.methods.progress import (
     STALLS,
     held_by_acceleration,
+    held_by_row,
     held_by_velocity,
     progress_result,
     stall_limit,
@@ -914,6 +915,7 @@ class Lp2Controller:
             decision = stall_stage(
                 self._state, q, prev, np.ascontiguousarray(result.dq, dtype=np.float64),
                 result.p, held_by_acceleration(result.binding), held_by_velocity(result.binding),
+                held_by_row(result.binding),
                 count and watch.engaged_at(q),
                 self._on_floor(q), dq, self._residual_out,
             )  # fmt: skip

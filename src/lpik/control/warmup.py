@@ -65,7 +65,7 @@ STAGES = {
     "progress": (
         (
             stall_stage,
-            ((_VECTOR,) * 4 + (types.float64,) + (types.boolean,) * 3 + (_VECTOR,) * 3),
+            ((_VECTOR,) * 4 + (types.float64,) + (types.boolean,) * 4 + (_VECTOR,) * 3),
         ),
         (floor_in_state, (_VECTOR,) * 3),  # the bound's floor as the progress step's row
     ),

@@ -544,12 +544,14 @@ def progress_in_state(state, q0, q_prev, dq, floor, exact, engaged):
 
 
 @njit(cache=True)
-def stall_stage(state, q0, q_prev, exact_dq, p, held, velocity, engaged, floor, dq, residual):
+def stall_stage(state, q0, q_prev, exact_dq, p, held, velocity, by_row, engaged, floor, dq,
+                residual):  # fmt: skip
     """The stall stage's rule (:class:`lpik.methods.progress.StallWatch`) on the exact step.
 
-    The exact step (``exact_dq``, its ``p``; ``held``, ``velocity``: its binding
-    limit is an acceleration limit, a velocity limit: with the step's direction,
-    :func:`~lpik.methods.progress.at_speed`) is the one a fused step left in
+    The exact step (``exact_dq``, its ``p``; ``held``, ``velocity``, ``by_row``: its
+    binding limit is an acceleration limit, a velocity limit, a row: with the step's
+    direction, :func:`~lpik.methods.progress.at_speed` and
+    :func:`~lpik.methods.progress.drifts`) is the one a fused step left in
     ``state``; ``engaged``: the step before it was the progress step
     (:meth:`~lpik.methods.progress.StallWatch.engaged_at`, False for a batch row).
     Within the band after a progress step
@@ -574,7 +576,10 @@ def stall_stage(state, q0, q_prev, exact_dq, p, held, velocity, engaged, floor, 
     last = np.empty(n)
     for i in range(n):
         last[i] = q0[i] - q_prev[i]
-    along, drifting = _moves_along(J, dw, last, moving), _drifts(J, dw, last, moving, held)
+    along, drifting = (
+        _moves_along(J, dw, last, moving),
+        _drifts(J, dw, last, moving, held or by_row),
+    )
     if not _may_stall(p, held, moving, keeping, at_speed, along):
         return NOT_STALLED
     code, before, after = progress_in_state(state, q0, q_prev, dq, floor, exact_dq, engaged)

@@ -158,6 +158,11 @@ def held_by_acceleration(binding: object) -> bool:
     return getattr(binding, "kind", None) == "acceleration"
 
 
+def held_by_row(binding: object) -> bool:
+    """Whether a step's binding limit is a row: a collision pair's damper or a user's row."""
+    return getattr(binding, "kind", None) in ("row", "collision")
+
+
 def held_by_velocity(binding: object) -> bool:
     """Whether a step's binding limit is a velocity limit (``binding.kind``)."""
     return getattr(binding, "kind", None) == "velocity"
@@ -233,14 +238,18 @@ def coasts_away(J, dw, last, moving):  # type: ignore[no-untyped-def]
 
 
 def drifts(J, dw, last, moving, held):  # type: ignore[no-untyped-def]
-    """:func:`stalls`' ``drifting``: the motion carries the tool away, no acceleration limit holds.
+    """:func:`stalls`' ``drifting``: the motion carries the tool away, held by a joint's bound.
 
-    :func:`coasts_away`, and the step's binding limit is not an acceleration limit
-    (``held``: :func:`held_by_acceleration`). Held by one, the exact step turns the
-    motion towards the command as fast as the arm can (a target that jumps back: the
-    arm brakes along the command's line and comes back); held by anything else (an
-    end-stop, a velocity limit, a multiplier bound), a step with a small ``p`` keeps
-    the motion as it is. Plain: the compiled stall stage runs it.
+    :func:`coasts_away`, and the step's binding limit is neither an acceleration
+    limit nor a row (``held``: :func:`held_by_acceleration` or :func:`held_by_row`).
+    Held by an acceleration limit, the exact step turns the motion towards the command
+    as fast as the arm can (a target that jumps back: the arm brakes along the
+    command's line and comes back); held by a collision pair's damper, it slides along
+    the obstacle as the damper lets it (braking there instead took the Panda of the
+    shelf scene's closed loop, ``lpik_bench.closed_loops``, into ``d_s`` twice in
+    80,000 steps, where the acceleration limits left no step within the rows); held by
+    anything else (an end-stop, a velocity limit, a multiplier bound), a step with a
+    small ``p`` keeps the motion as it is. Plain: the compiled stall stage runs it.
     """
     return coasts_away(J, dw, last, moving) and not held
 
@@ -639,7 +648,7 @@ class StallWatch:
         # at_speed counts only for a step not solved around a motion, outside the band
         speed = not (moving or keeping) and at_speed(result.binding, problem.J)
         along = moves_along(problem.J, problem.dw, problem.last, moving)
-        held = held_by_acceleration(result.binding)
+        held = held_by_acceleration(result.binding) or held_by_row(result.binding)
         drifting = drifts(problem.J, problem.dw, problem.last, moving, held)
         if not stall_candidate(result.p, result.binding, moving, keeping, speed, along):
             self.run = 0
