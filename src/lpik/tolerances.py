@@ -182,7 +182,8 @@ MOTION_WEIGHT = 1e-2
 #: then speeding up again, raised that goal's acceleration reversals from 151 to 253;
 #: from 120 degrees on (0.5) the reversals stayed 154 and the drift fell from 518 to 150
 #: steps of growing error. The same test says when an exact step with ``p <= STALL_P``
-#: that no acceleration limit holds drifts, and stalls (:func:`lpik.methods.progress.drifts`).
+#: held by a joint's bound (not an acceleration limit or a row) drifts, and stalls
+#: (:func:`lpik.methods.progress.drifts`).
 COASTING_DRIFT_COSINE = 0.5
 #: Under acceleration limits, a step held by an acceleration limit while the arm's last
 #: motion carries the tool along the command (``J last`` within this cosine of ``dw``'s

@@ -246,8 +246,8 @@ def drifts(J, dw, last, moving, held):  # type: ignore[no-untyped-def]
     as fast as the arm can (a target that jumps back: the arm brakes along the
     command's line and comes back); held by a collision pair's damper, it slides along
     the obstacle as the damper lets it (braking there instead took the Panda of the
-    shelf scene's closed loop, ``lpik_bench.closed_loops``, into ``d_s`` twice in
-    80,000 steps, where the acceleration limits left no step within the rows); held by
+    shelf scene's closed loop, ``lpik_bench.closed_loops``, into ``d_s`` on both seeds
+    tried, where the acceleration limits left no step within the rows); held by
     anything else (an end-stop, a velocity limit, a multiplier bound), a step with a
     small ``p`` keeps the motion as it is. Plain: the compiled stall stage runs it.
     """
@@ -273,8 +273,8 @@ def stalls(
     ``exact_gain`` and ``progress_gain`` are how much the exact step and the
     progress step reduce the L1 task error, ``sum |dw| - sum |J dq - dw|``;
     ``held``, ``at_speed``, ``along``: as for :func:`may_stall`; ``drifting``: the
-    arm's motion carries the tool away from the command and no acceleration limit
-    holds the step (:func:`drifts`); ``scale``:
+    arm's motion carries the tool away from the command and a joint's bound, not an
+    acceleration limit or a row, holds the step (:func:`drifts`); ``scale``:
     :func:`progress_scale` of the command, within :data:`~lpik.tolerances.GAIN_RTOL`
     of which the comparison below is rounding (no stall: a progress step that is the
     exact step itself). A step stalls where it :func:`may_stall` and
@@ -282,8 +282,8 @@ def stalls(
     - no step along the command exists at all (``p`` at most
       :data:`~lpik.tolerances.NO_CHANGE_P`: the step is the safe step, or the
       controlled stop of a moving arm, which keep no direction either), or
-    - the arm's motion carries the tool away from the command and something other
-      than an acceleration limit holds the step (``drifting``): the exact step,
+    - the arm's motion carries the tool away from the command and a joint's bound,
+      not an acceleration limit or a row, holds the step (``drifting``): the exact step,
       solved around that motion, turns it by a share ``p`` of what the command asks
       per step and, with ``p`` this small, keeps it: the tool drifts away for as long
       as ``p`` stays small (on the iiwa14's random goal 5 without saturation, joint 7
