@@ -41,18 +41,29 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 
 import numpy as np
 
 from lpik.highs import HighsSolver, LinearProgram
 from lpik.labels import COLLISION, Binding, row_label
 from lpik.problem import Problem
-from lpik.result import MOVING, OFF_DIRECTION, OPTIMAL, RECOVERING, Result, safe_step
+from lpik.result import (
+    MOVING,
+    OFF_DIRECTION,
+    OPTIMAL,
+    RECOVERING,
+    Result,
+    safe_step,
+)
 from lpik.tolerances import FEASIBILITY_TOL, STALL_P
 from lpik.types import FloatArray
 
 #: The name a recovery step gives as its method and path.
 RECOVERY = "recovery"
+#: A bound beyond this [rad or m] counts as this when :func:`stop_within_rows` asks which
+#: rows a step within the bounds can reach (an infinite one times a row's 0 is no number).
+REACH = 1e100
 #: The least-L1-error LP, ``least_error(J, target, lower, upper, G, g) -> (status, dq)``
 #: (:func:`lpik.methods.progress.least_error_lp`): ``dq`` minimises
 #: ``|J dq - target|_1 + MOTION_WEIGHT |dq|_1`` with ``lower <= dq <= upper``,
@@ -292,6 +303,100 @@ def recovery_result(
         method=RECOVERY, solve_time=solve_time, residual=float(np.abs(J @ dq).max()),
         path=RECOVERY,
     )  # fmt: skip
+
+
+def stop_within_rows(
+    dq: FloatArray, lower: FloatArray, upper: FloatArray, G: FloatArray, g: FloatArray,
+    least_error: LeastError, largest_share: LargestShare,
+) -> FloatArray | None:  # fmt: skip
+    """The step nearest to ``dq`` that keeps the rows ``G dq <= g``, where ``dq`` breaks one.
+
+    The safe step is a controlled stop, ``0`` clipped to the joints' bands
+    (:func:`lpik.result.safe_step`); it knows nothing of the rows. Under acceleration
+    limits the braking joints can carry a link towards an obstacle faster than its
+    damper row allows (the rows are a limit too): a Panda under the shelf, its
+    command through the shelf's top and no exact step, braked towards it 88 steps in
+    a row, up to 0.26 mm per step, and came inside ``d_s``. The stop that keeps
+    them is the step within the bounds of least ``|dq' - dq|_1`` (plus
+    :data:`~lpik.tolerances.MOTION_WEIGHT` ``|dq'|_1``, the least-error LP with the
+    identity as its task, so that the joints brake where the rows let them);
+    where no step within the bounds keeps them (the acceleration limits carry the
+    pairs on), the least worst excess: with ``e`` the largest excess of ``dq`` over
+    a row, the largest share ``s`` of ``e`` that the bounds let every row it breaks
+    take back (``largest_share``; the rows it keeps stay kept), and the step nearest
+    to ``dq`` within those rows relaxed to ``g + (1 - s) e``. (Each row's own
+    excess, taken back by the same share, left two rows that a joint's motion
+    trades against each other at their excess: share 0.)
+
+    Args:
+        dq: The step, within ``lower <= dq <= upper``.
+        lower: The step's lower bounds (eqs. 13-14 after :mod:`lpik.bands`).
+        upper: Its upper bounds.
+        G: The rows' matrix, ``G dq <= g`` (distance rows, a user's rows).
+        g: Their right-hand sides.
+        least_error: The least-error LP (:data:`LeastError`).
+        largest_share: The largest-share LP (:data:`LargestShare`).
+
+    Returns:
+        The step, or None where ``dq`` keeps the rows (or no LP answers: ``dq`` stands).
+    """
+    if not g.size:
+        return None
+    excess = G @ dq - g
+    broken = excess > FEASIBILITY_TOL * np.maximum(1.0, np.abs(g))
+    if not broken.any():
+        return None
+    far = np.where(G > 0.0, np.minimum(upper, REACH), np.maximum(lower, -REACH))
+    rows = (G * far).sum(axis=1) > g  # a row no step within the bounds reaches binds nothing
+    G, g, excess, broken = G[rows], g[rows], excess[rows], broken[rows]
+    identity = np.eye(dq.size)
+    kept = least_error_within(identity, dq, lower, upper, G, g, least_error)
+    if kept is not None:
+        return kept
+    held = g + np.where(broken, 0.0, np.maximum(excess, 0.0))  # the others, as dq keeps them
+    demand = np.where(broken, -excess.max(), 0.0)  # the broken rows' worst excess, taken back
+    share = largest_share(G, held - demand, demand, lower, upper)
+    if share is None or share <= 0.0:
+        return None
+    return least_error_within(identity, dq, lower, upper, G, held - (1.0 - share) * demand,
+                              least_error)  # fmt: skip
+
+
+def is_stop(result: Result) -> bool:
+    """Whether ``result`` is a stop that may break a row.
+
+    A safe step (a status outside ``MOVING``, or ``recovering`` at ``p = 0``), not the
+    recovery's own step.
+    """
+    if result.p != 0.0 or result.method == RECOVERY:
+        return False
+    return result.status not in MOVING or result.status == RECOVERING
+
+
+def kept_within_rows(
+    result: Result, q0: FloatArray, J: FloatArray, lower: FloatArray, upper: FloatArray,
+    G: FloatArray, g: FloatArray, least_error: LeastError, largest_share: LargestShare,
+) -> Result:  # fmt: skip
+    """The rows stage: a stop that breaks one of the step's rows, moved within them.
+
+    ``result`` as it is where it keeps the rows ``G dq <= g`` and where it is no
+    stop: an LP's step (``p > 0``, ``optimal``, ``off_direction``, ``scaled``), which
+    holds them, a classical step (``violates_limits``, which reports what it
+    breaks) or the recovery's own (which relaxes the rows inside ``d_s`` itself);
+    else its stop becomes :func:`stop_within_rows`'s, with the same status and
+    binding. The one rule for the numpy engine
+    (:meth:`lpik.control.stepper.Stepper.within_rows`) and the compiled one, on the
+    arrays its step left in its state.
+    """
+    if not is_stop(result):
+        return result
+    start = time.perf_counter()
+    dq = stop_within_rows(np.asarray(result.dq, dtype=np.float64), lower, upper, G, g,
+                          least_error, largest_share)  # fmt: skip
+    if dq is None:
+        return result
+    return replace(result, q=q0 + dq, dq=dq, residual=float(np.abs(J @ dq).max(initial=0.0)),
+                   solve_time=result.solve_time + time.perf_counter() - start)  # fmt: skip
 
 
 def highs_largest_share(

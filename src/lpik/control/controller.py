@@ -40,7 +40,9 @@ from lpik.collision.recovery import (
     RECOVERY,
     demanding_rows,
     inside_pairs,
+    is_stop,
     keeps_direction,
+    kept_within_rows,
     marked_recovering,
     recovery_motion,
     recovery_result,
@@ -618,9 +620,9 @@ class Lp2Controller:
             result = self._stalled(result, q0, q_prev, count=True)
         if watch and result.status == INFEASIBLE:
             result = self._through_rest(q0, target, q_prev, result)
-        if self.scene_rows is None:
-            return result
-        return self._recovered(q0, target, q_prev, result)
+        if self.scene_rows is not None:
+            result = self._recovered(q0, target, q_prev, result)
+        return self._within_rows(q0, q_prev, result) if watch else result
 
     def _through_rest(self, q0: Any, target: Any, q_prev: Any, around: Result) -> Result:
         """The through-rest stage (:meth:`Stepper.rested <lpik.control.stepper.Stepper.rested>`).
@@ -664,6 +666,26 @@ class Lp2Controller:
         problem = self._stepped_problem(q0, target, q_prev, self._bound)
         return avoidance.recovered(problem, result, self.dt, compiled_least_error, inside,
                                    compiled_largest_share)  # fmt: skip
+
+    def _within_rows(self, q0: Any, q_prev: Any, result: Result) -> Result:
+        """The rows stage (:meth:`Stepper.within_rows <lpik.control.stepper.Stepper.within_rows>`).
+
+        :func:`lpik.collision.recovery.kept_within_rows` on the bounds and rows the
+        compiled step left in its state (:func:`lpik.fast.progress.state_rows`), its
+        LPs compiled; the numpy engine's step has had the stepper's own stage.
+        """
+        r = int(self._state[layout.R])
+        if not is_stop(result) or self._on_numpy_engine or not r:
+            return result
+        q = np.ascontiguousarray(q0, dtype=np.float64)
+        G, h = layout.matrix_at(self._state, layout.ROWS_G, r, self._n), layout.vector(
+            self._state, layout.ROWS_H)  # fmt: skip
+        if rows_kept(G, h - G @ q, result.dq):  # most stops: no bounds recomputed
+            return result
+        prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
+        J, _, lower, upper, G, g = state_rows(self._state, q, prev, True)
+        return kept_within_rows(result, q, J, lower, upper, G, g, compiled_least_error,
+                                compiled_largest_share)  # fmt: skip
 
     def _inside_rows(self, q0: Any, inside: dict[str, float]) -> list[int] | None:
         """The state's rows that demand an increase of an ``inside`` pair's distance.
@@ -831,6 +853,7 @@ class Lp2Controller:
             self._last = self._stalled(self._last, q0, q_prev, count=True)
         if self._last.status == INFEASIBLE:
             self._last = self._through_rest(q0, target, q_prev, self._last)
+        self._last = self._within_rows(q0, q_prev, self._last)
         out[...] = self._last.q
         return self._last.p
 
@@ -1059,8 +1082,8 @@ class Lp2Controller:
         """The rows to step one by one: those the kernel does not answer itself."""
         infeasible = codes == KERNEL_INFEASIBLE
         again = (codes != OK) & ~infeasible | (outs[:, self._outside] >= 0)
-        if self._watch_stall:  # a safe step: the stall and through-rest stages
-            again |= infeasible
+        if self._watch_stall or self._state[layout.R] > 0:  # a safe step: the stall,
+            again |= infeasible  # through-rest and rows stages
         if self.automatic_bound is not None:
             p = outs[:, self._p]
             again |= ~infeasible & (p < FULL_P) & (outs[:, self._bounded_at] < 0)
@@ -1093,7 +1116,7 @@ class Lp2Controller:
                 res = self._stalled(res, Q0[b], prev, count=False)
             if res.status == INFEASIBLE:
                 res = self._through_rest(Q0[b], T[b], prev, res)
-            fallback[b] = res
+            fallback[b] = res = self._within_rows(Q0[b], prev, res)
             q[b], dq[b], p[b], residual[b] = res.q, res.dq, res.p, res.residual
             pull_scale[b] = res.pull_scale
             lam[b] = np.nan if res.lam is None else res.lam

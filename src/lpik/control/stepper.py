@@ -10,6 +10,8 @@ A step goes through named stages, each written once::
     stall        the progress step once the step has stalled (on_stall; mode="progress": after
                  every exact step with p < 1, the least error the limits leave)
     recovery     from inside a scene's safety distance, the distance grows back (lpik.collision)
+    rows         a stop that breaks a row (the safe step knows the joints' bands only) moved
+                 within the rows (lpik.collision.recovery.kept_within_rows)
     applied      a classical step clamped to the end-stops the machine cannot pass
 
 :class:`Stepper` runs them with the numpy layers (the *numpy engine*).
@@ -37,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik.collision.model import as_avoidance
+from lpik.collision.recovery import highs_largest_share, kept_within_rows
 from lpik.command import (
     DEFAULT_V_MAX,
     DEFAULT_W_MAX,
@@ -500,6 +503,21 @@ class Stepper:
         least_error = partial(least_error_lp, solver=self._solver)
         return self.avoidance.recovered(problem, result, self.dt, least_error)
 
+    def within_rows(self, problem: Problem, result: Result) -> Result:
+        """The rows stage: a stop that breaks one of ``problem``'s rows, moved within them.
+
+        :func:`lpik.collision.recovery.kept_within_rows` on the problem's bounds and
+        rows, its LPs HiGHS's.
+        """
+        if not problem.G.shape[0]:
+            return result
+        lower, upper = problem.step_bounds()[:2]
+        G = problem.G
+        return kept_within_rows(result, problem.q0, problem.J, lower, upper, G,
+                                problem.h - G @ problem.q0,
+                                partial(least_error_lp, solver=self._solver),
+                                highs_largest_share)  # fmt: skip
+
     def applied(self, problem: Problem, result: Result) -> Result:
         """The applied stage: a classical step that breaks an end-stop, clamped to it.
 
@@ -553,7 +571,7 @@ class Stepper:
         problem, result = self.bounded(problem, self.solve(problem), prev)
         last = None if prev is None else q - prev
         problem, result = self.rested(problem, self.stalled(result, lambda: problem, last), prev)
-        result = self.recovered(problem, result)
+        result = self.within_rows(problem, self.recovered(problem, result))
         self.solve_time = time.perf_counter() - start
         return self.applied(problem, result)
 
