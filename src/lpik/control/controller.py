@@ -622,7 +622,9 @@ class Lp2Controller:
             result = self._through_rest(q0, target, q_prev, result)
         if self.scene_rows is not None:
             result = self._recovered(q0, target, q_prev, result)
-        return self._within_rows(q0, q_prev, result) if watch else result
+        if watch and result.p == 0.0:  # a stop may break a row (most steps move: p > 0)
+            result = self._within_rows(q0, q_prev, result)
+        return result
 
     def _through_rest(self, q0: Any, target: Any, q_prev: Any, around: Result) -> Result:
         """The through-rest stage (:meth:`Stepper.rested <lpik.control.stepper.Stepper.rested>`).
