@@ -48,14 +48,7 @@ import numpy as np
 from lpik.highs import HighsSolver, LinearProgram
 from lpik.labels import COLLISION, Binding, row_label
 from lpik.problem import Problem
-from lpik.result import (
-    MOVING,
-    OFF_DIRECTION,
-    OPTIMAL,
-    RECOVERING,
-    Result,
-    safe_step,
-)
+from lpik.result import MOVING, OFF_DIRECTION, OPTIMAL, RECOVERING, Result, safe_step
 from lpik.tolerances import FEASIBILITY_TOL, STALL_P
 from lpik.types import FloatArray
 

@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik.collision.model import as_avoidance
-from lpik.collision.recovery import highs_largest_share, kept_within_rows
+from lpik.collision.recovery import highs_largest_share, is_stop, kept_within_rows
 from lpik.command import (
     DEFAULT_V_MAX,
     DEFAULT_W_MAX,
@@ -509,7 +509,7 @@ class Stepper:
         :func:`lpik.collision.recovery.kept_within_rows` on the problem's bounds and
         rows, its LPs HiGHS's.
         """
-        if not problem.G.shape[0]:
+        if not problem.G.shape[0] or not is_stop(result):  # (no bounds built for a step)
             return result
         lower, upper = problem.step_bounds()[:2]
         G = problem.G
