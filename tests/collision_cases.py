@@ -25,3 +25,17 @@ def circle_scene(center, radius, d_s=0.05, d_i=0.3):  # type: ignore[no-untyped-
             "influence_distance": d_i,
         }
     )
+
+
+def lp_paths():  # type: ignore[no-untyped-def]
+    """The recovery's two LPs on each path, by name: the least-error LP and the
+    largest-share LP through HiGHS (numpy) and the compiled simplex (call it after
+    ``pytest.importorskip("lpik.fast.progress")``: the compiled path needs numba)."""
+    from lpik.collision.recovery import highs_largest_share
+    from lpik.control.controller import compiled_largest_share, compiled_least_error
+    from lpik.methods.progress import least_error_lp
+
+    return {
+        "numpy": (least_error_lp, highs_largest_share),
+        "compiled": (compiled_least_error, compiled_largest_share),
+    }

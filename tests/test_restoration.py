@@ -8,19 +8,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from collision_cases import lp_paths
 from core_strategies import examples
-from lpik.collision.recovery import highs_largest_share, recovery_motion, restoration
-from lpik.methods.progress import least_error_lp
+from lpik.collision.recovery import recovery_motion, restoration
 from lpik.tolerances import MOTION_WEIGHT
 
 fast = pytest.importorskip("lpik.fast.progress")
-from lpik.control.controller import compiled_largest_share, compiled_least_error  # noqa: E402
 
 #: Each path's LPs: the least-error LP and the largest-share LP.
-PATHS = {
-    "numpy": (least_error_lp, highs_largest_share),
-    "compiled": (compiled_least_error, compiled_largest_share),
-}
+PATHS = lp_paths()
 TOL = 1e-7
 
 

@@ -10,27 +10,20 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
+from collision_cases import lp_paths
 from core_reference import LINPROG_OPTIONS
 from core_strategies import examples
 from lpik.collision import load_scene
-from lpik.collision.recovery import highs_largest_share, stop_within_rows
+from lpik.collision.recovery import stop_within_rows
 from lpik.control.stepper import Stepper
-from lpik.methods.progress import least_error_lp
 from lpik.robots.registry import load_robot
 from lpik.tolerances import FEASIBILITY_TOL, MOTION_WEIGHT
 
 fast = pytest.importorskip("lpik.fast.progress")
-from lpik.control.controller import (  # noqa: E402
-    Lp2Controller,
-    compiled_largest_share,
-    compiled_least_error,
-)
+from lpik.control.controller import Lp2Controller  # noqa: E402
 
 #: Each path's LPs: the least-error LP and the largest-share LP.
-PATHS = {
-    "numpy": (least_error_lp, highs_largest_share),
-    "compiled": (compiled_least_error, compiled_largest_share),
-}
+PATHS = lp_paths()
 TOL = 1e-9
 
 
