@@ -1084,8 +1084,9 @@ class Lp2Controller:
         """The rows to step one by one: those the kernel does not answer itself."""
         infeasible = codes == KERNEL_INFEASIBLE
         again = (codes != OK) & ~infeasible | (outs[:, self._outside] >= 0)
-        if self._watch_stall or self._state[layout.R] > 0:  # a safe step: the stall,
-            again |= infeasible  # through-rest and rows stages
+        # a safe step: the stall and through-rest stages, and with rows the rows stage
+        if self._watch_stall or self._state[layout.R] > 0:
+            again |= infeasible
         if self.automatic_bound is not None:
             p = outs[:, self._p]
             again |= ~infeasible & (p < FULL_P) & (outs[:, self._bounded_at] < 0)
