@@ -53,9 +53,11 @@ def test_the_long_soak_is_in_the_reliability_page() -> None:
 ])  # fmt: skip
 def test_closed_loops_over_other_arms_and_settings_break_no_limit(robot, setting, steps) -> None:
     """lpik_bench.closed_loops, sized for CI: a bad velocity sample at step 246 (seed 3), the
-    walk often out of reach; every step checked, also against the shelf's d_s."""
+    walk often out of reach; every step checked, also against the shelf's d_s and each pair's
+    damper row."""
     report = run(robot, setting, steps, seed=3)
     assert report.broken() == 0, report
+    assert report.past_damper == 0, report  # the stops ahead of d_i: every damper row kept
     assert report.glitches >= 1 and report.statuses.get("recovering", 0) >= 1
     assert report.steps == steps and report.statuses.get("optimal", 0) > 0
 

@@ -14,6 +14,10 @@ run only warms up. Variants:
 * ``Lp2Controller.step, no obstacles``: the fused step alone, the reference;
 * ``AvoidingLp2Controller.step``: distances, rows and LP2 in one compiled call
   (:mod:`lpik.fast.avoiding_step`), and its ``step_into`` (no Result);
+* ``AvoidingLp2Controller.step, qdd_max=10, q_prev``: under acceleration limits,
+  in a loop that passes ``q_prev``: the damper's stops ahead of ``d_i``
+  (:func:`lpik.collision.avoidance.braking_row`) measure the pairs within
+  ``d_i`` plus how far each capsule may need to brake;
 * ``AvoidingLp2Controller.step, lambda_bound=None``: without the automatic
   multiplier bound (:mod:`lpik.methods.autobound`), which on a step with
   ``p < 1`` looks for a bound inside the compiled step and may solve LP2 again;
@@ -100,6 +104,7 @@ def run(runs: int, steps: int) -> dict:
                                       lambda_bound=None)  # fmt: skip
     coal = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt,
                                  compiled_distances=False)  # fmt: skip
+    braking = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt, qdd_max=10.0)
     out = np.zeros(setup.model.n_joints)
     field, field_acc = (
         Lp2Controller(setup.model, dt=setup.dt, qdd_max=qdd_max,
@@ -116,6 +121,7 @@ def run(runs: int, steps: int) -> dict:
         "Lp2Controller.step, no obstacles": lambda q, t: plain.step(q, t).q,
         "AvoidingLp2Controller.step": lambda q, t: fused.step(q, t).q,
         "AvoidingLp2Controller.step_into": into,
+        "AvoidingLp2Controller.step, qdd_max=10, q_prev": LoopStep(braking),
         "AvoidingLp2Controller.step, lambda_bound=None": lambda q, t: unbounded.step(q, t).q,
         "AvoidingLp2Controller.step, coal": lambda q, t: coal.step(q, t).q,
         "Lp2Controller.step, field (both, coal)": lambda q, t: field.step(q, t).q,

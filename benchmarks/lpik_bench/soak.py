@@ -86,9 +86,10 @@ class SoakReport:
     #: safety distance to below it (beyond the rows' second-order rounding).
     below_safety: int = 0
     #: Among obstacles: steps from outside the safety distance whose closest pair came
-    #: nearer than the damper's row allows, beyond the rows' second-order rounding (a row
-    #: yields to the acceleration limits where they cannot slow the pair in time:
-    #: counted, not broken; :func:`lpik.collision.recovery.stop_within_rows`).
+    #: nearer than the damper's row allows, beyond the rows' second-order rounding. Under
+    #: acceleration limits a pair brakes ahead of ``d_i`` for its row
+    #: (:func:`lpik.collision.avoidance.braking_row`); a row still yields to them where they
+    #: cannot slow the pair in time (:func:`lpik.collision.recovery.stop_within_rows`).
     past_damper: int = 0
     glitches: int = 0
     statuses: dict[str, int] = field(default_factory=dict)

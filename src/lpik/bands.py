@@ -91,6 +91,18 @@ def braking_room(room: float, decel_step: float) -> float:
     return max(min(room, decel_step), math.sqrt(2.0 * decel_step * room) - 0.5 * decel_step)
 
 
+def stopping_distance(step: float, decel_step: float) -> float:
+    """How far a step and the braking steps after it travel: :func:`braking_room`'s inverse.
+
+    The steps ``step``, ``step - decel_step``, ... travel ``step + (step -
+    decel_step / 2)^2 / (2 decel_step)`` (a step within one ``decel_step`` stops
+    at once: ``step``), so ``braking_room(stopping_distance(u, c), c) == u``.
+    """
+    if step <= decel_step:
+        return step
+    return step + (step - 0.5 * decel_step) ** 2 / (2.0 * decel_step)
+
+
 def rate_band(
     last: float,
     room_lo: float,

@@ -20,7 +20,11 @@ Two mechanisms, usable alone or together:
   (the step is then ``recovering``: :mod:`lpik.collision.recovery`). The rows go into
   the problem as ``G q <= h`` (:class:`DistanceRows`, a limit of
   :mod:`lpik.limits`), so ``lp1``, ``l1`` and ``lp2`` keep them and name the
-  one that stops the arm, e.g. ``"collision panda_link5 - shelf"``.
+  one that stops the arm, e.g. ``"collision panda_link5 - shelf"``. Under
+  acceleration limits a pair beyond ``d_i`` that approaches faster than it
+  could still brake to ``xi`` by ``d_i`` gets a row too, its stop ahead
+  (:func:`braking_row`, the rule the joints keep to their end-stops), so that
+  no pair meets its damper row faster than the joints can slow it.
 * **Potential field** (the paper, sec. 1 and eq. 3, after Khatib, "Real-time
   obstacle avoidance for manipulators and mobile robots", IJRR 1986): the
   artificial generalized force of the criterion ``Z = 1/2 dq^T M dq - f^T q``
@@ -42,8 +46,9 @@ from typing import Any
 
 import numpy as np
 
+from lpik.bands import braking_room, stopping_distance
 from lpik.collision import recovery
-from lpik.collision.distance import Proximities, Proximity
+from lpik.collision.distance import Proximities, Proximity, joint_axes
 from lpik.continuation import continued
 from lpik.limits import Piece, StepContext
 from lpik.problem import Problem
@@ -64,6 +69,11 @@ FIELD_SHARE = 0.5
 MECHANISMS = ("rows", "field", "both")
 #: Right-hand side of a reserved row whose pair has no row this step: ``0 q <= 1e9`` never binds.
 INACTIVE_RHS = 1e9
+#: Under acceleration limits, the share of a pair's full deceleration (every joint that
+#: moves it at its acceleration limit against the approach) that its stop ahead of
+#: ``d_i`` counts on (:func:`braking_row`); the rest is left to the task and to the
+#: pair's distance changing faster than its gradient tells.
+BRAKING_SHARE = 0.5
 
 
 def damper_share(approach_speed: float, dt: float, safety: float, influence: float) -> float:
@@ -106,59 +116,242 @@ def damper_row(distance, gradient, q0, share, safety, row):  # type: ignore[no-u
     return h
 
 
+def braking_row(distance, gradient, q0, q_prev, qdd_min, qdd_max, dt, entry_step, influence,
+                row):  # type: ignore[no-untyped-def]  # fmt: skip
+    """The stop ahead of ``d_i``: a pair beyond it approaches no faster than it can brake.
+
+    Under acceleration limits, a pair that meets ``d_i`` faster than the damper's
+    ``xi dt`` (``entry_step``) gets a row there that asks more deceleration than the
+    joints have. Beyond ``d_i``, with ``c = BRAKING_SHARE * sum_i |grad_i| qdd_i dt^2``
+    (each joint's acceleration limit against the approach), the row::
+
+        -grad . (q - q0) <= braking_room(d - d_i + stopping_distance(xi dt, c), c)
+
+    lets the pair reach ``d_i`` at ``xi dt`` per step at most, braking by ``c`` a
+    step (:func:`lpik.bands.braking_room`, the rule the joints keep to their
+    end-stops). At ``d = d_i`` the bound is ``xi dt``, the damper's own. Plain
+    loops, compiled as they are (:mod:`lpik.fast.avoiding_step`).
+
+    Returns:
+        ``h`` with ``row = -grad``; NaN (``row`` as it is) where no row is needed:
+        no step within the acceleration bands approaches faster than the bound
+        (``max(-grad . (q0 - q_prev), 0)`` plus full acceleration towards the pair:
+        so also for a ``q_prev`` that the bands take at rest), the distance hardly
+        depends on ``q`` (as :func:`damper_row`), or a joint that moves the pair has
+        no acceleration limit (it can stop at once).
+    """
+    n = gradient.shape[0]
+    steepest = against = toward = moving = 0.0
+    dt2 = dt * dt
+    for i in range(n):
+        g = gradient[i]
+        if g == 0.0:
+            continue
+        steepest = max(steepest, abs(g))
+        moving -= g * (q0[i] - q_prev[i])
+        if g > 0.0:  # dq_i up brakes the approach
+            against += g * qdd_max[i] * dt2
+            toward -= g * qdd_min[i] * dt2
+        else:
+            against += g * qdd_min[i] * dt2
+            toward -= g * qdd_max[i] * dt2
+    if steepest <= FEASIBILITY_TOL or not (0.0 < against < math.inf and toward < math.inf):
+        return math.nan
+    decel = BRAKING_SHARE * against
+    bound = braking_room(distance - influence + stopping_distance(entry_step, decel), decel)
+    if max(moving, 0.0) + toward <= bound:
+        return math.nan
+    h = bound
+    for i in range(n):
+        row[i] = -gradient[i]
+        h += row[i] * q0[i]
+    return h
+
+
+def capsule_reach(joints, radii, ends, origins, axes, revolute, q0, q_prev, qdd_min, qdd_max,
+                  dt, reach):  # type: ignore[no-untyped-def]  # fmt: skip
+    """How far beyond ``d_i`` a capsule's pairs may need a stop ahead: two bounds, into ``reach``.
+
+    A pair needs :func:`braking_row` only where the most it can approach in one
+    step, ``u``, exceeds what it can still brake from: ``u + u^2 / (2 c)`` at most,
+    with ``c >= BRAKING_SHARE sum_i |grad_i| b_i`` the rule's deceleration (``b_i``:
+    joint ``i``'s smaller acceleration limit times ``dt^2``, ``a_i`` the larger). With
+    ``s_i = |q0_i - q_prev_i| + a_i``, ``u <= sum_i |grad_i| s_i``, and each ``|grad_i|``
+    is at most the witness point's lever about joint ``i`` (the capsule's farther end
+    plus its radius; 1 for a prismatic joint). Two bounds on the braking distance:
+
+    * ``reach[c]``: by Cauchy-Schwarz, ``u^2 / (2 c) <= sum_i |grad_i| s_i^2 / (2
+      BRAKING_SHARE b_i)``, each joint's own braking;
+    * ``reach[k + c]``: ``u <= w + A``, with ``w`` the capsule's speed in the last
+      step (its faster end, plus its radius times its turn) and ``A = sum_i lever_i
+      a_i``; and ``u^2 / (2 c) <= u K / (2 BRAKING_SHARE)``, ``K = max_i s_i / b_i``
+      over every joint.
+
+    Both add over a pair's two capsules, so a pair farther than ``d_i`` plus the
+    lesser sum has no such row, and its gradient is not needed.
+
+    Args:
+        joints: Each capsule's joint (-1: the base), (k,).
+        radii: Each capsule's radius, (k,).
+        ends: Each capsule's ends ``a, b`` in the world, (k, 6).
+        origins: Each joint's origin in the world, (n, 3).
+        axes: Each joint's unit axis in the world, (n, 3).
+        revolute: Whether each joint is revolute, (n,).
+        q0: The joints now, (n,).
+        q_prev: The joints one period ago, (n,).
+        qdd_min: The lower acceleration limits (``-inf``: none), (n,).
+        qdd_max: The upper acceleration limits (``inf``: none), (n,).
+        dt: The control period [s].
+        reach: (2 k,), written: 0 everywhere without acceleration limits (no stop
+            ahead), ``inf`` for a capsule that a joint without them moves.
+    """
+    n, k, dt2 = q0.shape[0], joints.shape[0], dt * dt
+    ratio, limited = 0.0, False
+    for i in range(n):
+        slow = min(-qdd_min[i], qdd_max[i]) * dt2
+        if slow < math.inf:
+            limited = True
+            ratio = max(ratio, (abs(q0[i] - q_prev[i]) + max(-qdd_min[i], qdd_max[i]) * dt2) / slow)
+    for c in range(k):
+        own = spread = turn = 0.0
+        ax = ay = az = bx = by = bz = 0.0  # the ends' motion in the last step
+        for i in range(int(joints[c]) + 1):
+            slow = min(-qdd_min[i], qdd_max[i]) * dt2
+            if not slow < math.inf:
+                own = spread = math.inf
+                break
+            fast, last = max(-qdd_min[i], qdd_max[i]) * dt2, q0[i] - q_prev[i]
+            zx, zy, zz = axes[i, 0] * last, axes[i, 1] * last, axes[i, 2] * last
+            lever = 1.0
+            if revolute[i]:  # z_i x (end - o_i) last_i
+                rx, ry, rz = (ends[c, 0] - origins[i, 0], ends[c, 1] - origins[i, 1],
+                              ends[c, 2] - origins[i, 2])  # fmt: skip
+                sx, sy, sz = (ends[c, 3] - origins[i, 0], ends[c, 4] - origins[i, 1],
+                              ends[c, 5] - origins[i, 2])  # fmt: skip
+                lever = radii[c] + math.sqrt(max(rx * rx + ry * ry + rz * rz,
+                                                 sx * sx + sy * sy + sz * sz))  # fmt: skip
+                turn += abs(last)
+                ax, ay, az = ax + zy * rz - zz * ry, ay + zz * rx - zx * rz, az + zx * ry - zy * rx
+                bx, by, bz = bx + zy * sz - zz * sy, by + zz * sx - zx * sz, bz + zx * sy - zy * sx
+            else:
+                ax, ay, az, bx, by, bz = ax + zx, ay + zy, az + zz, bx + zx, by + zy, bz + zz
+            step = abs(last) + fast
+            own += lever * (step + step * step / (2.0 * BRAKING_SHARE * slow))
+            spread += lever * fast
+        speed = math.sqrt(max(ax * ax + ay * ay + az * az, bx * bx + by * by + bz * bz))
+        speed += radii[c] * turn + spread
+        reach[c] = own if limited else 0.0
+        reach[k + c] = speed * (1.0 + ratio / (2.0 * BRAKING_SHARE)) if limited else 0.0
+
+
+def approach_row(distance, gradient, q0, q_prev, qdd_min, qdd_max, dt, damper,
+                 row):  # type: ignore[no-untyped-def]  # fmt: skip
+    """One pair's row: the damper's within ``d_i`` (:func:`damper_row`), the stop ahead beyond.
+
+    ``damper``: ``(r, d_s, d_i)``, as :func:`damper_share` and the scene give them.
+    Beyond ``d_i`` (:func:`braking_row`) the damper's speed at ``d_i``, ``r (d_i - d_s)``,
+    is the speed the stop ahead brakes to. Returns NaN where the pair has no row.
+    """
+    share, safety, influence = damper[0], damper[1], damper[2]
+    if distance < influence:
+        return damper_row(distance, gradient, q0, share, safety, row)
+    return braking_row(distance, gradient, q0, q_prev, qdd_min, qdd_max, dt,
+                       share * (influence - safety), influence, row)  # fmt: skip
+
+
 @dataclass(frozen=True, eq=False)
 class DistanceRows:
     """The velocity damper's rows, one per pair within the influence distance (a limit).
+
+    Under acceleration limits a pair beyond ``d_i`` that approaches faster than it
+    could brake to the damper's speed at ``d_i`` has a row too: its stop ahead
+    (:func:`braking_row`).
 
     Args:
         proximities: The robot's bodies and the scene.
         approach_speed: ``xi``, the largest approach speed of a pair [m/s] (> 0).
         inside_only: Rows only for the pairs inside the safety distance (the
             potential field's guarantee: :meth:`CollisionAvoidance.rows`).
+        accelerations: The joints' ``(qdd_min, qdd_max)`` [rad/s^2 or m/s^2, ``-inf``
+            and ``inf``: none], for the stops ahead of ``d_i``; None: none.
     """
 
     proximities: Proximities
     approach_speed: float = DEFAULT_APPROACH_SPEED
     inside_only: bool = False
+    accelerations: tuple[FloatArray, FloatArray] | None = None
 
     def __post_init__(self) -> None:
         xi = self.approach_speed
         if not (isinstance(xi, int | float) and np.isfinite(xi) and xi > 0):
             raise ValueError(f"approach_speed: must be a finite number > 0, got {xi!r}")
 
-    def pair_rows(self, q0: FloatArray, dt: float) -> tuple[list[int], FloatArray, FloatArray]:
+    def pair_rows(
+        self, q0: FloatArray, dt: float, q_prev: FloatArray | None = None
+    ) -> tuple[list[int], FloatArray, FloatArray]:
         """The rows at ``q0`` for a step of ``dt`` [s] and which pairs they belong to.
+
+        ``q_prev``: the joints one period ago (None: at rest), for the stops ahead.
 
         Returns:
             The indices of the pairs with a row in ``proximities.at(q0)``, ``G (r, n)``
-            and ``h (r,)`` (:func:`damper_row`).
+            and ``h (r,)`` (:func:`approach_row`).
         """
         scene = self.proximities.scene
         d_s, d_i = scene.safety_distance, scene.influence_distance
-        share = damper_share(self.approach_speed, dt, d_s, d_i)
-        n = q0.size
+        damper = (damper_share(self.approach_speed, dt, d_s, d_i), d_s, d_i)
+        n, before = q0.size, q0 if q_prev is None else q_prev
+        found = self.proximities.at(q0)
+        reach, qdd_min, qdd_max = np.full(len(found), d_i), np.full(n, -np.inf), np.full(n, np.inf)
+        if self.inside_only:
+            reach[:] = d_s - FEASIBILITY_TOL
+        elif self.accelerations is not None:
+            qdd_min, qdd_max = self.accelerations
+            reach += self._pair_reach(q0, before, qdd_min, qdd_max, dt)
         pairs, G, h = [], [], []
-        reach = d_s - FEASIBILITY_TOL if self.inside_only else d_i
-        for k, p in enumerate(self.proximities.at(q0)):
-            if p.distance >= reach:
+        for k, p in enumerate(found):
+            if p.distance >= reach[k]:
                 continue
             row = np.zeros(n)
-            rhs = damper_row(p.distance, p.gradient, q0, share, d_s, row)
+            rhs = approach_row(p.distance, p.gradient, q0, before, qdd_min, qdd_max, dt, damper,
+                               row)  # fmt: skip
             if not math.isnan(rhs):
                 pairs.append(k)
                 G.append(row)
                 h.append(rhs)
         return pairs, np.array(G).reshape(-1, n), np.array(h)
 
-    def rows(self, q0: FloatArray, dt: float) -> tuple[FloatArray, FloatArray, tuple[str, ...]]:
+    def _pair_reach(
+        self, q0: FloatArray, q_prev: FloatArray, qdd_min: FloatArray, qdd_max: FloatArray,
+        dt: float,
+    ) -> FloatArray:  # fmt: skip
+        """How far beyond ``d_i`` each pair of ``proximities.at`` may need its stop ahead."""
+        bodies = self.proximities.bodies
+        ends_a, ends_b, frames = bodies.world_capsules(q0)
+        axes, origins = joint_axes(bodies, frames)
+        joints = np.array([c.joint for c in bodies.capsules], dtype=np.float64)
+        radii = np.array([c.radius for c in bodies.capsules], dtype=np.float64)
+        reach = np.zeros(2 * joints.size)
+        capsule_reach(joints, radii, np.hstack([ends_a, ends_b]), origins, axes,
+                      bodies.revolute, q0, q_prev, qdd_min, qdd_max, dt, reach)  # fmt: skip
+        k = joints.size
+        own, moving = np.append(reach[:k], 0.0), np.append(reach[k:], 0.0)  # [k]: no capsule
+        pairs = [(i, k) for i, _ in self.proximities.obstacle_pairs] + list(bodies.self_pairs)
+        first, second = np.array(pairs, dtype=np.int64).reshape(-1, 2).T
+        return np.minimum(own[first] + own[second], moving[first] + moving[second])
+
+    def rows(
+        self, q0: FloatArray, dt: float, q_prev: FloatArray | None = None
+    ) -> tuple[FloatArray, FloatArray, tuple[str, ...]]:
         """``G (r, n)``, ``h (r,)`` and labels of the rows at ``q0`` for a step of ``dt`` [s]."""
-        pairs, G, h = self.pair_rows(q0, dt)
+        pairs, G, h = self.pair_rows(q0, dt, q_prev)
         found = self.proximities.at(q0)
         return G, h, tuple(found[k].label for k in pairs)
 
     def apply(self, context: StepContext) -> Piece:
         """Labelled rows ``G q <= h`` for this step (none when no pair is within ``d_i``)."""
-        G, h, names = self.rows(np.asarray(context.q0, dtype=np.float64), context.dt)
+        q_prev = None if context.q_prev is None else np.asarray(context.q_prev, dtype=np.float64)
+        G, h, names = self.rows(np.asarray(context.q0, dtype=np.float64), context.dt, q_prev)
         if not names:
             return Piece()
         return Piece(G=G, h=h, row_labels=names)
@@ -284,18 +477,23 @@ class CollisionAvoidance:
         """The scene."""
         return self.proximities.scene
 
-    def rows(self) -> DistanceRows:
+    def rows(self, accelerations: tuple[FloatArray, FloatArray] | None = None) -> DistanceRows:
         """The hard rows: every pair within ``d_i``; with the field alone, the pairs inside ``d_s``.
 
         The field's own force has no hard guarantee; inside ``d_s`` its rows make the
         distance grow back as the damper's do (:mod:`lpik.collision.recovery`).
+        ``accelerations``: the joints' ``(qdd_min, qdd_max)``, for the damper's stops
+        ahead of ``d_i`` (:func:`braking_row`); None: none.
         """
         inside_only = self.mechanism == "field"
-        return DistanceRows(self.proximities, self.approach_speed, inside_only)
+        return DistanceRows(self.proximities, self.approach_speed, inside_only,
+                            None if inside_only else accelerations)  # fmt: skip
 
-    def limits(self) -> list[DistanceRows]:
+    def limits(
+        self, accelerations: tuple[FloatArray, FloatArray] | None = None
+    ) -> list[DistanceRows]:
         """The hard rows as a limit (:meth:`rows`)."""
-        return [self.rows()]
+        return [self.rows(accelerations)]
 
     def with_field(self, problem: Problem, dt: float) -> Problem:
         """``problem`` with the field's force added to its ``f`` (unchanged for the rows alone).

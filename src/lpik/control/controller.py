@@ -139,7 +139,6 @@ class SceneRows:
 
     def __init__(self, model: TaskModel, avoidance: CollisionAvoidance) -> None:
         self.avoidance = avoidance
-        self._rows = avoidance.rows()  # with the field alone: the pairs inside d_s
         probe = avoidance.proximities.at(
             np.clip(np.zeros(model.n_joints), model.q_min, model.q_max)
         )
@@ -161,6 +160,9 @@ class SceneRows:
         g0, h0, f0 = (int(state[slot]) for slot in (layout.ROWS_G, layout.ROWS_H, layout.F_REF))
         self.G, self.h = state[g0 : g0 + r * n].reshape(r, n), state[h0 : h0 + r]
         self._f, self._stepper = state[f0 : f0 + n], stepper
+        # with the field alone the pairs inside d_s; under acceleration limits also the
+        # pairs beyond d_i that must brake ahead of it
+        self._rows = self.avoidance.rows(stepper.accelerations)
         f = stepper.weights.get("f")
         self._f0 = np.zeros(n) if f is None else np.broadcast_to(np.asarray(f, float), (n,)).copy()
         stepper.limits = (*stepper.limits[:-1], StateRows(self.G, self.h, self.labels))
@@ -175,7 +177,8 @@ class SceneRows:
         """
         self.G[:] = 0.0
         self.h[:] = INACTIVE_RHS
-        pairs, G, h = self._rows.pair_rows(q0, self._stepper.dt)
+        before = None if q_prev is None else np.asarray(q_prev, dtype=np.float64)
+        pairs, G, h = self._rows.pair_rows(q0, self._stepper.dt, before)
         self.G[pairs] = G
         self.h[pairs] = h
         force = self.avoidance.field_at(q0, self._stepper.dt)

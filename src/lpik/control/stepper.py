@@ -200,6 +200,9 @@ class Stepper:
         #: brakes within, or None (no acceleration limits, or ``continuation=False``).
         rates = _rates(self.limits, model.n_joints)
         self.stop_rates = _stop_rates(rates) if _flag("continuation", continuation) else None
+        #: The joints' ``(qdd_min, qdd_max)`` that the scene's stops ahead of ``d_i`` brake
+        #: within (:func:`lpik.collision.avoidance.braking_row`), or None (no acceleration limits).
+        self.accelerations = (rates[2], rates[3]) if np.isfinite(rates[2:]).any() else None
         #: The last step answered, against which the next state's implied motion is
         #: checked under acceleration limits (:mod:`lpik.control.commanded`), or None.
         self.motion = CommandedMotion.for_rates(rates, self.dt, model.joint_names)
@@ -354,7 +357,7 @@ class Stepper:
         """
         limits = self.limits
         if self.avoidance is not None:
-            limits = (*limits, *self.avoidance.limits())
+            limits = (*limits, *self.avoidance.limits(self.accelerations))
         if jacobian_before is None and self.continues:  # the stops ahead read it
             jacobian_before = self.previous_jacobian(q0, q_prev)
         before = None if jacobian_before is None else jacobian_before @ (q0 - q_prev)

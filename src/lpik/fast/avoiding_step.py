@@ -6,7 +6,8 @@ coal on its numpy path: the robot's capsules placed by the chain's joint
 frames, the signed distance of every watched pair (:mod:`lpik.fast.distances`,
 held equal to coal), the gradient ``-n^T (J_1 - J_2)`` of each pair within the
 influence distance (as :mod:`lpik.collision.distance` defines it) and its row
-by :func:`lpik.collision.avoidance.damper_row` (compiled here as it is),
+by :func:`lpik.collision.avoidance.approach_row` (compiled here as it is; under
+acceleration limits also a pair beyond ``d_i`` that must brake ahead of it),
 written into the state's rows block; then the fused step itself
 (:func:`lpik.fast.step.task_step`). A pair inside the safety distance gets
 the damper's row mirrored, which demands that its distance grow; where no
@@ -32,7 +33,9 @@ from typing import Any
 import numpy as np
 from numba import njit, types
 
-from lpik.collision.avoidance import INACTIVE_RHS, damper_row, damper_share
+from lpik import bands
+from lpik.collision import avoidance
+from lpik.collision.avoidance import INACTIVE_RHS, damper_share
 from lpik.fast import layout as L
 from lpik.fast.command_law import previous_kinematics
 from lpik.fast.distances import (
@@ -62,8 +65,17 @@ BOUND_MARGIN = 1e-9
 #: Floats per obstacle: the kind, then up to 16 numbers (a box: centre, rotation, half sizes).
 OBSTACLE_WIDTH = 17
 
-#: :func:`lpik.collision.avoidance.damper_row`, compiled.
-compiled_damper_row = compiled_twin(damper_row)
+_braking_room = njit(cache=True)(bands.braking_room)
+#: :func:`lpik.collision.avoidance.approach_row` (the damper's row, or the stop ahead of
+#: ``d_i``), compiled.
+compiled_approach_row = compiled_twin(
+    avoidance.approach_row,
+    damper_row=njit(cache=True)(avoidance.damper_row),
+    braking_row=compiled_twin(avoidance.braking_row, braking_room=_braking_room,
+                              stopping_distance=njit(cache=True)(bands.stopping_distance)),
+)  # fmt: skip
+#: :func:`lpik.collision.avoidance.capsule_reach`, compiled.
+compiled_capsule_reach = compiled_twin(avoidance.capsule_reach)
 
 
 @njit(cache=True)
@@ -187,32 +199,55 @@ def add_velocity(frames, axes, revolute, joint, p, sign, normal, gradient):
 
 
 @njit(cache=True)
-def distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scratch, state, q0):
+def world_axes(frames, axes, out):
+    """Each joint's unit axis in the world, ``out (n, 3)``: its frame's rotation times its axis."""
+    for i in range(axes.shape[0]):
+        F, x, y, z = frames[i], axes[i, 0], axes[i, 1], axes[i, 2]
+        for r in range(3):
+            out[i, r] = F[3 * r] * x + F[3 * r + 1] * y + F[3 * r + 2] * z
+
+
+@njit(cache=True)
+def distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scratch, state, q0,
+                  q_prev):  # fmt: skip
     """Every watched pair's distance into ``found`` and its row into the state's rows block.
 
-    A pair within ``d_i`` gets the damper's row (:func:`compiled_damper_row`);
-    every other reserved row is ``0 q <= INACTIVE_RHS``.
+    A pair within ``d_i`` gets the damper's row, one beyond it under acceleration
+    limits its stop ahead where it needs one (:func:`compiled_approach_row`); every
+    other reserved row is ``0 q <= INACTIVE_RHS``. A pair whose distance is beyond
+    ``d_i`` plus its capsules' reach (:func:`compiled_capsule_reach`) for certain
+    (a bounding sphere's test) is not measured.
     """
-    n = q0.shape[0]
+    n, k_capsules = q0.shape[0], capsules.shape[0]
     axes = L.matrix_at(state, L.AXES, n, 3)
     revolute = L.vector(state, L.REVOLUTE)
     G = L.matrix_at(state, L.ROWS_G, pairs.shape[0], n)
     h = L.vector(state, L.ROWS_H)
-    share, safety, influence = damper[0], damper[1], damper[2]
+    limits = L.matrix_at(state, L.LIMITS, 6, n)
+    dt, influence = state[L.DT], damper[2]
     gradient = scratch[8 : 8 + n]
+    reach = scratch[8 + n : 8 + n + 2 * k_capsules]
+    world = scratch[8 + n + 2 * k_capsules : 8 + 4 * n + 2 * k_capsules].reshape((n, 3))
+    world_axes(frames, axes, world)
+    compiled_capsule_reach(capsules[:, 0], capsules[:, 7], ends, frames[:, 9:12], world,
+                           revolute, q0, q_prev, limits[4], limits[5], dt, reach)  # fmt: skip
     for k in range(pairs.shape[0]):
         i, j = pairs[k, 1], pairs[k, 2]
         for c in range(n):
             G[k, c] = 0.0
         h[k] = INACTIVE_RHS
         radius = capsules[i, 7]
+        ahead = influence + min(reach[i], reach[k_capsules + i])
         if pairs[k, 0] == 0:
             bound = obstacle_bound(ends, i, radius, obstacles, j)
         else:
+            ahead = influence + min(
+                reach[i] + reach[j], reach[k_capsules + i] + reach[k_capsules + j]
+            )
             x1, y1, z1, reach1 = _ball(ends, i, radius)
             x2, y2, z2, reach2 = _ball(ends, j, capsules[j, 7])
             bound = _apart(x1, y1, z1, reach1, x2, y2, z2, reach2)
-        if bound > influence + BOUND_MARGIN:  # beyond d_i for certain: no row
+        if bound > ahead + BOUND_MARGIN:  # beyond d_i and the pair's reach for certain: no row
             found[k, 0] = bound
             for c in range(1, FOUND):
                 found[k, c] = math.nan
@@ -223,7 +258,7 @@ def distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scrat
             d = obstacle_distance(capsules[i], a, b, obstacles[j], out, scratch)
         else:
             d = capsule_capsule(a, b, radius, ends[j, 0:3], ends[j, 3:6], capsules[j, 7], out)
-        if d >= influence:
+        if d >= ahead:
             continue
         for c in range(n):
             gradient[c] = 0.0
@@ -233,7 +268,8 @@ def distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scrat
         if pairs[k, 0] == 1:
             add_velocity(frames, axes, revolute, int(capsules[j, 0]), out[4:7], 1.0, out[7:10],
                          gradient)  # fmt: skip
-        rhs = compiled_damper_row(d, gradient, q0, share, safety, G[k])
+        rhs = compiled_approach_row(d, gradient, q0, q_prev, limits[4], limits[5], dt, damper,
+                                    G[k])  # fmt: skip
         if not math.isnan(rhs):
             h[k] = rhs
 
@@ -261,7 +297,8 @@ def avoiding_step(capsules, obstacles, pairs, damper, frames, ends, found, scrat
     )  # fmt: skip
     joint_frames(origins, axes, revolute, q0, frames)
     place_capsules(capsules, frames, ends)
-    distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scratch, state, q0)
+    distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scratch, state, q0,
+                  q_prev)  # fmt: skip
     previous_kinematics(state, q0, q_prev)
     return task_step(state, q0, q_prev, target)
 
@@ -332,5 +369,6 @@ def pack_bodies(proximities: Any, dt: float, approach_speed: float) -> tuple[np.
     n = bodies.chain.n_joints
     return (
         capsules, obstacles, pairs, damper, np.zeros((n, 12)),
-        np.zeros((capsules.shape[0], 6)), np.zeros((pairs.shape[0], FOUND)), np.zeros(8 + n),
+        np.zeros((capsules.shape[0], 6)), np.zeros((pairs.shape[0], FOUND)),
+        np.zeros(8 + 4 * n + 2 * capsules.shape[0]),
     )  # fmt: skip
