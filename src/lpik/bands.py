@@ -44,6 +44,13 @@ import math
 
 from lpik.tolerances import FADING_HOLD_SHARE, FEASIBILITY_TOL, SLACK_TOL
 
+#: The share of its full deceleration that a stop ahead of a row counts on: every joint
+#: that moves the row at its acceleration limit against the approach
+#: (:func:`row_deceleration`); the rest is left to the task, to the joints' own
+#: end-stops and to a row's value changing faster than its gradient tells (a scene's
+#: distance).
+BRAKING_SHARE = 0.5
+
 #: :func:`yield_to`'s verdicts: the bands meet, or the soft band's lower or upper
 #: bound had to give way (the state is outside it on that side).
 MET, LOWER_YIELDED, UPPER_YIELDED = 0, -1, 1
@@ -101,6 +108,37 @@ def stopping_distance(step: float, decel_step: float) -> float:
     if step <= decel_step:
         return step
     return step + (step - 0.5 * decel_step) ** 2 / (2.0 * decel_step)
+
+
+def row_deceleration(row, sign, qdd_min, qdd_max, dt):  # type: ignore[no-untyped-def]
+    """How much one step within the acceleration bands can lower ``sign * row . dq`` [per step].
+
+    Each joint's band is its last step plus ``[qdd_min, qdd_max] dt^2``; the sum of
+    each joint's share at its limit against the row: ``inf`` where a joint that moves
+    the row has no acceleration limit that way (it can stop at once).
+    """
+    total = 0.0
+    for i in range(row.shape[0]):
+        a = sign * row[i]
+        if a > 0.0:
+            total -= a * qdd_min[i]
+        elif a < 0.0:
+            total -= a * qdd_max[i]
+    return total * dt * dt
+
+
+def braked_room(room: float, deceleration: float) -> float:
+    """A row's room for one step with its stop ahead: :func:`braking_room` at the share.
+
+    ``room`` (``h - G q0``) as it is where the row is already met or broken
+    (``room <= 0``), where nothing brakes it (``deceleration`` 0: a row of no joint)
+    and where it can stop at once (``deceleration`` infinite); else the largest step
+    after which the row can still be kept braking at :data:`BRAKING_SHARE` of
+    ``deceleration`` (:func:`row_deceleration`), which is never more than ``room``.
+    """
+    if not (room > 0.0 and 0.0 < deceleration < math.inf):
+        return room
+    return braking_room(room, BRAKING_SHARE * deceleration)
 
 
 def rate_band(

@@ -67,6 +67,10 @@ class Piece:
     h: FloatArray | None = None
     row_labels: tuple[str, ...] = ()
     joint_names: tuple[str, ...] = ()
+    #: Whether the rows are limits on ``q`` that a step brakes ahead of under acceleration
+    #: limits, as the joints' end-stops (:func:`lpik.bands.braked_room`); a scene's
+    #: damper rows bound a step's approach and are not.
+    braked: bool = False
 
 
 class Limit(Protocol):
@@ -214,7 +218,10 @@ class LinearRows:
     """Extra rows ``G q <= h`` with one label each (e.g. obstacle half-spaces).
 
     ``kind`` is what a binding row is called in its :class:`~lpik.labels.Binding`:
-    ``"row"``, or ``"collision"`` for distance rows.
+    ``"row"``, or ``"collision"`` for distance rows. Under acceleration limits each
+    row keeps a stop ahead, as an end-stop does: a step's room ``h - G q0`` is at
+    most what the joints can still brake from (:func:`lpik.bands.braked_room`,
+    applied by :func:`build_problem`).
     """
 
     G: Any
@@ -228,7 +235,7 @@ class LinearRows:
         h = _vec("h", self.h)
         names = self.labels or labels.default_row_labels(h.size)
         rows = tuple(labels.row_label(j, v, self.kind) for j, v in enumerate(names))
-        return Piece(G=G, h=h, row_labels=rows)
+        return Piece(G=G, h=h, row_labels=rows, braked=True)
 
 
 #: What ``lambda_bound`` may be, wherever a step takes it.
@@ -309,6 +316,7 @@ def build_problem(
     continuation: bool = False,
     motion_before: Any = None,
     singular_steps: float = math.inf,
+    brake_rows: bool = True,
     **weights: Any,
 ) -> Problem:
     """Stack the limits' pieces into one validated :class:`~lpik.problem.Problem`.
@@ -332,6 +340,10 @@ def build_problem(
             the automatic multiplier bound's floor near a singular configuration
             (:func:`lpik.methods.autobound.singular_steps`), a stop ahead the
             joints keep the room to stop at, as the controllers do; ``inf``: none.
+        brake_rows: Under acceleration limits, each row of a :class:`LinearRows`
+            keeps a stop ahead, as the end-stops do (:func:`lpik.bands.braked_room`):
+            its room for the step is at most what the joints can still brake from;
+            False: the rows as given (a compiled controller's template).
         **weights: ``M``, ``f``, ``Lambda``, ``q_ref``, ``k`` of the problem, and
             ``joint_names``, the names binding labels use (default: the names an
             :class:`EndStops` carries, as :func:`standard_limits` gives them, else
@@ -378,7 +390,7 @@ def build_problem(
         lam_max=stack.lam_max,
         outside_limits=outside,
         last=last if continuation and accelerations and last.any() else None,
-        **stack.rows(),
+        **stack.rows(q0, dt, brake_rows and accelerations),
         **weights,
     )
 
@@ -396,6 +408,7 @@ class _Stack:
         self.G: list[Any] = []
         self.h: list[Any] = []
         self.row_labels: list[str] = []
+        self.braked: list[bool] = []
         self.named: tuple[str, ...] = ()
 
     def add(self, piece: Piece) -> None:
@@ -422,15 +435,26 @@ class _Stack:
             self.G.append(piece.G)
             self.h.append(piece.h)
             start, count = len(self.row_labels), np.atleast_2d(piece.G).shape[0]
+            self.braked.extend([piece.braked] * count)
             self.row_labels.extend(
                 piece.row_labels or labels.default_row_labels(start + count)[start:]
             )
 
-    def rows(self) -> dict[str, Any]:
-        """The stacked rows as the problem's ``G``, ``h`` and ``row_labels`` (none: empty)."""
+    def rows(self, q0: FloatArray, dt: float, brake: bool) -> dict[str, Any]:
+        """The stacked rows as the problem's ``G``, ``h`` and ``row_labels`` (none: empty).
+
+        ``brake``: under acceleration limits, each row of a braked piece keeps a stop
+        ahead (:func:`lpik.bands.braked_room` of its room ``h - G q0``).
+        """
         if not self.G:
             return {}
-        return {"G": np.vstack(self.G), "h": np.concatenate(self.h), "row_labels": self.row_labels}
+        G, h = np.vstack(self.G), np.concatenate(self.h).astype(np.float64)
+        if brake and any(self.braked):
+            for j in np.flatnonzero(self.braked):
+                room = h[j] - G[j] @ q0
+                deceleration = bands.row_deceleration(G[j], 1.0, self.qdd_min, self.qdd_max, dt)
+                h[j] += bands.braked_room(room, deceleration) - room
+        return {"G": G, "h": h, "row_labels": self.row_labels}
 
 
 def _tighter(pick: Any, current: FloatArray, value: Any, size: int) -> FloatArray:

@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik.bands import braking_room, stopping_distance
+from lpik.bands import BRAKING_SHARE, braking_room, row_deceleration, stopping_distance
 from lpik.collision import recovery
 from lpik.collision.distance import Proximities, Proximity, joint_axes
 from lpik.continuation import continued
@@ -69,11 +69,6 @@ FIELD_SHARE = 0.5
 MECHANISMS = ("rows", "field", "both")
 #: Right-hand side of a reserved row whose pair has no row this step: ``0 q <= 1e9`` never binds.
 INACTIVE_RHS = 1e9
-#: Under acceleration limits, the share of a pair's full deceleration (every joint that
-#: moves it at its acceleration limit against the approach) that its stop ahead of
-#: ``d_i`` counts on (:func:`braking_row`); the rest is left to the task and to the
-#: pair's distance changing faster than its gradient tells.
-BRAKING_SHARE = 0.5
 
 
 def damper_share(approach_speed: float, dt: float, safety: float, influence: float) -> float:
@@ -141,20 +136,13 @@ def braking_row(distance, gradient, q0, q_prev, qdd_min, qdd_max, dt, entry_step
         no acceleration limit (it can stop at once).
     """
     n = gradient.shape[0]
-    steepest = against = toward = moving = 0.0
-    dt2 = dt * dt
+    steepest = moving = 0.0
     for i in range(n):
-        g = gradient[i]
-        if g == 0.0:
-            continue
-        steepest = max(steepest, abs(g))
-        moving -= g * (q0[i] - q_prev[i])
-        if g > 0.0:  # dq_i up brakes the approach
-            against += g * qdd_max[i] * dt2
-            toward -= g * qdd_min[i] * dt2
-        else:
-            against += g * qdd_min[i] * dt2
-            toward -= g * qdd_max[i] * dt2
+        steepest = max(steepest, abs(gradient[i]))
+        moving -= gradient[i] * (q0[i] - q_prev[i])
+    # the approach -grad . dq: braked by lowering it, sped up by raising it
+    against = row_deceleration(gradient, -1.0, qdd_min, qdd_max, dt)
+    toward = row_deceleration(gradient, 1.0, qdd_min, qdd_max, dt)
     if steepest <= FEASIBILITY_TOL or not (0.0 < against < math.inf and toward < math.inf):
         return math.nan
     decel = BRAKING_SHARE * against

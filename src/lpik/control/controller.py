@@ -81,7 +81,7 @@ from lpik.fast.progress import (
     stall_stage,
     state_rows,
 )
-from lpik.fast.step import BAD_INPUT
+from lpik.fast.step import BAD_INPUT, brake_rows
 from lpik.labels import Binding, row_label, step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
@@ -341,7 +341,7 @@ class Lp2Controller:
         self.automatic_bound = s.automatic_bound
         self._fallback_path = None if saturate else "highs"
         self._bound: FloatArray | None = None  # the automatic bound of a step under it
-        self._state = self._packed(bool(saturate))
+        self._state = self._packed(bool(saturate), scene_rows is None)
         # compiled (or loaded) for the target the task takes; another kind when first given
         self._target_axes = (2,) if (np.asarray(s.task_rows) >= 3).any() else (1,)
         self._read_out_blocks()
@@ -471,12 +471,17 @@ class Lp2Controller:
         home_q = None if home is None else np.asarray(home, dtype=np.float64)
         return SceneRows(model, as_avoidance(model, scene, home_q))
 
-    def _packed(self, saturate: bool) -> FloatArray:
-        """The state buffer: the template problem's limits and weights, checked once."""
+    def _packed(self, saturate: bool, rows_braked: bool) -> FloatArray:
+        """The state buffer: the template problem's limits and weights, checked once.
+
+        ``rows_braked``: the rows are the user's, limits on ``q`` kept with a stop ahead
+        under acceleration limits (not a scene's).
+        """
         model, n = self.model, self.model.n_joints
         m = model.task_dim
         template = self.stepper.limited(np.clip(np.zeros(n), model.q_min, model.q_max),
-                                        np.zeros(m), None, np.zeros((m, n)))  # fmt: skip
+                                        np.zeros(m), None, np.zeros((m, n)),
+                                        brake_rows=False)  # fmt: skip
         H = template.M + template.Lambda
         # NaN where q_ref follows q0 (Problem's default), filled in by the step.
         ref = template.q_ref
@@ -507,7 +512,8 @@ class Lp2Controller:
             limits=np.vstack([template.q_min, template.q_max, rate_limits(self.limits, n)]),
             criterion=H, f_ref=np.vstack([template.f, ref]), Lambda=template.Lambda,
             lam_bounds=np.vstack([template.lam_min, template.lam_max]), G=template.G,
-            h=template.h, auto_bound=settings(self.automatic_bound, fuses_kinematics(model)),
+            h=template.h, rows_braked=[float(rows_braked)],
+            auto_bound=settings(self.automatic_bound, fuses_kinematics(model)),
             second_order=[float(self.second_order), 0.0],
             continuation=[float(self.stepper.continues)], chain=[float(fuses_kinematics(model))],
         )  # fmt: skip
@@ -685,7 +691,9 @@ class Lp2Controller:
         q = np.ascontiguousarray(q0, dtype=np.float64)
         G, h = layout.matrix_at(self._state, layout.ROWS_G, r, self._n), layout.vector(
             self._state, layout.ROWS_H)  # fmt: skip
-        if rows_kept(G, h - G @ q, result.dq):  # most stops: no bounds recomputed
+        g = h - G @ q
+        brake_rows(self._state, q, g)  # a user's rows: with their stops ahead
+        if rows_kept(G, g, result.dq):  # most stops: no bounds recomputed
             return result
         prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
         J, _, lower, upper, G, g = state_rows(self._state, q, prev, True)

@@ -348,12 +348,14 @@ class Stepper:
         bound: FloatArray | None = None,
         jacobian_before: FloatArray | None = None,
         singular_stop: bool = True,
+        brake_rows: bool = True,
     ) -> Problem:
         """The limits stage: ``build_problem`` with the scene's rows and field on top.
 
         ``jacobian_before``: :meth:`previous_jacobian` where the caller has it (None:
         computed where the stops ahead need it). ``singular_stop=False``: without the
-        stop before a singular configuration (:meth:`on_floor`).
+        stop before a singular configuration (:meth:`on_floor`). ``brake_rows=False``:
+        the rows as given, without their stops ahead (``build_problem``'s).
         """
         limits = self.limits
         if self.avoidance is not None:
@@ -365,7 +367,7 @@ class Stepper:
                           continuation=self.continues, motion_before=before,
                           singular_steps=self.singular_steps(
                               J, jacobian_before, bound if singular_stop else None),
-                          **self.weights)  # fmt: skip
+                          brake_rows=brake_rows, **self.weights)  # fmt: skip
         if self.avoidance is not None:  # the field's force, within the step's own room
             P = self.avoidance.with_field(P, self.dt)
         if self._through_rest and P.last is not None:  # the stops ahead kept, through rest

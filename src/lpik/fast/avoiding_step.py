@@ -53,6 +53,7 @@ from lpik.fast.step import (
     TARGET_AXES,
     _finite_joints,
     fused_task_step,
+    row_deceleration,
     task_step,
 )
 from lpik.fast.twins import compiled_twin, rebound
@@ -72,7 +73,8 @@ compiled_approach_row = compiled_twin(
     avoidance.approach_row,
     damper_row=njit(cache=True)(avoidance.damper_row),
     braking_row=compiled_twin(avoidance.braking_row, braking_room=_braking_room,
-                              stopping_distance=njit(cache=True)(bands.stopping_distance)),
+                              stopping_distance=njit(cache=True)(bands.stopping_distance),
+                              row_deceleration=row_deceleration),
 )  # fmt: skip
 #: :func:`lpik.collision.avoidance.capsule_reach`, compiled.
 compiled_capsule_reach = compiled_twin(avoidance.capsule_reach)

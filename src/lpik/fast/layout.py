@@ -41,26 +41,26 @@ N, M, R, H_DIAG, DT, V_MAX, W_MAX, SATURATE = range(8)
 # ---------------------------------------------- header: one slot per block, holding its offset
 # the chain and the constants of the step
 REVOLUTE, ROW_INDEX, ORIGINS, AXES, TIP = range(8, 13)
-LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H, AUTO_BOUND = range(13, 21)
-SECOND_ORDER, CONTINUATION, CHAIN = 21, 22, 23
+LIMITS, CRITERION, F_REF, LAMBDA, LAM_BOUNDS, ROWS_G, ROWS_H, ROWS_BRAKED = range(13, 21)
+AUTO_BOUND, SECOND_ORDER, CONTINUATION, CHAIN = range(21, 25)
 # out: what a step reports
-Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, BOUND, BOUNDED, OUTSIDE = range(24, 35)
-PULL_SCALE = 35
+Q, DQ, LAM, POSITION, DW, P, LABEL, RESIDUAL, BOUND, BOUNDED, OUTSIDE = range(25, 36)
+PULL_SCALE = 36
 # scratch of the step
-GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(36, 43)
-LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(43, 51)
-STOP, STOP_SCRATCH, LAST, ORIGIN, SAFE = range(51, 56)
+GOAL, FRAME, JACOBIAN6, ERROR6, JACOBIAN, JOINTS, LOG_SCRATCH = range(37, 44)
+LOWER, UPPER, KINDS, C, C_REF, G_RHS, LP2_WS, SATURATION = range(44, 52)
+STOP, STOP_SCRATCH, LAST, ORIGIN, SAFE = range(52, 57)
 # the kinematics at the last step's q0, and the second-order term
-PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(56, 60)
+PREV_Q, PREV_FRAME, PREV_JACOBIAN6, RHO = range(57, 61)
 # the last step's q0 and goal, and the target's motion since (fed forward under acc. limits)
-MEMORY, MEMORY_Q, MEMORY_GOAL, TARGET_MOTION = range(60, 64)
+MEMORY, MEMORY_Q, MEMORY_GOAL, TARGET_MOTION = range(61, 65)
 # the stop before a singular configuration ahead of the motion (under acceleration limits),
 # and the singular values of J at q0 and at prev_q that the automatic bound has read
-SINGULAR, SIGMA = 64, 65
+SINGULAR, SIGMA = 65, 66
 # the right-hand sides of the command's brake (lpik.command.braking_scale)
-BRAKE = 66
+BRAKE = 67
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 67
+END = 68
 #: Length of the header.
 HEADER = END + 1
 
@@ -99,6 +99,13 @@ BLOCKS = (
     Block(LAM_BOUNDS, "lam_bounds", (2, "m"), "lower and upper multiplier bounds"),
     Block(ROWS_G, "G", ("r", "n"), "extra rows G q <= h"),
     Block(ROWS_H, "h", ("r",), "their right-hand side"),
+    Block(
+        ROWS_BRAKED,
+        "rows_braked",
+        (1,),
+        "1: the rows are limits on q, kept with a stop ahead under acceleration limits "
+        "(lpik.bands.braked_room); 0: a scene's rows, which bound the step's approach",
+    ),
     Block(AUTO_BOUND, "auto_bound", (5,), "1: the step applies the auto bound (-1: its caller)"),
     Block(
         SECOND_ORDER,

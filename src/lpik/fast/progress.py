@@ -55,7 +55,7 @@ from numba import njit
 
 from lpik.fast import layout as L
 from lpik.fast.autobound import clearly_regular
-from lpik.fast.step import continues, fading_in_state, step_bounds
+from lpik.fast.step import brake_rows, continues, fading_in_state, step_bounds
 from lpik.fast.twins import compiled_twin
 from lpik.methods import progress as rule
 from lpik.tolerances import FEASIBILITY_TOL, MOTION_WEIGHT, SIMPLEX_COST_TOL, SIMPLEX_PIVOT_TOL
@@ -497,6 +497,7 @@ def state_rows(state, q0, q_prev, singular_stop):
         for i in range(n):
             s -= G[j, i] * q0[i]
         g[j] = s
+    brake_rows(state, q0, g)
     return J, dw, lower, upper, G, g
 
 

@@ -64,6 +64,8 @@ rate_band = compiled_twin(
     yield_to=_yield_to,
     braking_room=njit(cache=True)(bands.braking_room),
 )
+row_deceleration = njit(cache=True)(bands.row_deceleration)
+braked_room = compiled_twin(bands.braked_room, braking_room=njit(cache=True)(bands.braking_room))
 motion_decay = njit(cache=True)(_motion_decay)
 fading_steps = njit(cache=True)(_fading_steps)
 fading_band = compiled_twin(bands.fading_band, braking_room=njit(cache=True)(bands.braking_room))
@@ -138,6 +140,28 @@ def criterion_and_rows(f_ref, Lam, G, h, q0, c, c_ref, g):
         for i in range(n):
             s -= G[j, i] * q0[i]
         g[j] = s
+
+
+@njit(cache=True)
+def brake_rows(state, q0, g):
+    """Each row's stop ahead where the rows are limits on ``q``: ``g`` less what cannot be braked.
+
+    Under acceleration limits a row's room for the step, ``h - G q0``, is at most
+    what the joints can still brake from (:func:`lpik.bands.braked_room`, as
+    :func:`lpik.limits.build_problem` takes a user's rows); ``g`` (r,) is the rows'
+    right-hand side about any origin. Nothing where the ``rows_braked`` block is 0
+    (a scene's rows bound the step's approach themselves).
+    """
+    if L.vector(state, L.ROWS_BRAKED)[0] == 0.0:
+        return
+    n, r = q0.shape[0], int(state[L.R])
+    G, h = L.matrix_at(state, L.ROWS_G, r, n), L.vector(state, L.ROWS_H)
+    limits, dt = L.matrix_at(state, L.LIMITS, 6, n), state[L.DT]
+    for j in range(r):
+        room = h[j]
+        for i in range(n):
+            room -= G[j, i] * q0[i]
+        g[j] += braked_room(room, row_deceleration(G[j], 1.0, limits[4], limits[5], dt)) - room
 
 
 @njit(cache=True)
@@ -307,6 +331,7 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     c, c_ref, g = L.vector(state, L.C), L.vector(state, L.C_REF), L.vector(state, L.G_RHS)
     criterion_and_rows(L.matrix_at(state, L.F_REF, 2, n), L.matrix_at(state, L.LAMBDA, n, n),
                        G, L.vector(state, L.ROWS_H), origin, c, c_ref, g)  # fmt: skip
+    brake_rows(state, q0, g)
     if moving:
         pull_back(state, c, lower, upper)
     lam_bounds = L.matrix_at(state, L.LAM_BOUNDS, 2, m)
