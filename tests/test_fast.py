@@ -664,7 +664,7 @@ def test_controller_labels_every_kind_of_binding_limit_as_the_numpy_layers(satur
         fast = controller.step(q0, target, prev)
         problem = controller.problem(q0, target, prev)
         # a stop that breaks the row, moved within it: the rows stage of both engines
-        ref = controller.stepper.within_rows(problem, reference(problem, path="ratio-test"))
+        ref = controller.stepper.within_rows(problem, reference(problem, path="ratio-test"), prev)
         assert (fast.status, fast.binding) == (ref.status, ref.binding), (q0, prev, target)
         assert abs(fast.p - ref.p) <= tol
         np.testing.assert_allclose(fast.q, ref.q, atol=tol, rtol=0)

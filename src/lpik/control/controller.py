@@ -696,7 +696,7 @@ class Lp2Controller:
         if rows_kept(G, g, result.dq):  # most stops: no bounds recomputed
             return result
         prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
-        J, _, lower, upper, G, g = state_rows(self._state, q, prev, True)
+        J, _, lower, upper, G, g = state_rows(self._state, q, prev, True, False)  # own bands
         return kept_within_rows(result, q, J, lower, upper, G, g, compiled_least_error,
                                 compiled_largest_share)  # fmt: skip
 
@@ -735,7 +735,7 @@ class Lp2Controller:
         labels = self.scene_rows.labels
         binding = row_label(rows[0], labels[rows[0]]).outside()
         prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
-        J, dw, lower, upper, G, g = state_rows(self._state, q, prev, True)
+        J, dw, lower, upper, G, g = state_rows(self._state, q, prev, True, True)
         if keeps_direction(result) and rows_kept(G[rows], g[rows], result.dq):
             return marked_recovering(result, binding)
         dq = recovery_motion(J, dw, lower, upper, G, g, rows, compiled_least_error,

@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from lpik.collision.model import as_avoidance
-from lpik.collision.recovery import highs_largest_share, is_stop, kept_within_rows
+from lpik.collision.recovery import highs_largest_share, is_stop, kept_within_rows, rows_kept
 from lpik.command import (
     DEFAULT_V_MAX,
     DEFAULT_W_MAX,
@@ -349,6 +349,7 @@ class Stepper:
         jacobian_before: FloatArray | None = None,
         singular_stop: bool = True,
         brake_rows: bool = True,
+        stops_ahead: bool = True,
     ) -> Problem:
         """The limits stage: ``build_problem`` with the scene's rows and field on top.
 
@@ -356,11 +357,15 @@ class Stepper:
         computed where the stops ahead need it). ``singular_stop=False``: without the
         stop before a singular configuration (:meth:`on_floor`). ``brake_rows=False``:
         the rows as given, without their stops ahead (``build_problem``'s).
+        ``stops_ahead=False``: the joints' own bands, without the stops ahead of the
+        motion (a motion that stops paying, a singular configuration ahead).
         """
         limits = self.limits
         if self.avoidance is not None:
             limits = (*limits, *self.avoidance.limits(self.accelerations))
-        if jacobian_before is None and self.continues:  # the stops ahead read it
+        if not stops_ahead:
+            jacobian_before = None
+        elif jacobian_before is None and self.continues:  # the stops ahead read it
             jacobian_before = self.previous_jacobian(q0, q_prev)
         before = None if jacobian_before is None else jacobian_before @ (q0 - q_prev)
         P = build_problem(J, dw, q0, limits, dt=self.dt, q_prev=q_prev,
@@ -508,18 +513,28 @@ class Stepper:
         least_error = partial(least_error_lp, solver=self._solver)
         return self.avoidance.recovered(problem, result, self.dt, least_error)
 
-    def within_rows(self, problem: Problem, result: Result) -> Result:
+    def within_rows(
+        self, problem: Problem, result: Result, q_prev: FloatArray | None = None
+    ) -> Result:
         """The rows stage: a stop that breaks one of ``problem``'s rows, moved within them.
 
-        :func:`lpik.collision.recovery.kept_within_rows` on the problem's bounds and
-        rows, its LPs HiGHS's.
+        :func:`lpik.collision.recovery.kept_within_rows` on the problem's rows, its LPs
+        HiGHS's, within the joints' own bands: a row is a hard limit, and the stops
+        ahead of the motion (:meth:`limited` with ``stops_ahead=False``, the step
+        after ``q_prev``) are the continuation's, which pinned the joints of a braking
+        arm and left it no step within a user's row.
         """
         if not problem.G.shape[0] or not is_stop(result):  # (no bounds built for a step)
             return result
-        lower, upper = problem.step_bounds()[:2]
         G = problem.G
-        return kept_within_rows(result, problem.q0, problem.J, lower, upper, G,
-                                problem.h - G @ problem.q0,
+        g = problem.h - G @ problem.q0
+        if rows_kept(G, g, result.dq):
+            return result
+        own = problem
+        if problem.last is not None:  # solved around the motion: the bands without its stops
+            own = self.limited(problem.q0, problem.dw, q_prev, problem.J, stops_ahead=False)
+        lower, upper = own.step_bounds()[:2]
+        return kept_within_rows(result, problem.q0, problem.J, lower, upper, G, g,
                                 partial(least_error_lp, solver=self._solver),
                                 highs_largest_share)  # fmt: skip
 
@@ -576,7 +591,7 @@ class Stepper:
         problem, result = self.bounded(problem, self.solve(problem), prev)
         last = None if prev is None else q - prev
         problem, result = self.rested(problem, self.stalled(result, lambda: problem, last), prev)
-        result = self.within_rows(problem, self.recovered(problem, result))
+        result = self.within_rows(problem, self.recovered(problem, result), prev)
         self.solve_time = time.perf_counter() - start
         return self.applied(problem, result)
 

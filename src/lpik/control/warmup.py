@@ -83,7 +83,7 @@ STAGES = {
     "recovery": (
         (least_error_step, (_MATRIX, *(_VECTOR,) * 3, _MATRIX, _VECTOR, _VECTOR)),
         (largest_share_lp, (_MATRIX, *(_VECTOR,) * 4)),
-        (state_rows, (*(_VECTOR,) * 3, types.boolean)),
+        (state_rows, (*(_VECTOR,) * 3, types.boolean, types.boolean)),
     ),
 }
 

@@ -476,16 +476,18 @@ def further_progress(J, dw, lower, upper, G, g, dq1, dq):
 
 
 @njit(cache=True)
-def state_rows(state, q0, q_prev, singular_stop):
+def state_rows(state, q0, q_prev, singular_stop, stops_ahead):
     """The step's ``J``, ``dw``, bounds on ``dq`` and rows ``G dq <= h - G q0`` from ``state``.
 
     ``singular_stop`` False: the bounds without the stop before a singular configuration
     (:func:`lpik.fast.step.fading_in_state`; the floor's row takes its place).
+    ``stops_ahead`` False: the joints' own bands, without any stop ahead of the motion
+    (the rows stage: :meth:`lpik.control.stepper.Stepper.within_rows`).
     """
     n, m, r = q0.shape[0], int(state[L.M]), int(state[L.R])
     lower, upper, kinds = np.empty(n), np.empty(n), np.empty((2, n))
     J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
-    moving = continues(state, q0, q_prev)
+    moving = stops_ahead and continues(state, q0, q_prev)
     fading, own = (fading_in_state(state, q0, q_prev, J, dw, singular_stop) if moving
                    else (math.inf, math.inf))  # fmt: skip
     step_bounds(L.matrix_at(state, L.LIMITS, 6, n), state[L.DT], q0, q_prev, lower, upper, kinds,
@@ -519,7 +521,7 @@ def progress_in_state(state, q0, q_prev, dq, floor, exact, engaged):
     """
     n = q0.shape[0]
     on_floor = floor[n] < math.inf  # the row instead of the stop ahead
-    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev, not on_floor)
+    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev, not on_floor, True)
     if on_floor:  # one more row floor[:n] . dq <= floor[n]
         G = np.vstack((G, floor[:n].copy().reshape((1, n))))
         g = np.append(g, floor[n])
@@ -608,7 +610,7 @@ def further_stage(state, q0, q_prev, dq1, dq, residual):
     the LP answered and the step reduces the L1 task error that the exact step
     leaves (:func:`~lpik.methods.progress.makes_progress`); False: the exact step stands.
     """
-    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev, True)
+    J, dw, lower, upper, G, g = state_rows(state, q0, q_prev, True, True)
     if further_progress(J, dw, lower, upper, G, g, dq1, dq) != SOLVED:
         return False
     before = _task_error(J, dw, dq1)[0]
