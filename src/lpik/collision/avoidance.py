@@ -48,7 +48,7 @@ import numpy as np
 
 from lpik.bands import BRAKING_SHARE, braking_room, row_deceleration, stopping_distance
 from lpik.collision import recovery
-from lpik.collision.distance import Proximities, Proximity, joint_axes
+from lpik.collision.distance import Proximities, Proximity
 from lpik.continuation import continued
 from lpik.limits import Piece, StepContext
 from lpik.problem import Problem
@@ -315,8 +315,7 @@ class DistanceRows:
     ) -> FloatArray:  # fmt: skip
         """How far beyond ``d_i`` each pair of ``proximities.at`` may need its stop ahead."""
         bodies = self.proximities.bodies
-        ends_a, ends_b, frames = bodies.world_capsules(q0)
-        axes, origins = joint_axes(bodies, frames)
+        ends_a, ends_b, axes, origins = self.proximities.placed(q0)
         joints = np.array([c.joint for c in bodies.capsules], dtype=np.float64)
         radii = np.array([c.radius for c in bodies.capsules], dtype=np.float64)
         reach = np.zeros(2 * joints.size)

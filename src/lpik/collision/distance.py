@@ -130,7 +130,8 @@ class Proximities:
         self.scene = scene
         self._obstacles = [(o.name, o.geometry()) for o in scene.obstacles]
         self._request = distance_request()
-        self._cache: tuple[bytes, list[Proximity]] | None = None
+        #: The last ``q`` asked for: its key, its proximities and :meth:`placed`'s arrays.
+        self._cache: tuple[bytes, list[Proximity], tuple[FloatArray, ...]] | None = None
         #: ``(capsule, obstacle)`` index pairs, in the order of :meth:`at` (the base,
         #: which does not move, keeps its distances to the obstacles: none are checked).
         self.obstacle_pairs = tuple(
@@ -162,8 +163,18 @@ class Proximities:
                 self._relative, axes, origins, capsules[i].joint, p1, capsules[j].joint, p2
             )
             found.append(Proximity(capsules[i].link, capsules[j].link, d, p1, p2, n, rel))
-        self._cache = (key, found)
+        self._cache = (key, found, (ends_a, ends_b, axes, origins))
         return found
+
+    def placed(self, q: Sequence[float] | FloatArray) -> tuple[FloatArray, ...]:
+        """The bodies as :meth:`at` placed them at ``q``: ``(ends_a, ends_b, axes, origins)``.
+
+        Every capsule's two ends in the world, (k, 3) each, and every joint's unit axis
+        and origin, (n, 3) each; computed once per ``q`` with the proximities.
+        """
+        self.at(q)
+        assert self._cache is not None
+        return self._cache[2]
 
     def _relative(
         self, axes: FloatArray, origins: FloatArray, j1: int, p1: FloatArray, j2: int,
