@@ -26,7 +26,8 @@ where it lies more than one step of acceleration past the velocity limit:
 A joint outside its end-stops is *pinned* for the step: it returns onto the
 end-stop if its velocity and acceleration limits allow, else as far towards it
 as they allow, and never further out unless its acceleration limit forces it
-(it was already moving out). Every joint whose band is a single point is
+(it was already moving out). No stop ahead of the motion narrows its band
+(:func:`beyond_stops`). Every joint whose band is a single point is
 pinned: LP2 then resolves its criterion over the other joints
 (:func:`lpik.methods.kkt.pinned_system`), and the methods without a criterion
 simply move it by that amount.
@@ -334,6 +335,21 @@ def stoppable_step(
 def outside_tolerance(bound: float) -> float:
     """How far past an end-stop a joint may be and still count as on it (the check's tolerance)."""
     return FEASIBILITY_TOL * max(1.0, abs(bound)) if math.isfinite(bound) else 0.0
+
+
+def beyond_stops(q0: float, q_min: float, q_max: float) -> bool:
+    """Whether a joint is past an end-stop by more than :func:`outside_tolerance`: *outside*.
+
+    :func:`stop_band` pins such a joint to its way back. A stop ahead
+    (:func:`fading_band`) does not narrow its band: the end-stop is a limit, the
+    stop ahead the continuation's way of braking in time for what the motion buys
+    (or before a singular configuration), so it yields, as it yields to a row.
+    The UR5e's wrist 2 read 0.05 rad past its end-stop at -2 pi, where the wrist is
+    singular: the stop before the singular configuration held the joint still on
+    every other step (it came back at 5 mrad/s, the other joints held, for 10 s;
+    without it, in 0.1 s at its acceleration limit).
+    """
+    return q_max - q0 < -outside_tolerance(q_max) or q_min - q0 > outside_tolerance(q_min)
 
 
 def stop_band(q0: float, q_min: float, q_max: float, rate_lo: float, rate_hi: float) -> tuple:

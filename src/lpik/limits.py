@@ -373,7 +373,7 @@ def build_problem(
                     (stack.lo_kind, stack.hi_kind), names, outside)  # fmt: skip
         if continuation and motion_before is not None and last.any():
             _fading_bands(np.atleast_2d(np.asarray(J, dtype=np.float64)),
-                          np.asarray(dw, dtype=np.float64), last,
+                          np.asarray(dw, dtype=np.float64), q0, last,
                           np.asarray(motion_before, dtype=np.float64), stack, dt,
                           singular_steps)  # fmt: skip
     return Problem(
@@ -463,19 +463,22 @@ def _tighter(pick: Any, current: FloatArray, value: Any, size: int) -> FloatArra
 
 
 def _fading_bands(
-    J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatArray, stack: _Stack, dt: float,
-    singular_steps: float,
+    J: FloatArray, dw: FloatArray, q0: FloatArray, last: FloatArray, before: FloatArray,
+    stack: _Stack, dt: float, singular_steps: float,
 ) -> None:  # fmt: skip
     """Brake a motion that stops paying ahead, or nears a singularity (the nearer), in place.
 
     :func:`lpik.bands.fading_band`; a bound that the stop ahead sets is labelled
-    as the acceleration limit's.
+    as the acceleration limit's. A joint outside its end-stops keeps its band
+    (:func:`lpik.bands.beyond_stops`).
     """
     own = fading_steps(J, dw, last, before)
     steps = min(own, singular_steps)
     if not steps < np.inf:
         return
     for i in range(last.size):
+        if bands.beyond_stops(float(q0[i]), float(stack.q_min[i]), float(stack.q_max[i])):
+            continue
         lo, hi, lo_fades, hi_fades = bands.fading_band(
             float(last[i]), steps, float(stack.dq_min[i]), float(stack.dq_max[i]),
             float(stack.qdd_min[i]), float(stack.qdd_max[i]), dt, own,

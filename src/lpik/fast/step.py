@@ -69,11 +69,9 @@ braked_room = compiled_twin(bands.braked_room, braking_room=njit(cache=True)(ban
 motion_decay = njit(cache=True)(_motion_decay)
 fading_steps = njit(cache=True)(_fading_steps)
 fading_band = compiled_twin(bands.fading_band, braking_room=njit(cache=True)(bands.braking_room))
-stop_band = compiled_twin(
-    bands.stop_band,
-    yield_to=_yield_to,
-    outside_tolerance=njit(cache=True)(bands.outside_tolerance),
-)
+_outside_tolerance = njit(cache=True)(bands.outside_tolerance)
+stop_band = compiled_twin(bands.stop_band, yield_to=_yield_to, outside_tolerance=_outside_tolerance)
+beyond_stops = compiled_twin(bands.beyond_stops, outside_tolerance=_outside_tolerance)
 
 
 @njit(cache=True)
@@ -107,10 +105,11 @@ def step_bounds(limits, dt, q0, q_prev, lower, upper, kinds, fading=math.inf, ho
         if rate_outside < 0 and verdict != 0:
             side = 1 if verdict > 0 else 0
             rate_outside = 3 * (2 * i + side) + (k_hi if verdict > 0 else k_lo)
-        lo, hi, lo_fades, hi_fades = fading_band(
-            q0[i] - q_prev[i], fading, lo, hi, limits[4, i], limits[5, i], dt, hold
-        )  # fmt: skip
-        k_lo, k_hi = 2 if lo_fades else k_lo, 2 if hi_fades else k_hi
+        if not beyond_stops(q0[i], q_min, q_max):  # an end-stop outranks a stop ahead
+            lo, hi, lo_fades, hi_fades = fading_band(
+                q0[i] - q_prev[i], fading, lo, hi, limits[4, i], limits[5, i], dt, hold
+            )  # fmt: skip
+            k_lo, k_hi = 2 if lo_fades else k_lo, 2 if hi_fades else k_hi
         lo, hi, lo_stop, hi_stop, out = stop_band(q0[i], q_min, q_max, lo, hi)
         lower[i], upper[i] = lo, hi
         kinds[0, i] = 0 if lo_stop else k_lo
