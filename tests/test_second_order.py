@@ -111,6 +111,44 @@ def test_kinematics_kept_from_the_last_step_give_the_same_step_as_computed_anew(
         prev, q = q, kept.q
 
 
+def _faulty_states(model: PoseTask, count: int, seed: int):  # type: ignore[no-untyped-def]
+    """:func:`_states` with one joint's implied step beyond its velocity limit: a bad sample."""
+    rng = np.random.default_rng(seed)
+    for q, prev, target in _states(model, count, seed):
+        i = rng.integers(7)
+        prev = prev.copy()
+        prev[i] = q[i] - rng.choice([-1.0, 1.0]) * rng.uniform(1.01, 50.0) * model.qd_max[i] * 1e-3
+        yield q, prev, target
+
+
+def test_a_step_the_drives_could_not_have_made_has_no_term(panda: PoseTask) -> None:
+    """A q_prev whose implied step is beyond a velocity limit (a bad sample, 0.05 rad off: an
+    implied 50 rad/s) described a motion the arm did not make; its term steered the tool 1.1 mm
+    off a 0.5 mm step along x. Without acceleration limits (which take such a q_prev at the step
+    the drives could have made) the command then has no term: the step from q0 at rest, on the
+    compiled step, the numpy problem, a Python kinematics backend and a batch alike."""
+    from lpik.command import made_by_drives
+
+    c, wrapped = Lp2Controller(panda, dt=1e-3), Lp2Controller(PoseTask(_PythonKinematics()),
+                                                              dt=1e-3)  # fmt: skip
+    states = list(_faulty_states(panda, 30, seed=5))
+    for q, prev, target in states:
+        assert not made_by_drives(q, prev, -panda.qd_max, panda.qd_max, 1e-3)
+        at_rest = c.step(q, target, q)
+        np.testing.assert_array_equal(c.problem(q, target, prev).dw, c.problem(q, target, q).dw)
+        np.testing.assert_array_equal(c.step(q, target, prev).q, at_rest.q)
+        np.testing.assert_allclose(wrapped.step(q, target, prev).q, at_rest.q, rtol=0, atol=1e-12)
+    Q0, PREV, TARGETS = (np.array(x) for x in zip(*states, strict=True))
+    batch = c.step_batch(Q0, TARGETS, PREV)
+    for b, (q, _, target) in enumerate(states):
+        np.testing.assert_array_equal(batch.q[b], c.step(q, target, q).q)
+    # a step at the velocity limits (to the ratio test's tolerance) is one the drives made
+    q = home_configuration("panda")
+    assert made_by_drives(q, q - panda.qd_max * 1e-3, -panda.qd_max, panda.qd_max, 1e-3)
+    assert made_by_drives(q, q + panda.qd_max * 1e-3 * (1 + 1e-12), -panda.qd_max,
+                          panda.qd_max, 1e-3)  # fmt: skip
+
+
 class _PythonKinematics:
     """lpik's chain behind a plain Python object: the step takes the backend's path."""
 

@@ -46,6 +46,7 @@ from lpik.command import (
     ClampedTarget,
     TargetMotion,
     commanded_displacement,
+    made_by_drives,
     second_order_term,
     task_rows,
 )
@@ -200,6 +201,9 @@ class Stepper:
         #: brakes within, or None (no acceleration limits, or ``continuation=False``).
         rates = _rates(self.limits, model.n_joints)
         self.stop_rates = _stop_rates(rates) if _flag("continuation", continuation) else None
+        #: The joints' ``(qd_min, qd_max)`` [rad/s]: a last step beyond them is no motion
+        #: whose second-order term the command takes off (:func:`lpik.command.made_by_drives`).
+        self.velocities = (rates[0], rates[1])
         #: The joints' ``(qdd_min, qdd_max)`` that the scene's stops ahead of ``d_i`` brake
         #: within (:func:`lpik.collision.avoidance.braking_row`), or None (no acceleration limits).
         self.accelerations = (rates[2], rates[3]) if np.isfinite(rates[2:]).any() else None
@@ -270,7 +274,8 @@ class Stepper:
             motion = None if stop is None else self.target_motion.motion(model, q0, q_prev, value)
             dw = commanded_displacement(model, model.pose(q0), value, v_max, w_max, self.dt,
                                         stop, motion)  # fmt: skip
-        if self.second_order and q_prev is not None:
+        if (self.second_order and q_prev is not None
+                and made_by_drives(q0, q_prev, *self.velocities, self.dt)):  # fmt: skip
             dw -= second_order_term(model, q_prev, q0, before)
         return dw
 

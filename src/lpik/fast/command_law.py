@@ -15,7 +15,7 @@ import math
 
 from numba import njit
 
-from lpik import command
+from lpik import bands, command
 from lpik.bands import braking_room
 from lpik.fast import layout as L
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error
@@ -37,6 +37,9 @@ add_target_motion = compiled_twin(
 )
 #: Whether a target commands every row of the task (:func:`lpik.command.target_fits`).
 target_fits = njit(cache=True)(command.target_fits)
+#: Whether the drives could have made the last step (:func:`lpik.command.made_by_drives`).
+made_by_drives = compiled_twin(command.made_by_drives,
+                               plausible_step=njit(cache=True)(bands.plausible_step))  # fmt: skip
 #: The last step's second-order term (:func:`lpik.command.second_order_rows`).
 second_order_rows = compiled_twin(command.second_order_rows, command_rows=command_rows)
 
@@ -124,10 +127,14 @@ def take_off_second_order(state, q0, q_prev, rows, dw):
     The term is :func:`lpik.command.second_order_rows` of the motion from the
     frame at ``q_prev`` (``prev_frame``) to the frame at ``q0``, with
     ``J(q_prev) (q0 - q_prev)`` from :func:`last_task_motion` (the ``rho``
-    block's row 0).
+    block's row 0); none after a step the drives could not have made
+    (:func:`made_by_drives`, the velocity limits of the ``limits`` block).
     """
-    m = dw.shape[0]
+    m, n = dw.shape[0], q0.shape[0]
     if not _moved(q0, q_prev):
+        return
+    limits = L.matrix_at(state, L.LIMITS, 6, n)
+    if not made_by_drives(q0, q_prev, limits[2], limits[3], state[L.DT]):
         return
     jdq_rho = L.matrix_at(state, L.RHO, 2, m)
     e6 = L.vector(state, L.ERROR6)
