@@ -165,6 +165,12 @@ def _panda_scene() -> Any:
     )
 
 
+def _panda_field() -> Any:
+    """The ball kept off by Khatib's field alone (eq. 3): rows only inside ``d_s``."""
+    return collision_avoidance(_panda(), _panda_scene(), home_configuration("panda"),
+                               mechanism="field")  # fmt: skip
+
+
 PULL_IN = get_scenario("pull-in").setup()
 PANDA_PULL_IN = get_scenario("pull-in").setup("panda")
 OBSTACLE = get_scenario("obstacle").setup()
@@ -199,7 +205,7 @@ FAMILIES: dict[str, Family] = {
             make_scene=_planar_obstacle_scene,
             home=OBSTACLE.q0,
         ),
-        # the same circle, with the potential field too (f per step; distances through coal)
+        # the same circle, with the potential field too (its force per step)
         Family(
             "planar_field",
             _planar("obstacle"),
@@ -217,6 +223,17 @@ FAMILIES: dict[str, Family] = {
             PANDA_PULL_IN.dt,
             PANDA_PULL_IN.v_max,
             make_scene=_panda_scene,
+            home=home_configuration("panda"),
+        ),
+        # the same ball with the potential field alone, under acceleration limits (the
+        # field's share of the room around the motion; distances inside the compiled step)
+        Family(
+            "panda_field_acc",
+            _panda,
+            PANDA_PULL_IN.dt,
+            PANDA_PULL_IN.v_max,
+            qdd_max=15.0,
+            make_scene=_panda_field,
             home=home_configuration("panda"),
         ),
         # no redundancy: the UR5e's pose task (n = m = 6)
@@ -467,6 +484,9 @@ def _cases_of(name: str, rng: np.random.Generator) -> list[Case]:
     if name == "panda_obstacle":
         s = PANDA_PULL_IN
         return [*_run(family, s.q0, s.target, 200, rng, 4, late=0.2, bound_by="collision")]
+    if name == "panda_field_acc":
+        s = PANDA_PULL_IN
+        return [*_run(family, s.q0, s.target, 200, rng, 4, late=0.2)]
     if name == "ur5e":
         return [*_random(family, rng, 2), *_aligned_ur5e(family, rng, 2)]
     raise ValueError(name)

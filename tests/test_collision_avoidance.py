@@ -130,6 +130,35 @@ def test_the_fields_own_step_keeps_within_the_limits() -> None:
     assert field_scale(force, J, np.eye(3), lo, hi, rest, rows) == pytest.approx(0.0005)
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(2, 8), st.integers(1, 6), st.integers(0, 2))
+def test_the_fields_null_space_motion_solves_the_kkt_system(
+    seed: int, n: int, m: int, deficiency: int
+) -> None:
+    """null_space_motion against a least-squares solve of [[M, J^T], [J, 0]] [dq; lam] = [f; 0]
+    (an independent path), J of full or deficient rank, M symmetric positive definite; and its
+    compiled twin (the Jacobi SVD, :func:`lpik.fast.step.field_in_state`'s) against it."""
+    from lpik.collision.avoidance import null_space_motion
+
+    rng = np.random.default_rng(seed)
+    m = min(m, n)
+    rank = max(1, m - deficiency)
+    J = rng.normal(size=(m, rank)) @ rng.normal(size=(rank, n))
+    A = rng.normal(size=(n, n))
+    M = A @ A.T + n * np.eye(n)
+    f = rng.normal(size=n)
+    kkt = np.block([[M, J.T], [J, np.zeros((m, m))]])
+    expected = np.linalg.lstsq(kkt, np.concatenate([f, np.zeros(m)]), rcond=None)[0][:n]
+    dq = null_space_motion(J, M, f)
+    size = np.abs(f).max()  # |dq| <= |f| / lambda_min(M), lambda_min(M) >= n
+    np.testing.assert_allclose(dq, expected, rtol=0, atol=1e-8 * size)
+    np.testing.assert_allclose(J @ dq, 0.0, rtol=0, atol=1e-12 * np.abs(J).max() * size)
+    pytest.importorskip("numba")
+    from lpik.fast.step import null_space_motion as compiled
+
+    np.testing.assert_allclose(compiled(J, M, f), dq, rtol=0, atol=1e-12 * size)
+
+
 def run(method, mechanism, scene, target, steps):  # type: ignore[no-untyped-def]
     model = arm()
     avoid = collision_avoidance(model, scene, Q0, mechanism=mechanism)

@@ -24,10 +24,15 @@ run only warms up. Variants:
 * ``AvoidingLp2Controller.step, coal``: ``compiled_distances=False``, the
   distances through coal in Python and the rows written in before the
   compiled step (the path before the compiled distance kernels);
-* ``Lp2Controller.step, field`` (``both``): the paper's potential field (with
-  the rows), through coal as above; ``qdd_max=10`` in a loop that passes
-  ``q_prev``: the field's share of the step is read off the numpy engine's
-  problem for the step where a force acts (its acceleration bands).
+* ``Lp2Controller.step, field`` (``both``: the paper's potential field
+  with the rows; ``field``: the field alone, rows only inside ``d_s``): the
+  pairs' repulsion summed in the same compiled call and added to the criterion
+  at its share of the step's room (:func:`lpik.fast.step.field_in_state`);
+  ``qdd_max=10`` in a loop that passes ``q_prev`` (the room of the acceleration
+  bands around the motion);
+* ``Lp2Controller.step, field (both, coal)``: the field with the rows through
+  coal in Python, its share read off the numpy engine's problem for the step
+  (``compiled_distances=False``, the only path for the field before it was compiled).
 
 Every variant reaches the target; the compiled and coal paths give the same
 steps (tests hold them equal to 1e-9).
@@ -93,6 +98,11 @@ class LoopStep:
         return answer
 
 
+def _stepping(controller: Lp2Controller) -> Any:
+    """``controller.step(q, target).q``, at rest each step."""
+    return lambda q, target: controller.step(q, target).q
+
+
 def run(runs: int, steps: int) -> dict:
     """Every variant, with the machine's load before and after."""
     setup = reach_setup("panda", SHELF_TARGET)
@@ -106,11 +116,10 @@ def run(runs: int, steps: int) -> dict:
                                  compiled_distances=False)  # fmt: skip
     braking = AvoidingLp2Controller(setup.model, scene, setup.q0, dt=setup.dt, qdd_max=10.0)
     out = np.zeros(setup.model.n_joints)
-    field, field_acc = (
-        Lp2Controller(setup.model, dt=setup.dt, qdd_max=qdd_max,
-                      scene=collision_avoidance(setup.model, scene, setup.q0, mechanism="both"))
-        for qdd_max in (None, 10.0)
-    )  # fmt: skip
+
+    def field(mechanism: str, qdd_max: float | None = None, **options: Any) -> Lp2Controller:
+        avoid = collision_avoidance(setup.model, scene, setup.q0, mechanism=mechanism)
+        return Lp2Controller(setup.model, dt=setup.dt, qdd_max=qdd_max, scene=avoid, **options)
 
     def into(q: np.ndarray, target: np.ndarray) -> np.ndarray:
         fused.step_into(q, target, out=out)
@@ -124,8 +133,17 @@ def run(runs: int, steps: int) -> dict:
         "AvoidingLp2Controller.step, qdd_max=10, q_prev": LoopStep(braking),
         "AvoidingLp2Controller.step, lambda_bound=None": lambda q, t: unbounded.step(q, t).q,
         "AvoidingLp2Controller.step, coal": lambda q, t: coal.step(q, t).q,
-        "Lp2Controller.step, field (both, coal)": lambda q, t: field.step(q, t).q,
-        "Lp2Controller.step, field (both, coal), qdd_max=10, q_prev": LoopStep(field_acc),
+        "Lp2Controller.step, field (both)": _stepping(field("both")),
+        "Lp2Controller.step, field (both), qdd_max=10, q_prev": LoopStep(field("both", 10.0)),
+        "Lp2Controller.step, field (field alone), qdd_max=10, q_prev": LoopStep(
+            field("field", 10.0)
+        ),
+        "Lp2Controller.step, field (both, coal)": _stepping(
+            field("both", compiled_distances=False)
+        ),
+        "Lp2Controller.step, field (both, coal), qdd_max=10, q_prev": LoopStep(
+            field("both", 10.0, compiled_distances=False)
+        ),
     }
     rows = []
     for name, step in variants.items():

@@ -53,7 +53,7 @@ from lpik.continuation import continued
 from lpik.limits import Piece, StepContext
 from lpik.problem import Problem
 from lpik.result import Result
-from lpik.tolerances import FEASIBILITY_TOL
+from lpik.tolerances import FEASIBILITY_TOL, MACHINE_EPSILON
 from lpik.types import FloatArray
 
 #: Default largest approach speed ``xi`` of the velocity damper [m/s].
@@ -370,40 +370,98 @@ def field_scale(
 
     At ``p = 0`` the paper's criterion (eq. 3) with eq. 12 moves ``dq = rest + s a``,
     ``[[M, J^T], [J, 0]] [a; lam] = [force; 0]`` (the null-space share of the
-    force) and ``rest`` the same for the rest of the criterion's ``f`` (None: 0).
-    ``s a`` may take at most :data:`FIELD_SHARE` of the room between ``rest`` and
-    ``[lo, hi]`` on each joint, so that the command keeps the rest of it, and
-    may not carry ``rest`` past any of the ``rows`` ``(G, g)``, ``G dq <= g`` (the
-    distance rows, with ``mechanism="both"``): LP2 keeps a solution at ``p =
-    0``. A field too strong for a joint at its limit, or one that pushed a pair
-    of links against its own row while it pushed another pair apart, made every
-    step infeasible.
+    force, :func:`null_space_motion`) and ``rest`` the same for the rest of the
+    criterion's ``f`` (None: 0); :func:`field_share` bounds ``s``. A field too
+    strong for a joint at its limit, or one that pushed a pair of links against
+    its own row while it pushed another pair apart, made every step infeasible.
     """
     a = null_space_motion(J, M, force)
-    base = np.zeros_like(a) if rest is None else rest
+    base = np.zeros_like(a) if rest is None else np.asarray(rest, dtype=np.float64)
+    G, g = (np.zeros((0, a.size)), np.zeros(0)) if rows is None else rows
+    return field_share(a, base, lo, hi, np.asarray(G, dtype=np.float64),
+                       np.asarray(g, dtype=np.float64))  # fmt: skip
+
+
+def field_share(a, base, lo, hi, G, g):  # type: ignore[no-untyped-def]
+    """:func:`field_scale`'s ``s``: the field's motion ``s a`` on top of the rest's ``base``.
+
+    ``s a`` may take at most :data:`FIELD_SHARE` of the room between ``base`` and
+    ``[lo, hi]`` on each joint, so that the command keeps the rest of it, and may
+    not carry ``base`` past any of the rows ``G dq <= g`` (the distance rows, with
+    ``mechanism="both"``): LP2 keeps a solution at ``p = 0``. Plain loops: the
+    compiled step (:func:`lpik.fast.step.field_in_state`) runs this function itself.
+    """
+    n = a.shape[0]
     scale = 1.0
-    for i in range(a.shape[0]):
+    for i in range(n):
         if a[i] > 0:
             scale = min(scale, max(0.0, FIELD_SHARE * (hi[i] - base[i])) / a[i])
         elif a[i] < 0:
             scale = min(scale, min(0.0, FIELD_SHARE * (lo[i] - base[i])) / a[i])
-    if rows is not None:
-        G, g = rows
-        along, used = G @ a, G @ base
-        for k in range(along.shape[0]):
-            if along[k] > 0:
-                scale = min(scale, max(0.0, g[k] - used[k]) / along[k])
+    for k in range(G.shape[0]):
+        along, used = 0.0, 0.0
+        for i in range(n):
+            along += G[k, i] * a[i]
+            used += G[k, i] * base[i]
+        if along > 0:
+            scale = min(scale, max(0.0, g[k] - used) / along)
     return scale
 
 
-def null_space_motion(J: FloatArray, M: FloatArray, f: FloatArray) -> FloatArray:
-    """The step at ``p = 0`` that ``f`` drives (eq. 3 with eq. 12).
+def _svd(A):  # type: ignore[no-untyped-def]  # the compiled twin binds lpik.fast.jacobi's
+    return np.linalg.svd(A)
 
-    ``[[M, J^T], [J, 0]] [dq; lam] = [f; 0]``: the null-space share of ``f``.
+
+def null_space_motion(J, M, f):  # type: ignore[no-untyped-def]
+    """The step at ``p = 0`` that ``f`` drives (eq. 3 with eq. 12): the null-space share of ``f``.
+
+    ``[[M, J^T], [J, 0]] [dq; lam] = [f; 0]``, with ``M`` symmetric positive
+    definite: with ``M = L L^T`` (Cholesky) and ``B = J L^-T``, ``dq = L^-T (I - P)
+    L^-1 f``, ``P`` the projection onto the row space of ``B`` (its right singular
+    vectors whose singular values exceed ``max(m, n)`` machine epsilons of the
+    largest, the rank of a least-squares solve). So ``J dq = 0`` and ``M dq - f``
+    lies in the row space of ``J``; where ``J`` is rank deficient ``dq`` is still
+    unique (``lam`` is not). Plain loops: the compiled step runs this function
+    with the Jacobi SVD of :mod:`lpik.fast.jacobi` in place of numpy's.
     """
-    n, m = M.shape[0], J.shape[0]
-    kkt = np.block([[M, J.T], [J, np.zeros((m, m))]])
-    return np.linalg.lstsq(kkt, np.concatenate([f, np.zeros(m)]), rcond=None)[0][:n]
+    m, n = J.shape
+    chol = np.zeros((n, n))  # M = chol chol^T, lower triangular
+    for a in range(n):
+        for b in range(a + 1):
+            s = M[a, b]
+            for k in range(b):
+                s -= chol[a, k] * chol[b, k]
+            chol[a, b] = math.sqrt(max(s, 0.0)) if a == b else s / chol[b, b]
+    B = np.empty((m, n))  # B^T = chol^-1 J^T: each row of J through forward substitution
+    y = np.empty(n)  # chol^-1 f
+    for a in range(n):
+        s = f[a]
+        for c in range(a):
+            s -= chol[a, c] * y[c]
+        y[a] = s / chol[a, a]
+        for k in range(m):
+            s = J[k, a]
+            for c in range(a):
+                s -= chol[a, c] * B[k, c]
+            B[k, a] = s / chol[a, a]
+    z = y.copy()
+    if m > 0:
+        sv, Vt = _svd(B)[1:]
+        cutoff = MACHINE_EPSILON * max(m, n) * sv[0]
+        for j in range(sv.shape[0]):
+            if sv[j] > cutoff:
+                along = 0.0
+                for i in range(n):
+                    along += Vt[j, i] * y[i]
+                for i in range(n):
+                    z[i] -= along * Vt[j, i]
+    dq = np.empty(n)  # chol^-T z: back substitution
+    for a in range(n - 1, -1, -1):
+        s = z[a]
+        for c in range(a + 1, n):
+            s -= chol[c, a] * dq[c]
+        dq[a] = s / chol[a, a]
+    return dq
 
 
 def field_scale_for(force: FloatArray, problem: Problem) -> float:

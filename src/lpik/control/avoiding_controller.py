@@ -46,8 +46,8 @@ class AvoidingLp2Controller(Lp2Controller):
             (used when ``scene`` is a Scene); None: only the pairs that touch
             everywhere are.
         dt: Control period [s].
-        compiled_distances: With the damper alone, compute the distances and rows inside
-            the compiled step (False: through coal in Python, as with the field).
+        compiled_distances: Compute the distances, the damper's rows and the potential
+            field's force inside the compiled step (False: through coal in Python).
         **options: The other arguments of :class:`~lpik.control.controller.Lp2Controller`
             (not ``G``, ``h``, ``row_labels``: the rows are the scene's).
 

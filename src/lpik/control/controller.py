@@ -139,6 +139,8 @@ class SceneRows:
 
     def __init__(self, model: TaskModel, avoidance: CollisionAvoidance) -> None:
         self.avoidance = avoidance
+        #: Whether the compiled step computes the distances, rows and force itself.
+        self.in_kernel = False
         probe = avoidance.proximities.at(
             np.clip(np.zeros(model.n_joints), model.q_min, model.q_max)
         )
@@ -170,10 +172,10 @@ class SceneRows:
     def write(self, q0: FloatArray, target: Any, q_prev: Any) -> None:
         """This step's rows (and force) by coal into the state buffer.
 
-        The field's force is scaled within the step's own room
-        (:func:`lpik.collision.avoidance.with_force`), read off the numpy
-        engine's problem for this step, its acceleration bands included (as
-        :meth:`lpik.collision.CollisionAvoidance.with_field` does on the numpy engine).
+        The field's force is scaled within the step's own room (:meth:`field_weights`).
+        Where the compiled step computes the distances itself (:attr:`in_kernel`), it
+        adds the field to its criterion itself, and only the numpy engine's ``f``
+        holds it.
         """
         self.G[:] = 0.0
         self.h[:] = INACTIVE_RHS
@@ -181,13 +183,26 @@ class SceneRows:
         pairs, G, h = self._rows.pair_rows(q0, self._stepper.dt, before)
         self.G[pairs] = G
         self.h[pairs] = h
+        f = self.field_weights(q0, target, q_prev)
+        if not self.in_kernel:
+            self._f[:] = f
+
+    def field_weights(self, q0: FloatArray, target: Any, q_prev: Any) -> FloatArray:
+        """The criterion's ``f`` with the field's force at ``q0``: the numpy engine's, returned.
+
+        The force is scaled within the step's own room
+        (:func:`lpik.collision.avoidance.with_force`), read off the numpy engine's
+        problem for this step over the rows the state holds, its acceleration bands
+        included (as :meth:`lpik.collision.CollisionAvoidance.with_field` does on the
+        numpy engine).
+        """
         force = self.avoidance.field_at(q0, self._stepper.dt)
         f = self._f0
         if force is not None:  # its share of this step's room: the numpy engine's problem
             self._stepper.weights["f"] = self._f0
             f = with_force(self._stepper.problem(q0, target, q_prev), force).f
-        self._f[:] = f
         self._stepper.weights["f"] = f
+        return f
 
 
 def compiled_least_error(*arrays: Any) -> tuple[str, FloatArray]:
@@ -271,8 +286,8 @@ class Lp2Controller:
         home: With a Scene: a configuration at which touching self-collision
             pairs are dropped; None: only the pairs that touch everywhere are
             (:func:`lpik.collision.distance.robot_bodies`).
-        compiled_distances: With the damper alone, compute the distances and rows
-            inside the compiled step (``False``: through coal in Python, as with the field).
+        compiled_distances: Compute the distances, the damper's rows and the potential
+            field's force inside the compiled step (``False``: through coal in Python).
         compile: When the kernels compile (:mod:`lpik.control.warmup`): ``"background"``
             (the default, :data:`lpik.defaults.DEFAULT_COMPILE`, or ``LPIK_COMPILE``
             in the environment): loaded from numba's disk cache when it has them,
@@ -374,7 +389,7 @@ class Lp2Controller:
         self.found: FloatArray | None = None
         if scene_rows is not None:
             scene_rows.attach(self._state, s)
-            if scene_rows.avoidance.mechanism == "rows" and bool(compiled_distances):
+            if bool(compiled_distances):
                 self._compile_distances(scene_rows.avoidance)
         self._coal_rows = scene_rows is not None and self.found is None  # rows written first
         self._last: Result | None = None  # step_into's last outcome when not optimal
@@ -533,11 +548,15 @@ class Lp2Controller:
         self._singular_at = int(self._state[layout.SINGULAR])  # the stop ahead, for _on_floor
 
     def _compile_distances(self, avoidance: CollisionAvoidance) -> None:
-        """The fused step with the scene's distances and rows inside (lpik.fast.avoiding_step)."""
+        """The fused step with the scene's distances, rows and field inside (fast.avoiding_step)."""
         from lpik.fast.avoiding_step import avoiding_kernel, pack_bodies
 
-        arrays = pack_bodies(avoidance.proximities, self.dt, avoidance.approach_speed)
+        field = avoidance.mechanism != "rows"
+        arrays = pack_bodies(avoidance.proximities, self.dt, avoidance.approach_speed,
+                             avoidance.field_gain if field else 0.0,
+                             avoidance.mechanism == "field")  # fmt: skip
         self.found = arrays[6]
+        self.scene_rows.in_kernel = True
         self._kernel = partial(avoiding_kernel(self._target_axes), *arrays)
 
     # -- one step -------------------------------------------------------------------------
@@ -751,7 +770,10 @@ class Lp2Controller:
         kernel's distances, or coal's written before it), not computed again
         (:meth:`problem` computes them).
         """
-        return self.stepper.problem(*self._checked(q0, target, q_prev), bound=bound)
+        q0, target, q_prev = self._checked(q0, target, q_prev)
+        if self.found is not None and self.avoidance.mechanism != "rows":  # the field's f at q0
+            self.scene_rows.field_weights(np.asarray(q0, dtype=np.float64), target, q_prev)
+        return self.stepper.problem(q0, target, q_prev, bound=bound)
 
     def inside(self, q0: ArrayLike) -> dict[str, float]:
         """The pairs inside the safety distance at ``q0``, just stepped from: label -> distance.

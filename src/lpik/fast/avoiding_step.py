@@ -20,9 +20,16 @@ The robot and the scene travel as a few arrays (:func:`pack_bodies`):
 ``capsules`` (k, 8): joint, ``a``, ``b`` in that joint's frame, radius;
 ``obstacles`` (o, 17): a kind (:data:`KINDS`) and its numbers;
 ``pairs`` (P, 3): 0 and (capsule, obstacle), or 1 and (capsule, capsule), in
-the order of :meth:`lpik.collision.Proximities.at`; ``damper`` (3,):
-the share ``r``, ``d_s`` and ``d_i``; and their scratch, among which
+the order of :meth:`lpik.collision.Proximities.at`; ``damper`` (5,):
+the share ``r``, ``d_s``, ``d_i``, the potential field's gain ``eta`` (0: none)
+and 1 for the field alone (rows only inside ``d_s``); and their scratch, among which
 ``found`` (P, 10): each pair's distance, witness points and normal after a step.
+
+With the potential field (``mechanism="field"`` or ``"both"``) the same pass sums
+each pair's repulsion into the force (the state's ``field`` block), which the
+step adds to its criterion at the share of its room that
+:func:`lpik.collision.avoidance.field_scale_for` gives
+(:func:`lpik.fast.step.field_in_state`).
 """
 
 from __future__ import annotations
@@ -58,6 +65,7 @@ from lpik.fast.step import (
 )
 from lpik.fast.twins import compiled_twin, rebound
 from lpik.fast.views import matrix
+from lpik.tolerances import FEASIBILITY_TOL
 
 #: Obstacle kinds, by their code in the ``obstacles`` array.
 KINDS = ("sphere", "capsule", "box", "plane")
@@ -67,11 +75,15 @@ BOUND_MARGIN = 1e-9
 OBSTACLE_WIDTH = 17
 
 _braking_room = njit(cache=True)(bands.braking_room)
+#: :func:`lpik.collision.avoidance.damper_row`, compiled.
+compiled_damper_row = njit(cache=True)(avoidance.damper_row)
+#: :func:`lpik.collision.avoidance.repulsion` (the field's magnitude), compiled.
+compiled_repulsion = njit(cache=True)(avoidance.repulsion)
 #: :func:`lpik.collision.avoidance.approach_row` (the damper's row, or the stop ahead of
 #: ``d_i``), compiled.
 compiled_approach_row = compiled_twin(
     avoidance.approach_row,
-    damper_row=njit(cache=True)(avoidance.damper_row),
+    damper_row=compiled_damper_row,
     braking_row=compiled_twin(avoidance.braking_row, braking_room=_braking_room,
                               stopping_distance=njit(cache=True)(bands.stopping_distance),
                               row_deceleration=row_deceleration),
@@ -212,13 +224,19 @@ def world_axes(frames, axes, out):
 @njit(cache=True)
 def distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scratch, state, q0,
                   q_prev):  # fmt: skip
-    """Every watched pair's distance into ``found`` and its row into the state's rows block.
+    """Every watched pair's distance, row and repulsion: ``found``, rows block, ``field``.
 
-    A pair within ``d_i`` gets the damper's row, one beyond it under acceleration
-    limits its stop ahead where it needs one (:func:`compiled_approach_row`); every
-    other reserved row is ``0 q <= INACTIVE_RHS``. A pair whose distance is beyond
-    ``d_i`` plus its capsules' reach (:func:`compiled_capsule_reach`) for certain
-    (a bounding sphere's test) is not measured.
+    Each pair's distance goes into ``found``, its row into the state's rows block,
+    its repulsion into the state's ``field`` block (:func:`pair_share`). A pair
+    within ``d_i`` gets the damper's row, one beyond it under acceleration limits
+    its stop ahead where it needs one (:func:`compiled_approach_row`); every
+    other reserved row is ``0 q <= INACTIVE_RHS``. With the field alone
+    (``damper[4]`` 1) only a pair inside ``d_s`` has a row, and none a stop ahead, as
+    :meth:`lpik.collision.CollisionAvoidance.rows` has it. With a field gain
+    (``damper[3]`` > 0) each pair within ``d_i`` adds its repulsion
+    (:func:`lpik.collision.avoidance.field_force`). A pair whose distance is beyond
+    ``d_i`` plus its capsules' reach (:func:`compiled_capsule_reach`) for certain (a
+    bounding sphere's test) is not measured.
     """
     n, k_capsules = q0.shape[0], capsules.shape[0]
     axes = L.matrix_at(state, L.AXES, n, 3)
@@ -227,12 +245,18 @@ def distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scrat
     h = L.vector(state, L.ROWS_H)
     limits = L.matrix_at(state, L.LIMITS, 6, n)
     dt, influence = state[L.DT], damper[2]
+    force = L.vector(state, L.FIELD)
+    for c in range(n):
+        force[c] = 0.0
     gradient = scratch[8 : 8 + n]
     reach = scratch[8 + n : 8 + n + 2 * k_capsules]
     world = scratch[8 + n + 2 * k_capsules : 8 + 4 * n + 2 * k_capsules].reshape((n, 3))
     world_axes(frames, axes, world)
     compiled_capsule_reach(capsules[:, 0], capsules[:, 7], ends, frames[:, 9:12], world,
                            revolute, q0, q_prev, limits[4], limits[5], dt, reach)  # fmt: skip
+    if damper[4] != 0.0:  # no stop ahead of d_i: the field's rows are only those inside d_s
+        for c in range(2 * k_capsules):
+            reach[c] = 0.0
     for k in range(pairs.shape[0]):
         i, j = pairs[k, 1], pairs[k, 2]
         for c in range(n):
@@ -270,10 +294,31 @@ def distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scrat
         if pairs[k, 0] == 1:
             add_velocity(frames, axes, revolute, int(capsules[j, 0]), out[4:7], 1.0, out[7:10],
                          gradient)  # fmt: skip
-        rhs = compiled_approach_row(d, gradient, q0, q_prev, limits[4], limits[5], dt, damper,
-                                    G[k])  # fmt: skip
-        if not math.isnan(rhs):
-            h[k] = rhs
+        pair_share(d, gradient, q0, q_prev, limits, dt, damper, G[k], h, k, force)
+
+
+@njit(cache=True)
+def pair_share(distance, gradient, q0, q_prev, limits, dt, damper, row, h, k, force):
+    """One measured pair's share of the step: its row (``row``, ``h[k]``) and its repulsion.
+
+    The row as :func:`distance_rows` gives it (with the field alone, only inside
+    ``d_s``); with a field gain, within ``d_i`` the pair's repulsion
+    (:func:`lpik.collision.avoidance.repulsion`) along ``gradient`` is added to ``force``.
+    """
+    safety, influence, gain = damper[1], damper[2], damper[3]
+    if gain > 0.0 and distance < influence:
+        push = dt * compiled_repulsion(distance, gain, influence)
+        for c in range(force.shape[0]):
+            force[c] += push * gradient[c]
+    if damper[4] != 0.0:  # the field alone: the damper's row inside d_s (no acc. limits)
+        if distance >= safety - FEASIBILITY_TOL:
+            return
+        rhs = compiled_damper_row(distance, gradient, q0, damper[0], safety, row)
+    else:
+        rhs = compiled_approach_row(distance, gradient, q0, q_prev, limits[4], limits[5], dt,
+                                    damper, row)  # fmt: skip
+    if not math.isnan(rhs):
+        h[k] = rhs
 
 
 def avoiding_step(capsules, obstacles, pairs, damper, frames, ends, found, scratch,
@@ -332,13 +377,18 @@ def loaded_avoiding_kernel() -> Any:
     return loaded_kernel("avoiding_step")
 
 
-def pack_bodies(proximities: Any, dt: float, approach_speed: float) -> tuple[np.ndarray, ...]:
+def pack_bodies(
+    proximities: Any, dt: float, approach_speed: float, field_gain: float = 0.0,
+    inside_only: bool = False,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
     """The arrays :func:`avoiding_step` takes before the state, for a scene's pairs.
 
     Args:
         proximities: A :class:`lpik.collision.Proximities` (its bodies, scene and pairs).
         dt: Control period [s].
         approach_speed: ``xi`` of the damper [m/s].
+        field_gain: ``eta`` of the potential field [m^3/s] (0: no field).
+        inside_only: The field alone: rows only for the pairs inside ``d_s``.
 
     Returns:
         ``capsules``, ``obstacles``, ``pairs``, ``damper`` and the scratch
@@ -367,7 +417,8 @@ def pack_bodies(proximities: Any, dt: float, approach_speed: float) -> tuple[np.
         dtype=np.int64,
     ).reshape(-1, 3)
     d_s, d_i = scene.safety_distance, scene.influence_distance
-    damper = np.array([damper_share(approach_speed, dt, d_s, d_i), d_s, d_i])
+    damper = np.array([damper_share(approach_speed, dt, d_s, d_i), d_s, d_i, field_gain,
+                       float(inside_only)])  # fmt: skip
     n = bodies.chain.n_joints
     return (
         capsules, obstacles, pairs, damper, np.zeros((n, 12)),

@@ -59,8 +59,10 @@ MEMORY, MEMORY_Q, MEMORY_GOAL, TARGET_MOTION = range(61, 65)
 SINGULAR, SIGMA = 65, 66
 # the right-hand sides of the command's brake (lpik.command.braking_scale)
 BRAKE = 67
+# the potential field's force, written by the step with a scene's distances inside
+FIELD = 68
 #: The slot holding the buffer's length (where a block after the last would start).
-END = 68
+END = 69
 #: Length of the header.
 HEADER = END + 1
 
@@ -169,6 +171,7 @@ BLOCKS = (
         "sigma_min, sigma_max of J at q0, sigma_min at prev_q (NaN: not known; autobound's memo)",
     ),
     Block(BRAKE, "brake", (2, "m"), "the error, the last motion's turn: the brake's task motions"),
+    Block(FIELD, "field", ("n",), "the potential field's force at q0 (0: none; a scene's step)"),
 )
 #: The blocks a step reports, in the order of the buffer: they form one range.
 OUT_BLOCKS = ("q", "dq", "lam", "position", "dw", "p", "label", "residual", "bound", "bounded",

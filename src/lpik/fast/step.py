@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit, prange, types
 
 from lpik import bands
+from lpik.collision import avoidance
 from lpik.continuation import fading_steps as _fading_steps
 from lpik.continuation import motion_decay as _motion_decay
 from lpik.fast import layout as L
@@ -46,6 +47,7 @@ from lpik.fast.command_law import (
     target_fits,
     target_motion,
 )
+from lpik.fast.jacobi import jacobi_svd
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
 from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core, pull_scale_of
 from lpik.fast.saturation import lp2s_core
@@ -72,6 +74,10 @@ fading_band = compiled_twin(bands.fading_band, braking_room=njit(cache=True)(ban
 _outside_tolerance = njit(cache=True)(bands.outside_tolerance)
 stop_band = compiled_twin(bands.stop_band, yield_to=_yield_to, outside_tolerance=_outside_tolerance)
 beyond_stops = compiled_twin(bands.beyond_stops, outside_tolerance=_outside_tolerance)
+#: The field's null-space motion and share of the step's room
+#: (:mod:`lpik.collision.avoidance`), compiled as they are.
+null_space_motion = compiled_twin(avoidance.null_space_motion, _svd=jacobi_svd)
+field_share = njit(cache=True)(avoidance.field_share)
 
 
 @njit(cache=True)
@@ -272,6 +278,34 @@ def pull_back(state, c, lower, upper):
 
 
 @njit(cache=True)
+def field_in_state(state, J, c, lower, upper, G, g):
+    """``c += s force``: the potential field's force (the ``field`` block) at its share ``s``.
+
+    :func:`lpik.collision.avoidance.field_scale_for` on the step as the state holds
+    it: ``c`` the criterion's ``f`` (eq. 3; around the motion, less its pull back),
+    ``lower`` and ``upper`` the bounds and ``G dq <= g`` the rows of that step, and
+    ``M = H - Lambda``. Nothing where the force is 0 (no scene, no pair within
+    ``d_i``, or the damper's rows alone).
+    """
+    n = c.shape[0]
+    force = L.vector(state, L.FIELD)
+    acting = False
+    for i in range(n):
+        acting = acting or force[i] != 0.0
+    if not acting:
+        return
+    H, Lam = L.matrix_at(state, L.CRITERION, n, n), L.matrix_at(state, L.LAMBDA, n, n)
+    M = np.empty((n, n))
+    for i in range(n):
+        for k in range(n):
+            M[i, k] = H[i, k] - Lam[i, k]
+    share = field_share(null_space_motion(J, M, force), null_space_motion(J, M, c), lower, upper,
+                        G, g)  # fmt: skip
+    for i in range(n):
+        c[i] += share * force[i]
+
+
+@njit(cache=True)
 def resume_motion(state, code, J, dw, dq):
     """Back to a step from ``q0`` (:func:`lpik.continuation.resumed`): ``dw`` and ``dq``.
 
@@ -333,6 +367,7 @@ def limit_and_solve(state, q0, q_prev, J, dw):
     brake_rows(state, q0, g)
     if moving:
         pull_back(state, c, lower, upper)
+    field_in_state(state, J, c, lower, upper, G, g)
     lam_bounds = L.matrix_at(state, L.LAM_BOUNDS, 2, m)
     H, h_diag, ws = (
         L.matrix_at(state, L.CRITERION, n, n),
