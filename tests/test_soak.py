@@ -50,6 +50,7 @@ def test_the_long_soak_is_in_the_reliability_page() -> None:
     ("iiwa14", 'mode="progress", qdd_max=5', 2_000),
     ("panda", "the shelf scene, qdd_max=10", 1_500),
     ("panda", "the shelf scene, unclamped, qdd_max=10", 1_500),
+    ("panda", "the shelf scene, field and rows, qdd_max=10", 1_500),
 ])  # fmt: skip
 def test_closed_loops_over_other_arms_and_settings_break_no_limit(robot, setting, steps) -> None:
     """lpik_bench.closed_loops, sized for CI: a bad velocity sample at step 246 (seed 3), the

@@ -79,6 +79,11 @@ SETTINGS: dict[str, dict[str, Any]] = {
         "w_max": 1e6,
         "scene": "panda-shelf",
     },
+    "the shelf scene, field and rows, qdd_max=10": {
+        "qdd_max": 10.0,
+        "scene": "panda-shelf",
+        "mechanism": "both",
+    },
     "measured joints (noise 1e-4 rad), qdd_max=10": {"qdd_max": 10.0, "noise": 1e-4},
     "velocity readings, qdd_max=10": {"qdd_max": 10.0, "velocity_readings": True},
 }
@@ -119,7 +124,7 @@ def bad_reading(rng: Any, model: Any, q0: Any, q_prev: Any) -> Any:
 def _setup(robot: str, setting: str) -> tuple[Any, Any, Any, str, dict[str, Any]]:
     """The task model, compiled controller, scene (or None), task kind and keyword arguments
     of ``robot`` under ``SETTINGS[setting]``."""
-    from lpik.collision import load_scene
+    from lpik.collision import collision_avoidance, load_scene
     from lpik.control.controller import Lp2Controller
     from lpik.robots.registry import load_robot
 
@@ -129,6 +134,9 @@ def _setup(robot: str, setting: str) -> tuple[Any, Any, Any, str, dict[str, Any]
     task = options.pop("task", "pose")  # the walk is a pose; a position task follows its point
     model = load_robot(robot, task=task)
     scene = None if "scene" not in options else load_scene(options.pop("scene"))
+    mechanism = options.pop("mechanism", "rows")  # the potential field too: the compiled field
+    if scene is not None and mechanism != "rows":
+        scene = collision_avoidance(model, scene, None, mechanism=mechanism)
     controller = Lp2Controller(model, dt=DT, compile="now", scene=scene, **options)
     return model, controller, scene, task, options
 
