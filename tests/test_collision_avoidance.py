@@ -363,3 +363,53 @@ def test_a_pair_inside_the_safety_distance_by_less_than_the_check_tells_is_at_it
         rows[depth] = damper_row(0.05 - depth, gradient, q0, 0.1, 0.05, row) - row @ q0
     assert rows[0.0] == rows[0.5 * FEASIBILITY_TOL] == rows[0.99 * FEASIBILITY_TOL] == 0.0
     assert rows[3 * FEASIBILITY_TOL] == pytest.approx(-0.1 * 3 * FEASIBILITY_TOL)
+
+
+@settings(max_examples=20, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    mechanism=st.sampled_from(["field", "both"]),
+    qdd_max=st.sampled_from([None, 15.0]),
+)
+def test_the_compiled_field_keeps_every_limit_and_takes_the_numpy_steps(
+    seed: int, mechanism: str, qdd_max: float | None
+) -> None:
+    """The Panda near a random ball with the potential field (alone or with the rows), from a
+    random configuration toward a random pose, in a loop that passes q_prev: the compiled
+    field (its force and share inside the compiled step) takes the numpy engine's steps, p is
+    in [0, 1], no step breaks a bound or a row of its problem, and an optimal step without
+    acceleration limits moves the task by exactly p dw."""
+    pytest.importorskip("numba")
+    from lpik.check import worst_violation
+    from lpik.collision import scene_from_dict
+    from lpik.control.controller import Lp2Controller
+    from lpik.control.stepper import Stepper
+    from lpik.result import OPTIMAL
+    from lpik.robots.registry import home_configuration, load_robot
+
+    rng = np.random.default_rng(seed)
+    panda, home = load_robot("panda"), home_configuration("panda")
+    q = np.clip(home + rng.normal(scale=0.3, size=7), panda.q_min + 0.1, panda.q_max - 0.1)
+    elbow = panda.kinematics.joint_frames(q)[3][:3, 3]  # joint 4, the elbow
+    ball = {"name": "ball", "type": "sphere", "radius": float(rng.uniform(0.02, 0.05)),
+            "center": (elbow + rng.normal(scale=0.1, size=3)).tolist()}  # fmt: skip
+    scene = scene_from_dict({"obstacles": [ball], "safety_distance": 0.02,
+                             "influence_distance": 0.12})  # fmt: skip
+    avoid = collision_avoidance(panda, scene, home, mechanism=mechanism)
+    dt = 0.01
+    compiled = Lp2Controller(panda, dt=dt, qdd_max=qdd_max, scene=avoid)
+    numpy_engine = Stepper(panda, dt=dt, qdd_max=qdd_max, scene=avoid)
+    target = panda.pose(q)
+    target[:3, 3] += rng.normal(scale=0.1, size=3)
+    prev = q.copy()
+    for _ in range(6):
+        got, ref = compiled.step(q, target, prev), numpy_engine.step(q, target, prev)
+        np.testing.assert_allclose(got.q, ref.q, rtol=0, atol=1e-9)
+        assert 0.0 <= got.p <= 1.0 and got.status == ref.status
+        problem = compiled.problem(q, target, prev)
+        if got.status == OPTIMAL:
+            assert worst_violation(problem, got.dq).amount <= FEASIBILITY_TOL
+            if qdd_max is None:
+                np.testing.assert_allclose(problem.J @ got.dq, got.p * problem.dw, rtol=0,
+                                           atol=1e-9)  # fmt: skip
+        prev, q = q, got.q
