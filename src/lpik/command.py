@@ -461,7 +461,7 @@ def made_by_drives(q0, q_prev, qd_min, qd_max, dt):  # type: ignore[no-untyped-d
     commanded direction with the step's status ``optimal``. Measured on the
     Panda without acceleration limits, one ``q_prev`` 0.05 rad off (an implied
     50 rad/s) made a 0.5 mm step along x move the tool 1.1 mm along y and turn
-    it by 2.7 mrad; so the command law takes the term off only after a step
+    it by 3.0 mrad; so the command law takes the term off only after a step
     the drives could have made (under acceleration limits the controller has
     already taken such a ``q_prev`` at the step the drives could have made:
     :mod:`lpik.control.commanded`). A plain loop, compiled as it is by the fused step.
