@@ -151,7 +151,8 @@ def test_the_fields_null_space_motion_solves_the_kkt_system(
     expected = np.linalg.lstsq(kkt, np.concatenate([f, np.zeros(m)]), rcond=None)[0][:n]
     dq = null_space_motion(J, M, f)
     size = np.abs(f).max()  # |dq| <= |f| / lambda_min(M), lambda_min(M) >= n
-    np.testing.assert_allclose(dq, expected, rtol=0, atol=1e-8 * size)
+    # lstsq decides the rank of the whole KKT matrix, and its accuracy is that of its condition
+    np.testing.assert_allclose(dq, expected, rtol=0, atol=1e-6 * size)
     np.testing.assert_allclose(J @ dq, 0.0, rtol=0, atol=1e-12 * np.abs(J).max() * size)
     pytest.importorskip("numba")
     from lpik.fast.step import null_space_motion as compiled

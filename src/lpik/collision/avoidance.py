@@ -53,7 +53,7 @@ from lpik.continuation import continued
 from lpik.limits import Piece, StepContext
 from lpik.problem import Problem
 from lpik.result import Result
-from lpik.tolerances import FEASIBILITY_TOL, MACHINE_EPSILON
+from lpik.tolerances import FEASIBILITY_TOL, SINGULAR_FLOOR, SINGULAR_RTOL
 from lpik.types import FloatArray
 
 #: Default largest approach speed ``xi`` of the velocity damper [m/s].
@@ -418,8 +418,10 @@ def null_space_motion(J, M, f):  # type: ignore[no-untyped-def]
     ``[[M, J^T], [J, 0]] [dq; lam] = [f; 0]``, with ``M`` symmetric positive
     definite: with ``M = L L^T`` (Cholesky) and ``B = J L^-T``, ``dq = L^-T (I - P)
     L^-1 f``, ``P`` the projection onto the row space of ``B`` (its right singular
-    vectors whose singular values exceed ``max(m, n)`` machine epsilons of the
-    largest, the rank of a least-squares solve). So ``J dq = 0`` and ``M dq - f``
+    vectors whose singular values count as nonzero by LP2's singular path's rule,
+    above :data:`~lpik.tolerances.SINGULAR_RTOL` of the largest and
+    :data:`~lpik.tolerances.SINGULAR_FLOOR`: what is below is rounding, and its
+    vectors are not orthogonal to the others). So ``J dq = 0`` and ``M dq - f``
     lies in the row space of ``J``; where ``J`` is rank deficient ``dq`` is still
     unique (``lam`` is not). Plain loops: the compiled step runs this function
     with the Jacobi SVD of :mod:`lpik.fast.jacobi` in place of numpy's.
@@ -447,7 +449,7 @@ def null_space_motion(J, M, f):  # type: ignore[no-untyped-def]
     z = y.copy()
     if m > 0:
         sv, Vt = _svd(B)[1:]
-        cutoff = MACHINE_EPSILON * max(m, n) * sv[0]
+        cutoff = max(SINGULAR_RTOL * sv[0], SINGULAR_FLOOR)
         for j in range(sv.shape[0]):
             if sv[j] > cutoff:
                 along = 0.0
