@@ -51,9 +51,10 @@ from lpik.collision import recovery
 from lpik.collision.distance import Proximities, Proximity
 from lpik.continuation import continued
 from lpik.limits import Piece, StepContext
+from lpik.methods.singular import back_substitution, forward_substitution, regular_count
 from lpik.problem import Problem
 from lpik.result import Result
-from lpik.tolerances import FEASIBILITY_TOL, SINGULAR_FLOOR, SINGULAR_RTOL
+from lpik.tolerances import FEASIBILITY_TOL
 from lpik.types import FloatArray
 
 #: Default largest approach speed ``xi`` of the velocity damper [m/s].
@@ -416,53 +417,29 @@ def null_space_motion(J, M, f):  # type: ignore[no-untyped-def]
     """The step at ``p = 0`` that ``f`` drives (eq. 3 with eq. 12): the null-space share of ``f``.
 
     ``[[M, J^T], [J, 0]] [dq; lam] = [f; 0]``, with ``M`` symmetric positive
-    definite: with ``M = L L^T`` (Cholesky) and ``B = J L^-T``, ``dq = L^-T (I - P)
-    L^-1 f``, ``P`` the projection onto the row space of ``B`` (its right singular
-    vectors whose singular values count as nonzero by LP2's singular path's rule,
-    above :data:`~lpik.tolerances.SINGULAR_RTOL` of the largest and
-    :data:`~lpik.tolerances.SINGULAR_FLOOR`: what is below is rounding, and its
-    vectors are not orthogonal to the others). So ``J dq = 0`` and ``M dq - f``
-    lies in the row space of ``J``; where ``J`` is rank deficient ``dq`` is still
-    unique (``lam`` is not). Plain loops: the compiled step runs this function
-    with the Jacobi SVD of :mod:`lpik.fast.jacobi` in place of numpy's.
+    definite, by the decomposition of LP2's singular path
+    (:func:`lpik.methods.singular.singular_core`): with ``M = L L^T`` and ``B = J
+    L^-T``, ``dq = L^-T (I - P) L^-1 f``, ``P`` the projection onto the row space of
+    ``B``, its right singular vectors of the singular values that count as nonzero
+    (:func:`lpik.methods.singular.regular_count`; below them is rounding, whose
+    vectors are not orthogonal to the others). So ``J dq = 0`` and ``M dq - f`` lies
+    in the row space of ``J``; where ``J`` is rank deficient ``dq`` is still unique
+    (``lam`` is not). Plain loops: the compiled step runs this function with the
+    Jacobi SVD of :mod:`lpik.fast.jacobi` in place of numpy's.
     """
     m, n = J.shape
-    chol = np.zeros((n, n))  # M = chol chol^T, lower triangular
-    for a in range(n):
-        for b in range(a + 1):
-            s = M[a, b]
-            for k in range(b):
-                s -= chol[a, k] * chol[b, k]
-            chol[a, b] = math.sqrt(max(s, 0.0)) if a == b else s / chol[b, b]
-    B = np.empty((m, n))  # B^T = chol^-1 J^T: each row of J through forward substitution
-    y = np.empty(n)  # chol^-1 f
-    for a in range(n):
-        s = f[a]
-        for c in range(a):
-            s -= chol[a, c] * y[c]
-        y[a] = s / chol[a, a]
-        for k in range(m):
-            s = J[k, a]
-            for c in range(a):
-                s -= chol[a, c] * B[k, c]
-            B[k, a] = s / chol[a, a]
-    z = y.copy()
+    L = np.linalg.cholesky(M)
+    y = forward_substitution(L, f.reshape(n, 1))[:, 0]  # L^-1 f
     if m > 0:
-        sv, Vt = _svd(B)[1:]
-        cutoff = max(SINGULAR_RTOL * sv[0], SINGULAR_FLOOR)
-        for j in range(sv.shape[0]):
-            if sv[j] > cutoff:
-                along = 0.0
-                for i in range(n):
-                    along += Vt[j, i] * y[i]
-                for i in range(n):
-                    z[i] -= along * Vt[j, i]
-    dq = np.empty(n)  # chol^-T z: back substitution
-    for a in range(n - 1, -1, -1):
-        s = z[a]
-        for c in range(a + 1, n):
-            s -= chol[c, a] * dq[c]
-        dq[a] = s / chol[a, a]
+        _, sv, Vt = _svd(forward_substitution(L, J.T.copy()).T.copy())  # B = J L^-T
+        for j in range(regular_count(sv)):
+            along = 0.0
+            for i in range(n):
+                along += Vt[j, i] * y[i]
+            for i in range(n):
+                y[i] -= along * Vt[j, i]
+    dq = np.empty(n)
+    back_substitution(L, y, dq)  # L^-T (I - P) L^-1 f
     return dq
 
 

@@ -64,11 +64,13 @@ __all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kern
            "pull_scale_of"]  # fmt: skip
 
 #: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
-_HELPERS = ("_forward", "_backward", "_interval", "_eliminate", "_free_range",
-            "_held", "_held_share", "_finite", "_facet_rows", "_basic_values", "_pinned_code",
-            "singularity_code")  # fmt: skip
+_HELPERS = ("forward_substitution", "back_substitution", "regular_count", "_interval",
+            "_eliminate", "_free_range", "_held", "_held_share", "_finite", "_facet_rows",
+            "_basic_values", "_pinned_code", "singularity_code")  # fmt: skip
 _loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
-_singular_helpers = {name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS}
+#: The singular path's helpers, compiled (the field's null-space motion takes three of them:
+#: :data:`lpik.fast.step.null_space_motion`).
+singular_helpers = {name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS}
 # the Schur complement's one test (lpik.methods.kkt.ill_conditioned)
 ill_conditioned = compiled_twin(
     kkt.ill_conditioned, condition_bound=njit(cache=True)(kkt.condition_bound)
@@ -79,11 +81,11 @@ singular_core = compiled_twin(
     singular.singular_core, _svd=jacobi_svd, loop_check=_loop_check, _stop=_stop,
     pull_scale=compiled_pull_scale,
     _within_bounds=compiled_twin(singular._within_bounds, loop_check=_loop_check,
-                                 _forward=_singular_helpers["_forward"],
-                                 _backward=_singular_helpers["_backward"]),
+                                 forward_substitution=singular_helpers["forward_substitution"],
+                                 back_substitution=singular_helpers["back_substitution"]),
     _vertex_multipliers=compiled_twin(singular._vertex_multipliers,
-                                      _basic_values=_singular_helpers["_basic_values"]),
-    **_singular_helpers,
+                                      _basic_values=singular_helpers["_basic_values"]),
+    **singular_helpers,
 )  # fmt: skip
 
 #: :func:`lpik.fast.workspace.workspace_size` (compiled), by its former name.

@@ -49,7 +49,14 @@ from lpik.fast.command_law import (
 )
 from lpik.fast.jacobi import jacobi_svd
 from lpik.fast.kinematics import chain_fk_jacobian, pose_error, target_pose
-from lpik.fast.lp2_kernel import INFEASIBLE, OK, SINGULAR_PATH_ALWAYS, lp2_core, pull_scale_of
+from lpik.fast.lp2_kernel import (
+    INFEASIBLE,
+    OK,
+    SINGULAR_PATH_ALWAYS,
+    lp2_core,
+    pull_scale_of,
+    singular_helpers,
+)
 from lpik.fast.saturation import lp2s_core
 from lpik.fast.signatures import cached_kernel, loaded_kernel, typed_kernel
 from lpik.fast.twins import compiled_twin, inlined_twin, rebound
@@ -76,7 +83,11 @@ stop_band = compiled_twin(bands.stop_band, yield_to=_yield_to, outside_tolerance
 beyond_stops = compiled_twin(bands.beyond_stops, outside_tolerance=_outside_tolerance)
 #: The field's null-space motion and share of the step's room
 #: (:mod:`lpik.collision.avoidance`), compiled as they are.
-null_space_motion = compiled_twin(avoidance.null_space_motion, _svd=jacobi_svd)
+null_space_motion = compiled_twin(
+    avoidance.null_space_motion, _svd=jacobi_svd,
+    **{name: singular_helpers[name]
+       for name in ("forward_substitution", "back_substitution", "regular_count")},
+)  # fmt: skip
 field_share = njit(cache=True)(avoidance.field_share)
 
 

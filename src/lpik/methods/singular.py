@@ -91,7 +91,21 @@ def _svd(A):  # the compiled twin binds lpik.fast.jacobi.jacobi_svd instead
     return np.linalg.svd(A)
 
 
-def _forward(L, B):
+def regular_count(sv):
+    """How many singular values ``sv`` (largest first) count as nonzero.
+
+    Those above :data:`~lpik.tolerances.SINGULAR_RTOL` of the largest and above
+    :data:`~lpik.tolerances.SINGULAR_FLOOR`; what is below is rounding. Plain loops.
+    """
+    smax = sv[0] if sv.shape[0] > 0 else 0.0
+    regular = 0
+    for i in range(sv.shape[0]):
+        if sv[i] > SINGULAR_RTOL * smax and sv[i] > SINGULAR_FLOOR:
+            regular += 1
+    return regular
+
+
+def forward_substitution(L, B):
     """``L^-1 B`` for lower-triangular ``L`` (n, n) and ``B`` (n, k)."""
     n, k = B.shape
     X = np.empty((n, k))
@@ -104,7 +118,7 @@ def _forward(L, B):
     return X
 
 
-def _backward(L, y, out):
+def back_substitution(L, y, out):
     """``L^-T y`` into ``out`` for lower-triangular ``L``."""
     n = y.shape[0]
     for i in range(n - 1, -1, -1):
@@ -232,15 +246,10 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
         for a in range(m):
             Jt[i, a] = J[a, i]
     L = np.linalg.cholesky(Hp)
-    Jh = _forward(L, Jt).T.copy()  # J L^-T, (m, n)
-    ch = _forward(L, rhs)  # L^-1 c and L^-1 c_ref, (n, 2)
+    Jh = forward_substitution(L, Jt).T.copy()  # J L^-T, (m, n)
+    ch = forward_substitution(L, rhs)  # L^-1 c and L^-1 c_ref, (n, 2)
     U, sv, Vt = _svd(Jh)
-    k0 = min(m, n)
-    smax = sv[0] if k0 > 0 else 0.0
-    regular = 0
-    for i in range(k0):
-        if sv[i] > SINGULAR_RTOL * smax and sv[i] > SINGULAR_FLOOR:
-            regular += 1
+    regular = regular_count(sv)
     # --- the affine parts: y = L^T dq = ay + p by, lam = al + p bl (+ free directions) ---
     jc, jr = w_fixed.copy(), np.zeros(m)
     for a in range(m):
@@ -266,9 +275,9 @@ def singular_core(J, dw, H, c, c_ref, lower, upper, lam_min, lam_max, G, g, dq, 
             el[a] += U[a, i] * tr[i] / (si * si)
             bl[a] -= U[a, i] * e[i] / (si * si)
     a_q, e_q, b_q = np.empty(n), np.empty(n), np.empty(n)
-    _backward(L, ay, a_q)
-    _backward(L, ey, e_q)
-    _backward(L, by, b_q)
+    back_substitution(L, ay, a_q)
+    back_substitution(L, ey, e_q)
+    back_substitution(L, by, b_q)
     # --- sec. 3.1's pull: whole where it fits, else scaled to leave room (smoothing_scale) ---
     scale = pull_scale(a_q, e_q, lower, upper, al, el, lam_min, lam_max)
     pull[0] = scale
@@ -465,8 +474,7 @@ def held_joint_code(J, dw, lower, upper, sing):
     if free.all():
         return sing
     U, sv, _ = np.linalg.svd(J[:, free]) if free.any() else (np.eye(m), np.zeros(0), None)
-    smax = sv[0] if sv.size else 0.0
-    regular = int(np.sum((sv > SINGULAR_RTOL * smax) & (sv > SINGULAR_FLOOR)))
+    regular = regular_count(sv)
     w_fixed = J[:, ~free] @ lower[~free]
     return int(_pinned_code(U, regular, J, dw, w_fixed, lower, upper, True, sing))
 
@@ -673,7 +681,7 @@ def _within_bounds(L, rhs, scale, Jt, J, dw, p, lower, upper, lam_min, lam_max, 
         v[i, 0] = rhs[i, 0] + scale * rhs[i, 1]
         for a in range(m):
             v[i, 0] -= Jt[i, a] * lam[a]
-    _backward(L, _forward(L, v)[:, 0], dq)
+    back_substitution(L, forward_substitution(L, v)[:, 0], dq)
     for i in range(n):
         dq[i] = min(max(dq[i], lower[i]), upper[i])
     return loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
