@@ -32,7 +32,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("facts", ("lpik.types", "lpik.defaults", "lpik.tolerances", "lpik.labels", "lpik.exceptions",
                "lpik.naming", "lpik.robots.base", "lpik.version", "lpik.bands")),
     ("core", ("lpik.problem", "lpik.result", "lpik.check", "lpik.limits", "lpik.highs",
-              "lpik.continuation")),
+              "lpik.continuation", "lpik.linalg")),
     ("robots", ("lpik.robots",)),
     ("command", ("lpik.command",)),
     ("collision", ("lpik.collision",)),

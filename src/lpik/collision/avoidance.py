@@ -51,7 +51,7 @@ from lpik.collision import recovery
 from lpik.collision.distance import Proximities, Proximity
 from lpik.continuation import continued
 from lpik.limits import Piece, StepContext
-from lpik.methods.singular import back_substitution, forward_substitution, regular_count
+from lpik.linalg import back_substitution, forward_substitution, regular_count
 from lpik.problem import Problem
 from lpik.result import Result
 from lpik.tolerances import FEASIBILITY_TOL
@@ -421,7 +421,7 @@ def null_space_motion(J, M, f):  # type: ignore[no-untyped-def]
     (:func:`lpik.methods.singular.singular_core`): with ``M = L L^T`` and ``B = J
     L^-T``, ``dq = L^-T (I - P) L^-1 f``, ``P`` the projection onto the row space of
     ``B``, its right singular vectors of the singular values that count as nonzero
-    (:func:`lpik.methods.singular.regular_count`; below them is rounding, whose
+    (:func:`lpik.linalg.regular_count`; below them is rounding, whose
     vectors are not orthogonal to the others). So ``J dq = 0`` and ``M dq - f`` lies
     in the row space of ``J``; where ``J`` is rank deficient ``dq`` is still unique
     (``lam`` is not). Plain loops: the compiled step runs this function with the

@@ -54,13 +54,13 @@ import math
 import numpy as np
 
 from lpik.check import loop_check
+from lpik.linalg import back_substitution, forward_substitution, regular_count
 from lpik.methods.pull import pull_scale
 from lpik.tolerances import (
     EQUALITY_RTOL,
     FULL_P,
     INTERVAL_TOL,
     RATE_TOL,
-    SINGULAR_FLOOR,
     SINGULAR_RTOL,
     SLACK_TOL,
 )
@@ -89,43 +89,6 @@ def singularity_code(n, m, r):
 
 def _svd(A):  # the compiled twin binds lpik.fast.jacobi.jacobi_svd instead
     return np.linalg.svd(A)
-
-
-def regular_count(sv):
-    """How many singular values ``sv`` (largest first) count as nonzero.
-
-    Those above :data:`~lpik.tolerances.SINGULAR_RTOL` of the largest and above
-    :data:`~lpik.tolerances.SINGULAR_FLOOR`; what is below is rounding. Plain loops.
-    """
-    smax = sv[0] if sv.shape[0] > 0 else 0.0
-    regular = 0
-    for i in range(sv.shape[0]):
-        if sv[i] > SINGULAR_RTOL * smax and sv[i] > SINGULAR_FLOOR:
-            regular += 1
-    return regular
-
-
-def forward_substitution(L, B):
-    """``L^-1 B`` for lower-triangular ``L`` (n, n) and ``B`` (n, k)."""
-    n, k = B.shape
-    X = np.empty((n, k))
-    for col in range(k):
-        for i in range(n):
-            s = B[i, col]
-            for j in range(i):
-                s -= L[i, j] * X[j, col]
-            X[i, col] = s / L[i, i]
-    return X
-
-
-def back_substitution(L, y, out):
-    """``L^-T y`` into ``out`` for lower-triangular ``L``."""
-    n = y.shape[0]
-    for i in range(n - 1, -1, -1):
-        s = y[i]
-        for j in range(i + 1, n):
-            s -= L[j, i] * out[j]
-        out[i] = s / L[i, i]
 
 
 def _interval(alpha, beta, codes, count):
