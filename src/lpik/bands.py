@@ -349,7 +349,20 @@ def beyond_stops(q0: float, q_min: float, q_max: float) -> bool:
     every other step (it came back at 5 mrad/s, the other joints held, for 10 s;
     without it, in 0.1 s at its acceleration limit).
     """
-    return q_max - q0 < -outside_tolerance(q_max) or q_min - q0 > outside_tolerance(q_min)
+    return stop_side(q0, q_min, q_max) != 0
+
+
+def stop_side(q0: float, q_min: float, q_max: float) -> int:
+    """Which end-stop a joint is past by more than :func:`outside_tolerance`.
+
+    +1 above ``q_max``, -1 below ``q_min``, 0 within them (a joint past one by at
+    most the tolerance counts as on it).
+    """
+    if q_max - q0 < -outside_tolerance(q_max):
+        return 1
+    if q_min - q0 > outside_tolerance(q_min):
+        return -1
+    return 0
 
 
 def stop_band(q0: float, q_min: float, q_max: float, rate_lo: float, rate_hi: float) -> tuple:
@@ -366,20 +379,11 @@ def stop_band(q0: float, q_min: float, q_max: float, rate_lo: float, rate_hi: fl
         ``q_min``), +1 (above ``q_max``) or 0.
     """
     room_lo, room_hi = q_min - q0, q_max - q0
-    outside = 0
-    if room_hi < 0.0:
-        if room_hi < -outside_tolerance(q_max):
-            outside = 1
-        else:
-            room_hi = 0.0
-    if room_lo > 0.0:
-        if room_lo > outside_tolerance(q_min):
-            outside = -1
-        else:
-            room_lo = 0.0
+    outside = stop_side(q0, q_min, q_max)
     if outside:
         back = min(max(room_hi if outside > 0 else room_lo, rate_lo), rate_hi)
         return back, back, outside < 0, outside > 0, outside
+    room_lo, room_hi = min(room_lo, 0.0), max(room_hi, 0.0)  # within the tolerance: on it
     lo, hi, _ = yield_to(rate_lo, rate_hi, room_lo, room_hi)
     if hi - lo <= SLACK_TOL * max(1.0, abs(lo), abs(hi)) and math.isfinite(hi - lo):
         # A band narrower than the ratio test's slack is one point: the joint is

@@ -79,8 +79,9 @@ motion_decay = njit(cache=True)(_motion_decay)
 fading_steps = njit(cache=True)(_fading_steps)
 fading_band = compiled_twin(bands.fading_band, braking_room=njit(cache=True)(bands.braking_room))
 _outside_tolerance = njit(cache=True)(bands.outside_tolerance)
-stop_band = compiled_twin(bands.stop_band, yield_to=_yield_to, outside_tolerance=_outside_tolerance)
-beyond_stops = compiled_twin(bands.beyond_stops, outside_tolerance=_outside_tolerance)
+_stop_side = compiled_twin(bands.stop_side, outside_tolerance=_outside_tolerance)
+stop_band = compiled_twin(bands.stop_band, yield_to=_yield_to, stop_side=_stop_side)
+beyond_stops = compiled_twin(bands.beyond_stops, stop_side=_stop_side)
 #: The field's null-space motion and share of the step's room
 #: (:mod:`lpik.collision.avoidance`), compiled as they are.
 null_space_motion = compiled_twin(
