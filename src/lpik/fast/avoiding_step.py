@@ -251,12 +251,13 @@ def distance_rows(capsules, obstacles, pairs, damper, frames, ends, found, scrat
     gradient = scratch[8 : 8 + n]
     reach = scratch[8 + n : 8 + n + 2 * k_capsules]
     world = scratch[8 + n + 2 * k_capsules : 8 + 4 * n + 2 * k_capsules].reshape((n, 3))
-    world_axes(frames, axes, world)
-    compiled_capsule_reach(capsules[:, 0], capsules[:, 7], ends, frames[:, 9:12], world,
-                           revolute, q0, q_prev, limits[4], limits[5], dt, reach)  # fmt: skip
     if damper[4] != 0.0:  # no stop ahead of d_i: the field's rows are only those inside d_s
         for c in range(2 * k_capsules):
             reach[c] = 0.0
+    else:
+        world_axes(frames, axes, world)
+        compiled_capsule_reach(capsules[:, 0], capsules[:, 7], ends, frames[:, 9:12], world,
+                               revolute, q0, q_prev, limits[4], limits[5], dt, reach)  # fmt: skip
     for k in range(pairs.shape[0]):
         i, j = pairs[k, 1], pairs[k, 2]
         for c in range(n):
