@@ -206,6 +206,46 @@ def test_frozen_steps_without_an_exact_direction_are_those_where_lp1_has_p_0() -
     assert m.frozen == n_steps and m.frozen_without_direction == 12
 
 
+def test_a_frozen_leg_says_where_a_local_descent_goes_from_where_it_froze() -> None:
+    # The arm stands still 5 cm below a target a small turn of its joints reaches: the
+    # descent from the first frozen step ends on the target (a local step could have made
+    # progress), after turning the joints; the report says both errors.
+    model = load_robot("panda", task="pose")
+    q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.79])
+    target = model.pose(q0)
+    target[2, 3] += 0.05
+    n_steps = 6
+    still = LegRun(np.array([q0] * (n_steps + 1)), np.ones(n_steps, dtype=np.int64),
+                   np.zeros(n_steps), ["optimal"] * n_steps, [None] * n_steps)  # fmt: skip
+    m = scenario_metrics(model, (_leg(np.array([target] * n_steps), q0),), [still], 1e-3, None)
+    assert m.frozen == n_steps and len(m.frozen_descents) == 1
+    d = m.frozen_descents[0]
+    assert d.step == 0 and d.frozen[0] == pytest.approx(50.0, rel=1e-9) and d.frozen[1] < 1e-9
+    assert d.descent[0] < 1e-2 and d.descent[1] < 1e-1 and 0.01 < d.turn < 1.0
+    from lpik_bench.quality_report import _frozen_context
+
+    said = _frozen_context(m)
+    assert "a bounded least-squares solve of the pose error" in said and "(frozen 50.0 mm" in said
+
+
+def test_the_slow_steps_are_said_by_status_and_the_slowest_against_the_next() -> None:
+    from lpik_bench.quality_metrics import Metrics, slow_steps
+    from lpik_bench.quality_report import _slow_context
+
+    us = np.full(1000, 10.0)
+    us[[3, 500, 900]] = [50.0, 60.0, 2000.0]
+    statuses = ["optimal"] * 1000
+    statuses[500] = statuses[900] = "off_direction"
+    slow = slow_steps(us, statuses, [("a" if k < 600 else "b", k % 600) for k in range(1000)])
+    assert slow.statuses == {"off_direction": 2, "optimal": 1}
+    assert slow.share == {"off_direction": 0.2, "optimal": 99.8}
+    assert slow.slowest == (2000.0, "b", 300, "off_direction") and slow.runner_up == 60.0
+    m = Metrics()
+    m.slow = slow
+    assert _slow_context(m, "step_max").startswith("the slowest step, 2,000 us, is step 300")
+    assert "off_direction 2 (0.2 % of all steps)" in _slow_context(m, "step_p99")
+
+
 def test_docs_quality_is_generated_by_the_suite() -> None:
     text = (ROOT / "docs" / "quality.md").read_text(encoding="utf-8")
     assert "Produced by `" in text and "benchmarks/quality.py" in text

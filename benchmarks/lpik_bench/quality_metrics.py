@@ -52,6 +52,7 @@ from numpy.typing import NDArray
 from lpik.result import MOVING
 from lpik.robots.tasks import PoseTask
 from lpik.types import FloatArray
+from lpik_bench.quality_reach import pose_error, solve_within_limits
 from lpik_bench.quality_scenarios import Leg, Scenario, least_time_velocities
 from lpik_bench.soak import STEP_TOL, STOP_TOL
 
@@ -136,6 +137,59 @@ class Settling:
 
 
 @dataclass(frozen=True)
+class SlowSteps:
+    """lpik's slowest steps: what the step times above the 99th percentile were.
+
+    Attributes:
+        statuses: The statuses of the steps slower than the 99th percentile, by count.
+        share: Each of those statuses' share of all steps [%].
+        slowest: The slowest step: its time [us], leg, step and status.
+        runner_up: The second slowest step's time [us].
+        p999: The 99.9th percentile of the step times [us].
+    """
+
+    statuses: Counter[str]
+    share: dict[str, float]
+    slowest: tuple[float, str, int, str]
+    runner_up: float
+    p999: float
+
+
+def slow_steps(us: FloatArray, statuses: list[str], where: list[tuple[str, int]]) -> SlowSteps:
+    """:class:`SlowSteps` of step times ``us`` [us] with each step's status and (leg, step)."""
+    slow = np.flatnonzero(us > np.percentile(us, 99))
+    every = Counter(statuses)
+    counts = Counter(statuses[k] for k in slow)
+    order = np.argsort(us)
+    last = int(order[-1])
+    return SlowSteps(
+        counts, {k: 100.0 * every[k] / len(statuses) for k in counts},
+        (float(us[last]), where[last][0], where[last][1], statuses[last]),
+        float(us[order[-2]]) if us.size > 1 else float(us[last]),
+        float(np.percentile(us, 99.9)),
+    )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class FrozenDescent:
+    """Where a leg first froze, and where a local descent of the pose error goes from there.
+
+    The error at the frozen step (position [mm], orientation [mrad]), and where a
+    bounded least-squares solve of the pose error started from that configuration ends
+    (:func:`lpik_bench.quality_reach.solve_within_limits`), with the largest joint turn on
+    the way [rad]: a solve that ends about as far off as the arm froze says the arm stands in
+    a local minimum of the error within its end-stops, one that ends on the target says a
+    local step could still have made progress.
+    """
+
+    label: str
+    step: int
+    frozen: tuple[float, float]
+    descent: tuple[float, float]
+    turn: float
+
+
+@dataclass(frozen=True)
 class Clearance:
     """One leg among obstacles: the distance to them at the start, its least, the steps
     until it stays at or above ``d_s`` (None: never), the tool's position error at the end.
@@ -173,6 +227,10 @@ class Metrics:
     #: lpik: the statuses and binding limits of the frozen steps, by count.
     frozen_statuses: Counter[str] = field(default_factory=Counter)
     frozen_bindings: Counter[str] = field(default_factory=Counter)
+    #: lpik: per leg with frozen steps, the local descent from its first one.
+    frozen_descents: list[FrozenDescent] = field(default_factory=list)
+    #: lpik: the slowest steps (:class:`SlowSteps`), None for a peer.
+    slow: SlowSteps | None = None
     failed: int = 0
     first_failure: str | None = None
     recoveries: list[Recovery] = field(default_factory=list)
@@ -311,8 +369,9 @@ def scenario_metrics(
     m = Metrics(frozen_without_direction=None if direction is None else 0)
     pos_all, ori_all, times, ps = [], [], [], []
     high = total = least_high = least_total = 0.0
-    statuses: Counter[str] = Counter()
     bindings: Counter[str] = Counter()
+    each_status: list[str] = []
+    where: list[tuple[str, int]] = []
     for leg, run in zip(legs, runs):
         q = run.q
         dq, ddq = step_changes(q)
@@ -332,7 +391,7 @@ def scenario_metrics(
             m.violations[kind] = (old[0] + count, max(old[1], worst))
         moving = np.abs(dq).max(axis=1) > FROZEN_DQ
         _keep_steps(m, model, leg, run, change, after[0], moving)
-        _keep_frozen(m, leg, run, before, moving, direction)
+        _keep_frozen(m, model, leg, run, before, moving, direction)
         m.failed += run.failed
         m.first_failure = m.first_failure or run.first_failure
         if leg.settle_from is not None:
@@ -347,8 +406,9 @@ def scenario_metrics(
         times.append(run.step_ns)
         if run.p is not None:
             ps.append(run.p)
-            statuses.update(run.status or [])
             bindings.update(b for b in run.binding or [] if b is not None)
+            each_status += list(run.status or [])
+            where += [(leg.label, k) for k in range(len(run.step_ns))]
     pos, ori = np.concatenate(pos_all), np.concatenate(ori_all)
     if pos.size:
         m.pos_rms, m.pos_max = 1e3 * float(np.sqrt(np.mean(pos**2))), 1e3 * float(pos.max())
@@ -356,14 +416,22 @@ def scenario_metrics(
     m.high = 100.0 * high / total if total > 0 else 0.0
     if least_total > 0:
         m.least_time_high = 100.0 * least_high / least_total
-    ns = np.concatenate(times) / 1e3
-    m.step_us = (float(np.median(ns)), float(np.percentile(ns, 99)), float(ns.max()))
+    _keep_times(m, np.concatenate(times) / 1e3, each_status, where)
     if ps:
         p = np.concatenate(ps)
         m.p_mean, m.p_zero = float(p.mean()), 100.0 * float(np.mean(p <= 0.0))
-        m.statuses = dict(statuses.most_common())
+        m.statuses = dict(Counter(each_status).most_common())
         m.bindings = bindings.most_common(3)
     return m
+
+
+def _keep_times(
+    m: Metrics, us: FloatArray, statuses: list[str], where: list[tuple[str, int]]
+) -> None:
+    """The step times [us]: median, p99 and max, and (lpik: ``statuses``) the slowest steps."""
+    m.step_us = (float(np.median(us)), float(np.percentile(us, 99)), float(us.max()))
+    if len(statuses) == us.size and us.size:
+        m.slow = slow_steps(us, statuses, where)
 
 
 def jitter_where_both_moved(a: Metrics, b: Metrics) -> tuple[float, float, int]:
@@ -399,12 +467,13 @@ def _least_time_energy(
 
 
 def _keep_frozen(
-    m: Metrics, leg: Leg, run: LegRun, before: tuple[FloatArray, FloatArray],
+    m: Metrics, model: PoseTask, leg: Leg, run: LegRun, before: tuple[FloatArray, FloatArray],
     moving: NDArray[np.bool_], direction: Callable[..., float] | None,
 ) -> None:  # fmt: skip
     """Count a leg's frozen steps (the error ``before`` each step beyond :data:`TRACK_TOL`,
     the target reachable, no joint ``moving``), those without an exact ``direction``, where
-    they are, and (lpik) their statuses and binding limits."""
+    they are, and (lpik) their statuses, binding limits and the local descent from the
+    first (:class:`FrozenDescent`)."""
     far = (before[0] > TRACK_TOL[0]) | (before[1] > TRACK_TOL[1])
     frozen = np.flatnonzero(leg.reachable & far & ~moving)
     if not frozen.size:
@@ -419,6 +488,19 @@ def _keep_frozen(
     if run.status is not None and run.binding is not None:
         m.frozen_statuses.update(run.status[k] for k in frozen)
         m.frozen_bindings.update(run.binding[k] or "none" for k in frozen)
+        m.frozen_descents.append(frozen_descent(model, leg, run.q, int(frozen[0]), before))
+
+
+def frozen_descent(
+    model: PoseTask, leg: Leg, q: FloatArray, k: int, before: tuple[FloatArray, FloatArray]
+) -> FrozenDescent:
+    """:class:`FrozenDescent` of ``leg`` frozen at step ``k`` (configurations ``q``)."""
+    end, _ = solve_within_limits(model, leg.targets[k], [q[k]])
+    pos, ori = pose_error(model, model.pose(end), leg.targets[k])
+    return FrozenDescent(
+        leg.label, k, (1e3 * float(before[0][k]), 1e3 * float(before[1][k])),
+        (1e3 * pos, 1e3 * ori), float(np.abs(end - q[k]).max()),
+    )  # fmt: skip
 
 
 def _keep_steps(

@@ -368,9 +368,8 @@ MISSED_BECAUSE = {
     "twice the exact step's gain in the linear model, took turns with it, a jump of "
     "8.9 rad/s each time",
     "beyond/frozen": "all in leg -x, with joints 2 and 6 at their lower end-stops, 269 mm "
-    "from a target that is reachable on another branch of the inverse kinematics only (a "
-    "bounded least-squares solve started from the arm's own configuration ends 93 mm off "
-    "after turning the joints by up to 2.1 rad): the progress step's L1 error prices the "
+    "from a target that is reachable on another branch of the inverse kinematics only: the "
+    "progress step's L1 error prices the "
     "orientation rows the command already meets as dearly as the position row it must "
     "reduce, and the step that trades them (0.35 mm nearer for 2.2 mrad of rotation) is a "
     "loss in L1, so the L1 optimum is no motion; weighting the rows by their share of the "
@@ -505,7 +504,36 @@ def _frozen_context(m: Metrics) -> str:
             f"; LP1's p (the largest of any step in the command's direction) is 0 on "
             f"{m.frozen_without_direction:,} of them"
         )
+    if m.frozen_descents:
+        ends = ", ".join(
+            f"{d.label}: {fmt(d.descent[0])} mm and {fmt(d.descent[1])} mrad (frozen "
+            f"{fmt(d.frozen[0])} mm and {fmt(d.frozen[1])} mrad off), joints turned by up to "
+            f"{fmt(d.turn)} rad"
+            for d in m.frozen_descents
+        )  # fmt: skip
+        said += (
+            "; where each leg first froze, a bounded least-squares solve of the pose error "
+            f"started from the arm's configuration ends {ends}"
+        )
     return said
+
+
+def _slow_context(m: Metrics, key: str) -> str:
+    """Which steps are the slow ones: their statuses (p99), or the slowest against the rest."""
+    slow = m.slow
+    if slow is None:
+        return ""
+    if key == "step_p99":
+        kinds = ", ".join(
+            f"{status} {count:,} ({fmt(slow.share[status])} % of all steps)"
+            for status, count in slow.statuses.most_common(3)
+        )  # fmt: skip
+        return f"the steps slower than the 99th percentile: {kinds}"
+    us, label, step, status = slow.slowest
+    return (
+        f"the slowest step, {fmt(us)} us, is step {step:,} of leg {label} ({status}); the next "
+        f"slowest {fmt(slow.runner_up)} us, the 99.9th percentile {fmt(slow.p999)} us"
+    )
 
 
 def _unsettled_context(m: Metrics, variant: str) -> str:
@@ -535,6 +563,10 @@ def measured_context(result: ScenarioResult, variant: str, verdict: Verdict, dt:
     - Position error, where targets leave the reach: the error on the return
       and on the other reachable steps, and how near a singular configuration
       each arm was when the target came back (:func:`_return_context`).
+    - Frozen steps: where, with which status and binding limit, whether LP1 had a
+      direction, and where a local descent goes from the first (:func:`_frozen_context`).
+    - Step times: the statuses of the slowest 1 %, or the slowest step against the
+      next (:func:`_slow_context`).
 
     Empty otherwise.
     """
@@ -548,6 +580,8 @@ def measured_context(result: ScenarioResult, variant: str, verdict: Verdict, dt:
         return _frozen_context(result.rows[variant])
     if verdict.metric.key == "settle_ms":
         return _unsettled_context(result.rows[variant], variant)
+    if verdict.metric.key in ("step_p99", "step_max"):
+        return _slow_context(result.rows[variant], verdict.metric.key)
     if verdict.metric.key != "jitter":
         return ""
     said = []
