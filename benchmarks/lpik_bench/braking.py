@@ -5,7 +5,10 @@ limit, 10 rad/s^2. A real arm's joints have limits of their own, and a heavy
 machine's are low: there the joints' share of keeping the tool on its line, and
 of turning a motion that drifted off it, matters most. Each bundled arm starts
 at rest on its home pose and moves its tool by each of :data:`MOVES` (the
-orientation held), for :data:`SECONDS`, under each set of :data:`LIMITS`.
+orientation held), and to the pose of each of :data:`TURNS` nearby configurations
+(turning the tool as it goes: the moves on which the command law's stopping
+distance, planned along the least joint motion, misses most), for :data:`SECONDS`,
+under each set of :data:`LIMITS`.
 Rows: lpik's default controller; the same with its command clamp off (the
 peers' command, ``V = error / dt``); and Drake's
 ``DoDifferentialInverseKinematics`` with the same per-joint acceleration
@@ -50,6 +53,10 @@ DT, SECONDS = 1e-3, 3.0
 #: every bundled arm from its home pose (each settles under lpik's default controller).
 MOVES = ((0.05, 0.0, 0.0), (0.0, 0.2, -0.1), (-0.15, -0.1, 0.1), (0.0, -0.25, 0.0),
          (0.0, 0.15, 0.1), (-0.1, 0.1, -0.15), (0.1, 0.05, -0.1), (-0.15, 0.0, -0.1))  # fmt: skip
+#: The turning moves: the tool poses of this many configurations near home, each joint
+#: moved from home by a seeded draw within +-TURN_SPAN of its range (at most 2 rad) and
+#: kept 0.05 rad inside its end-stops.
+TURNS, TURN_SPAN, TURN_SEED = 8, 0.35, 7
 #: The acceleration limits [rad/s^2], by name: each joint's, for an arm of n joints.
 LIMITS: dict[str, Callable[[int], np.ndarray]] = {
     "10 on every joint": lambda n: np.full(n, 10.0),
@@ -112,15 +119,27 @@ def _drake(robot: str, qdd_max: np.ndarray) -> Callable[[], StepFn] | None:
     return make
 
 
-def run(step: StepFn, model: Any, q0: np.ndarray, move: np.ndarray,
+def targets(model: Any, q0: np.ndarray) -> dict[str, list[np.ndarray]]:
+    """The goal poses of each set of moves from ``q0``: :data:`MOVES` and :data:`TURNS`."""
+    held = []
+    for move in MOVES:
+        target = model.pose(q0)
+        target[:3, 3] += move
+        held.append(target)
+    rng, span = np.random.default_rng(TURN_SEED), np.minimum(model.q_max - model.q_min, 2.0)
+    turns = [model.pose(np.clip(q0 + rng.uniform(-TURN_SPAN, TURN_SPAN, q0.size) * span,
+                                model.q_min + 0.05, model.q_max - 0.05))
+             for _ in range(TURNS)]  # fmt: skip
+    return {"orientation held": held, "turning": turns}
+
+
+def run(step: StepFn, model: Any, q0: np.ndarray, target: np.ndarray,
         qdd_max: np.ndarray) -> dict[str, Any]:  # fmt: skip
-    """One move from rest at ``q0``: settle time [ms], overshoot [mm], unanswered steps, and
-    the largest joint acceleration of the commands over its limit."""
+    """One move from rest at ``q0`` to ``target``: settle time [ms], overshoot [mm],
+    unanswered steps, and the largest joint acceleration of the commands over its limit."""
     from lpik_bench.quality import braking_step
     from lpik_bench.quality_metrics import errors, settle_and_overshoot
 
-    target = model.pose(q0)
-    target[:3, 3] += move
     steps = int(round(SECONDS / DT))
     q, prev, poses, unanswered, worst = q0.copy(), q0.copy(), [], 0, 0.0
     for _ in range(steps):
@@ -145,20 +164,22 @@ def measure(robots: list[str]) -> list[list[str]]:
     rows = []
     for robot in robots:
         model, q0 = load_robot(robot, task="pose"), home_configuration(robot)
+        goals = targets(model, q0)
         for name, limits in LIMITS.items():
             qdd_max = limits(q0.size)
             for label, make in contenders(robot, qdd_max).items():
-                runs = [run(make(), model, q0, np.array(m), qdd_max) for m in MOVES]
-                rows.append(_row(robot, name, label, runs))
-                print(rows[-1], flush=True)
+                for moves, poses in goals.items():
+                    runs = [run(make(), model, q0, target, qdd_max) for target in poses]
+                    rows.append(_row(robot, name, moves, label, runs))
+                    print(rows[-1], flush=True)
     return rows
 
 
-def _row(robot: str, limits: str, label: str, runs: list[dict[str, Any]]) -> list[str]:
+def _row(robot: str, limits: str, moves: str, label: str, runs: list[dict[str, Any]]) -> list[str]:
     """One row of the table from the runs of the moves."""
     settled = [r["settle"] for r in runs if r["settle"] is not None]
     slowest = f"{max(settled):,.0f}" if settled else "never"
-    return [robot, limits, label, f"{len(settled)} of {len(runs)}", slowest,
+    return [robot, limits, moves, label, f"{len(settled)} of {len(runs)}", slowest,
             f"{max(r['overshoot'] for r in runs):.3g}",
             f"{sum(r['unanswered'] for r in runs):,}",
             f"{max(r['acceleration'] for r in runs):.3g}"]  # fmt: skip
@@ -170,18 +191,21 @@ def section(rows: list[list[str]], command: str) -> str:
     return "\n".join([
         *section_head(HEADING, "benchmarks/braking.py", command),
         f"- Each arm from rest on its home pose, 1 kHz, {SECONDS:g} s per move; the tool "
-        f"moved by each of {moves} mm, its orientation held; each loop fed its own "
-        "commands, `q_prev` passed. *Settled*: the moves whose error stays within 0.01 mm "
-        "and 0.01 mrad, and the slowest settle time of those [ms]; "
+        f"moved by each of {moves} mm, its orientation held (*orientation held*), and to the "
+        f"tool poses of {TURNS} configurations near home (*turning*: each joint moved from "
+        f"home by a draw within +-{TURN_SPAN:g} of its range, at most 2 rad, seed "
+        f"{TURN_SEED}); each loop fed its own commands, `q_prev` passed. *Settled*: the "
+        "moves whose error stays within 0.01 mm and 0.01 mrad, and the slowest settle time "
+        "of those [ms]; "
         "*overshoot*: the largest growth of the position error after its running minimum "
         "[mm] (the quality suite's); *unanswered*: lpik's safe steps, Drake's failed steps "
         "(there the arm brakes at its limits, as the quality suite takes a failed step; "
         "held, it would stop at once, far beyond them); *acceleration / limit*: the "
         "largest joint acceleration of the steps answered over that joint's limit. lpik "
         "with its clamp off gets the command the peers get (`V = error / dt`).", "",
-        *table("| arm | acceleration limits [rad/s^2] | controller | settled | slowest [ms] "
-               "| overshoot [mm] | unanswered steps | acceleration / limit |",
-               "|---|---|---|---:|---:|---:|---:|---:|", rows),
+        *table("| arm | acceleration limits [rad/s^2] | moves | controller | settled "
+               "| slowest [ms] | overshoot [mm] | unanswered steps | acceleration / limit |",
+               "|---|---|---|---|---:|---:|---:|---:|---:|", rows),
         "", "",
     ])  # fmt: skip
 
