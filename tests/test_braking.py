@@ -65,6 +65,37 @@ def test_a_move_under_low_or_unequal_acceleration_limits_stops_on_its_goal(case:
     assert np.all(acceleration <= qdd * (1 + 1e-9) + 1e-9)
 
 
+#: Moves to the tool pose of a configuration near home, turning the tool as it goes, the
+#: command clamp off: (arm, acceleration limit [rad/s^2], goal configuration [rad]), and
+#: the overshoot with BRAKING_SHARE at 0.8 [mm] (benchmarks/braking.py, rows "turning").
+TURNS = {
+    "panda, 3 rad/s^2 (47 mm)": (
+        "panda", 3.0, (0.006368, -0.710502, 0.6937, -1.946468, 0.171051, 2.255341, 0.38683)),
+    "iiwa14, 5 rad/s^2 (13 mm)": (
+        "iiwa14", 5.0, (-0.196805, 0.477097, -0.365958, -1.144085, -0.296545, 0.809511, 0.250365)),
+    "ur5e, 10 rad/s^2 (6.3 mm)": (
+        "ur5e", 10.0, (-0.692629, -1.121077, 1.986694, -1.615687, -1.846551, -0.310204)),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(TURNS))
+def test_a_move_that_turns_the_tool_stops_on_its_goal(case: str) -> None:
+    robot, qdd, goal_q = TURNS[case]
+    model, q = load_robot(robot), home_configuration(robot)
+    controller = Lp2Controller(model, dt=DT, qdd_max=qdd, v_max=1e6, w_max=1e6)
+    goal = model.pose(np.asarray(goal_q))
+    prev, error, results = q.copy(), [], []
+    for _ in range(2500):
+        result = controller.step(q, goal, prev)
+        results.append(result)
+        prev, q = q, result.q
+        error.append(np.linalg.norm(model.pose(q)[:3, 3] - goal[:3, 3]))
+    error = np.asarray(error)
+    assert np.max(error - np.minimum.accumulate(error)) <= 1e-3  # at most 1 mm past
+    assert error[-1] < 1e-5
+    assert all(r.status in MOVING for r in results)
+
+
 def test_the_numpy_engine_steers_and_brakes_as_the_compiled_step_does() -> None:
     """Step by step on the compiled loop's states: the numpy Stepper takes the same steps."""
     model, q = load_robot("iiwa14"), home_configuration("iiwa14")

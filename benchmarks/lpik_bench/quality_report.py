@@ -344,10 +344,11 @@ MISSED_BECAUSE = {
     "acceleration/pos_rms": "the tracking error is measured against the commanded target, "
     "which jumps: no library can follow a jump under the acceleration limits, and one that "
     "speeds up earlier and brakes later (or not in time) scores lower on the way",
-    "point/overshoot": "lpik brakes its command in time to stop on the target at 80 % of the "
-    "acceleration limits, with the stopping distance estimated along the least joint motion "
-    "(lpik.command.braking_scale); on the large moves with rotation the joints' actual "
-    "motion departs from that estimate and the arm overshoots by millimetres before it settles",
+    "point/overshoot": "lpik brakes its command in time to stop on the target at "
+    "lpik.command.BRAKING_SHARE of the acceleration limits, with the stopping distance "
+    "estimated along the least joint motion (lpik.command.braking_scale); on the large "
+    "moves with rotation the joints' actual motion departs from that estimate and the arm "
+    "can overshoot by millimetres before it settles (benchmarks/braking.py, rows turning)",
     "step_max": "the slowest step is noise of this shared machine",
     "beyond/step_p99": "the slowest 1 % are the stall stage's steps (measured at 31574e5: "
     "122 progress steps, median 40 us, and 179 exact steps that the stage weighed against "
