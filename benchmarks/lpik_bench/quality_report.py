@@ -349,6 +349,12 @@ MISSED_BECAUSE = {
     "estimated along the least joint motion (lpik.command.braking_scale); on the large "
     "moves with rotation the joints' actual motion departs from that estimate and the arm "
     "can overshoot by millimetres before it settles (benchmarks/braking.py, rows turning)",
+    "step/high": "the move speeds up at the acceleration limit and brakes at "
+    "lpik.command.BRAKING_SHARE of it, the stop planned with room for what the plan does not "
+    "see; the velocity's corners, where the acceleration jumps from the limit to the brake "
+    "and from the brake to rest, carry the energy above 5 Hz: with the share at 0.8 it was "
+    "0.57 % (docs/quality.md at 9a53247), but moves that turn the tool then passed their "
+    "goal by up to 62 mm (benchmarks/braking.py, rows turning)",
     "step_max": "the slowest step is noise of this shared machine",
     "beyond/step_p99": "the slowest 1 % are the stall stage's steps (measured at 31574e5: "
     "122 progress steps, median 40 us, and 179 exact steps that the stage weighed against "
