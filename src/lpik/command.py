@@ -108,8 +108,8 @@ def clamp_command(
 #: joint motion outrunning what the step could hold while turning (an iiwa14 move at
 #: 5 rad/s^2 decelerated at 85 % of the plan from 330 mm out and passed its goal by
 #: 13 mm); at 0.6 one row is beyond 1 mm (8.1 mm, the iiwa14 with 20 (base) to 1
-#: (wrist) rad/s^2), every move settles, the slowest translations settle up to 10 %
-#: later, and beyond reach (``benchmarks/excursions.py``) 209 of 210 excursions come
+#: (wrist) rad/s^2), every move settles, the slowest translation of a row settles 3 to
+#: 14 % later, and beyond reach (``benchmarks/excursions.py``) 209 of 210 excursions come
 #: back against 208.
 BRAKING_SHARE = 0.6
 #: At most this share of a joint's planned brake (``BRAKING_SHARE`` of its limit) is counted
