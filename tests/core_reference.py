@@ -120,9 +120,13 @@ def _linprog(c, A_ub, b_ub, A_eq, b_eq, bounds):  # type: ignore[no-untyped-def]
 
 
 def lp2_reference(P: Problem, margin: float = 0.0) -> Reference:
-    """Eq. 18 with sec. 3.1's term and sec. 3.2's multiplier bounds; variables (q, lam, p).
+    """Eq. 18 with sec. 3.1's term and sec. 3.2's multiplier bounds; variables (dq, lam, p).
 
     ``margin`` relaxes (> 0) or tightens (< 0) every limit, the equality rows never.
+    Written in the step ``dq`` for the reason :func:`lp1_reference` gives: in absolute
+    coordinates a Jacobian entry of 1e-9 that HiGHS dropped moved a task row by
+    ``1e-9 |q0|`` and made a pinned arm's program infeasible (a hypothesis draw of
+    tests/test_lp2s.py).
     """
     n, m = P.n, P.m
     H = P.M + P.Lambda
@@ -130,25 +134,27 @@ def lp2_reference(P: Problem, margin: float = 0.0) -> Reference:
     free = ~pinned
     A_eq = np.block([[H, P.J.T, np.zeros((n, 1))], [P.J, np.zeros((m, m)), -P.dw[:, None]]])
     s = smoothing(P)  # sec. 3.1's pull, scaled as lpik scales it
-    b_eq = np.concatenate([H @ P.q0 + s * P.Lambda @ (P.q_ref - P.q0) + P.f, P.J @ P.q0])
+    b_eq = np.concatenate([s * P.Lambda @ (P.q_ref - P.q0) + P.f, np.zeros(m)])
     keep = np.concatenate([free, np.ones(m, dtype=bool)])  # a pinned joint has no criterion row
-    A_ub, b_ub = _q_rows(P, m + 1, margin, skip=pinned)
+    A_ub, b_ub = _dq_rows(P, m + 1, margin, skip=pinned)
     lam_bounds = [_interval(lo, hi, margin) for lo, hi in zip(P.lam_min, P.lam_max)]
     stops = [
-        (float(P.q0[i] + d[i]),) * 2 if pinned[i] else bound
-        for i, bound in enumerate(_stops(P, margin))
+        (float(d[i]),) * 2 if pinned[i] else bound for i, bound in enumerate(_dq_stops(P, margin))
     ]
     c = np.zeros(n + m + 1)
     c[-1] = -1.0
     res = _linprog(c, A_ub, b_ub, A_eq[keep], b_eq[keep], stops + lam_bounds + [(0.0, 1.0)])
     if res.status != 0:
         return Reference(False)
-    return Reference(True, res.x[:n], res.x[n : n + m], float(res.x[-1]), float(-res.fun))
+    q = P.q0 + res.x[:n]
+    return Reference(True, q, res.x[n : n + m], float(res.x[-1]), float(-res.fun))
 
 
-def _dq_rows(P: Problem, extra_cols: int, margin: float) -> tuple[np.ndarray, np.ndarray]:
+def _dq_rows(
+    P: Problem, extra_cols: int, margin: float, skip: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Eq. 14 and ``G q <= h`` as rows ``A dq <= b`` in the step ``dq = q - q0``."""
-    A, b = _q_rows(P, extra_cols, margin)
+    A, b = _q_rows(P, extra_cols, margin, skip)
     return A, b - A[:, : P.n] @ P.q0
 
 

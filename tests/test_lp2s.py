@@ -204,6 +204,22 @@ def test_two_joints_that_tie_are_both_saturated_on_every_path() -> None:
     np.testing.assert_allclose(a.dq[[1, 3, 4]], 0.125, rtol=0, atol=1e-15)
 
 
+def test_the_reference_holds_where_highs_drops_a_jacobian_entry() -> None:
+    """A hypothesis draw: two joints pinned, the third on its end-stop, J[0, 0] = 1e-9 (HiGHS
+    drops it). In absolute coordinates the reference's task row moved by 3e-9 and it found
+    no point; in the step it finds the step lp2s takes (none: J dq = 0 admits no motion)."""
+    q0 = np.array([-3.14059265, 0.0, -3.14059265])
+    P = Problem(J=[[9.99999306e-10, -9.99998833e-04, -1.99999867e-03],
+                   [-1.00000100e+00, -1.49999937e-06, 9.99998000e-01]],
+                dw=[0.0, 0.0], q0=q0, q_min=q0, q_max=[-3.14059265, 0.0, -2.14059265],
+                dq_min=np.full(3, -0.125), dq_max=np.full(3, 0.125), Lambda=np.zeros((3, 3)),
+                q_ref=[-3.14059265, 0.0, -2.64059265])  # fmt: skip
+    res, b = lp2s(P), bracket(lp2_reference, P, criterion=True)
+    assert b.loose.feasible and b.exact.feasible
+    np.testing.assert_allclose(b.exact.q, q0, rtol=0, atol=1e-9)
+    assert res.moved and np.array_equal(res.q, q0) and res.p <= b.loose.p + 1e-7
+
+
 @settings(max_examples=examples(250), deadline=None)
 @given(case=cases(well_posed=True))
 def test_lp2s_is_exact_never_below_lp2_and_keeps_every_limit(case: Case) -> None:
