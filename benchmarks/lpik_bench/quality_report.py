@@ -357,8 +357,8 @@ MISSED_BECAUSE = {
     "goal by up to 62 mm (benchmarks/braking.py, rows turning); a command that also speeds "
     "up at that share, the whole move planned at 60 % of the limits, measured 0.29 % here "
     "and left no braking row past its goal, but is not kept yet: pushed a metre beyond reach "
-    "along z the Panda then ended 0.42 m off home (tests/test_fading_motion.py), and a UR5e "
-    "goal crawled at p = 3e-7 with status optimal (tests/test_floor_row.py)",
+    "along (-1, 1, 1) the Panda then ended 0.42 m off home (tests/test_fading_motion.py), and "
+    "a UR5e goal crawled at p = 3e-7 with status optimal (tests/test_floor_row.py)",
     "step_max": "the slowest step is noise of this shared machine",
     "beyond/step_p99": "the slowest 1 % are the stall stage's steps (measured at 31574e5: "
     "122 progress steps, median 40 us, and 179 exact steps that the stage weighed against "
