@@ -76,23 +76,8 @@ def _q_rows(
     return np.hstack([A, np.zeros((A.shape[0], extra_cols))]), b
 
 
-def _stops(P: Problem, margin: float) -> list[tuple[float | None, float | None]]:
-    return [_interval(lo, hi, margin) for lo, hi in zip(P.q_min, P.q_max)]
-
-
 #: HiGHS treats matrix entries at or below this size as zero (its ``small_matrix_value``).
 HIGHS_SMALL_MATRIX_VALUE = 1e-9
-
-
-def highs_drops_entries(A: np.ndarray) -> bool:
-    """Whether HiGHS would drop a nonzero entry of ``A`` (at or below its small_matrix_value).
-
-    A reference in absolute coordinates (``J q = p dw + J q0``) is then inconsistent:
-    the row's right-hand side holds ``J_ij q0_j``, its matrix not, so HiGHS solves a
-    problem off by ``|J_ij q0_j|`` (3e-9 at ``q0 ~ pi``: a p of 1e-6 off, or infeasible).
-    """
-    size = np.abs(A)
-    return bool(((size > 0.0) & (size <= HIGHS_SMALL_MATRIX_VALUE)).any())
 
 
 def _linprog(c, A_ub, b_ub, A_eq, b_eq, bounds):  # type: ignore[no-untyped-def]
