@@ -85,3 +85,28 @@ def test_batch_rows_have_no_target_motion() -> None:
         np.testing.assert_allclose(
             rows[b].q, fresh.step(q0[b], targets[b], q_prev[b]).q, atol=1e-12
         )
+
+
+@pytest.mark.parametrize("robot", ["panda", "ur5e", "iiwa14"])
+def test_a_step_that_moved_by_rounding_feeds_no_motion_forward(robot: str) -> None:
+    """Held at the pose the arm holds, then a target creeping at 0.1 mm/s: both engines alike.
+
+    Asked for the pose it already holds, the compiled step moves the Panda's and the UR5e's
+    joints by about 2e-16 rad (their kinematics round apart from numpy's), the numpy path
+    not at all. An exact test of whether the arm moved fed the target's motion forward on
+    the compiled engine only, and the engines parted by 3e-7 rad on the first step of the
+    creep; within lpik.tolerances.REST_STEP such a step is rest on both.
+    """
+    pytest.importorskip("numba")
+    model = load_robot(robot)
+    options = dict(dt=DT, qdd_max=10.0, v_max=1e6, w_max=1e6)
+    controller, stepper = Lp2Controller(model, **options), Stepper(model, **options)
+    q = home_configuration(robot)
+    T0, qa, qb, pa, pb = np.array(model.pose(q)), q.copy(), q.copy(), q.copy(), q.copy()
+    for k in range(40):
+        target = T0.copy()
+        target[0, 3] += 1e-7 * max(0, k - 2)
+        a, b = controller.step(qa, target, pa), stepper.step(qb, target, pb)
+        np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-12)
+        pa, qa, pb, qb = qa, a.q, qb, b.q
+    assert np.linalg.norm(np.array(model.pose(qa))[:3, 3] - target[:3, 3]) < 2e-7

@@ -43,6 +43,7 @@ from lpik.problem import check_magnitude
 from lpik.robots.base import TaskModel
 from lpik.robots.rotations import check_rotation
 from lpik.robots.tasks import pose_difference
+from lpik.tolerances import REST_STEP
 from lpik.types import FloatArray, numbers_of
 
 #: Default largest commanded linear speed of the task point [m/s].
@@ -281,7 +282,8 @@ def add_target_motion(
 class TargetMotion:
     """The target's motion over the last period, where the step follows the last one in a loop.
 
-    A step follows the last one when the arm moved (``q_prev != q0``) and its
+    A step follows the last one when the arm moved (some joint by more than rounding:
+    :func:`moved_beyond_rounding`) and its
     ``q_prev`` is the last step's ``q0``; the same step asked again (the same
     ``q0`` and target) gets the same motion; any other step (a first step, a
     step at rest or without ``q_prev``: an independent query, a jump of the
@@ -303,7 +305,7 @@ class TargetMotion:
         if seen and np.array_equal(q0, self._q) and np.array_equal(value, self._target):
             return self._motion  # the same step again
         motion = None
-        moved = q_prev is not None and not np.array_equal(q_prev, q0)
+        moved = q_prev is not None and moved_beyond_rounding(q0, q_prev)
         if seen and moved and np.array_equal(q_prev, self._q):
             motion = _target_difference(model, self._target, value)
         self._q, self._target, self._motion = np.array(q0, dtype=np.float64), value.copy(), motion
@@ -319,6 +321,19 @@ class TargetMotion:
             self._q = np.array(taken, dtype=np.float64)
 
 
+def moved_beyond_rounding(q0, q_prev):  # type: ignore[no-untyped-def]
+    """Whether some joint moved from ``q_prev`` to ``q0`` by more than :data:`REST_STEP`.
+
+    Only then does a loop's next step get the target's motion fed forward
+    (:class:`TargetMotion`): a step that moved the joints by rounding alone left the
+    arm at rest, alike on both engines. A plain loop, compiled as it is by the fused step.
+    """
+    for i in range(q0.shape[0]):
+        if abs(q0[i] - q_prev[i]) > REST_STEP:
+            return True
+    return False
+
+
 def continues_with(seen, q0, q_prev, taken):  # type: ignore[no-untyped-def]
     """Whether a loop's memory of the last step's ``q0`` (``seen``) is to be keyed by ``taken``.
 
@@ -330,14 +345,14 @@ def continues_with(seen, q0, q_prev, taken):  # type: ignore[no-untyped-def]
     follows too: without that, every corrected step lost the feed-forward and the
     tool lagged a moving target (3.3 mm on the quality suite's circle at
     ``qdd_max=10``, at any noise from 1e-5 rad up, against 0.15 mm fed its
-    commands). A ``taken`` equal to ``q0`` (no motion) keeps nothing. Plain loops:
-    the fused step compiles this very function (:mod:`lpik.fast.command_law`).
+    commands). A ``taken`` within rounding of ``q0`` (no motion:
+    :func:`moved_beyond_rounding`) keeps nothing. Plain loops: the fused step compiles this
+    very function (:mod:`lpik.fast.command_law`).
     """
-    same, moved = True, False
+    same = True
     for i in range(seen.shape[0]):
         same = same and q_prev[i] == seen[i]
-        moved = moved or taken[i] != q0[i]
-    return same and moved
+    return same and moved_beyond_rounding(q0, taken)
 
 
 def _target_difference(model: TaskModel, before: Any, after: Any) -> FloatArray:

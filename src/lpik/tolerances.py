@@ -47,6 +47,16 @@ FEASIBILITY_TOL = 1e-7
 #: Tolerance of the check on ``J dq = p dw``, relative to ``|J| |dq| + |dw|``.
 EQUALITY_RTOL = 1e-7
 
+#: A joint step [rad] of at most this is rounding, not motion: a loop whose last step moved
+#: no joint further is at rest, and the target's motion is not fed forward
+#: (:func:`lpik.command.moved_beyond_rounding`). Asked for the pose the arm already holds,
+#: the compiled step moves the Panda's joints by 2e-16 rad (its kinematics round apart
+#: from numpy's) and the numpy path not at all; with an exact test the next step fed the
+#: target's motion forward on the compiled engine only, and the engines parted by 3e-7 rad
+#: (tests/test_target_motion.py). 1e-10 rad per step is 1e-7 rad/s at 1 kHz: no drive
+#: moves that slowly.
+REST_STEP = 1e-10
+
 # ---------------------------------------------------------- affine dexterity
 #: p at or above this counts as the full displacement (no binding limit).
 FULL_P = 1.0 - 1e-9

@@ -37,6 +37,8 @@ add_target_motion = compiled_twin(
 )
 #: Whether a target commands every row of the task (:func:`lpik.command.target_fits`).
 target_fits = njit(cache=True)(command.target_fits)
+#: Whether a joint moved by more than rounding (:func:`lpik.command.moved_beyond_rounding`).
+moved_beyond_rounding = njit(cache=True)(command.moved_beyond_rounding)
 #: Whether the drives could have made the last step (:func:`lpik.command.made_by_drives`).
 made_by_drives = compiled_twin(command.made_by_drives,
                                plausible_step=njit(cache=True)(bands.plausible_step))  # fmt: skip
@@ -200,10 +202,9 @@ def target_motion(state, q0, q_prev, goal):
     """The target's motion over the last period, where the step follows the last one.
 
     :class:`lpik.command.TargetMotion`'s rule on the state's ``memory*``
-    blocks: a step of an arm that moved whose ``q_prev`` is the last step's
-    ``q0`` gets the pose
-    error from the last goal to ``goal``; the same step asked again (the same
-    ``q0`` and goal) gets the same; any other step none. Returns the
+    blocks: a step of an arm that moved (beyond rounding) whose ``q_prev`` is the last
+    step's ``q0`` gets the pose error from the last goal to ``goal``; the same step asked
+    again (the same ``q0`` and goal) gets the same; any other step none. Returns the
     ``target_motion`` block (entry 0: 1 where the target moved, then
     ``[dp; log]`` and its task rows from entry 7); remembers this step.
     """
@@ -213,7 +214,7 @@ def target_motion(state, q0, q_prev, goal):
     if memory[0] != 0.0 and _equal(q0, seen_q, n) and _equal(goal.ravel(), seen_goal.ravel(), 16):
         return motion  # the same step again
     motion[0] = 0.0
-    if memory[0] != 0.0 and _moved(q0, q_prev) and _equal(q_prev, seen_q, n):
+    if memory[0] != 0.0 and moved_beyond_rounding(q0, q_prev) and _equal(q_prev, seen_q, n):
         pose_error(seen_goal, goal, motion[1:7], L.vector(state, L.LOG_SCRATCH))
         rows = L.vector(state, L.ROW_INDEX)
         for k in range(rows.shape[0]):
@@ -230,7 +231,7 @@ def target_motion(state, q0, q_prev, goal):
 
 #: Whether the target's memory is keyed by a measured loop's q_prev
 #: (:func:`lpik.command.continues_with`).
-continues_with = njit(cache=True)(command.continues_with)
+continues_with = compiled_twin(command.continues_with, moved_beyond_rounding=moved_beyond_rounding)
 
 
 def follow(state, q0, q_prev, taken):  # type: ignore[no-untyped-def]
