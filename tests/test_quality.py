@@ -238,12 +238,14 @@ def test_the_slow_steps_are_said_by_status_and_the_slowest_against_the_next() ->
     statuses[500] = statuses[900] = "off_direction"
     slow = slow_steps(us, statuses, [("a" if k < 600 else "b", k % 600) for k in range(1000)])
     assert slow.statuses == {"off_direction": 2, "optimal": 1}
+    assert slow.legs == {"a": 2, "b": 1}
     assert slow.share == {"off_direction": 0.2, "optimal": 99.8}
     assert slow.slowest == (2000.0, "b", 300, "off_direction") and slow.runner_up == 60.0
     m = Metrics()
     m.slow = slow
     assert _slow_context(m, "step_max").startswith("the slowest step, 2,000 us, is step 300")
     assert "off_direction 2 (0.2 % of all steps)" in _slow_context(m, "step_p99")
+    assert _slow_context(m, "step_p99").endswith("; by leg: a 2, b 1")
 
 
 def test_docs_quality_is_generated_by_the_suite() -> None:

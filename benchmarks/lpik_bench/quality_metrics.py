@@ -142,6 +142,7 @@ class SlowSteps:
 
     Attributes:
         statuses: The statuses of the steps slower than the 99th percentile, by count.
+        legs: The legs of those steps, by count.
         share: Each of those statuses' share of all steps [%].
         slowest: The slowest step: its time [us], leg, step and status.
         runner_up: The second slowest step's time [us].
@@ -149,6 +150,7 @@ class SlowSteps:
     """
 
     statuses: Counter[str]
+    legs: Counter[str]
     share: dict[str, float]
     slowest: tuple[float, str, int, str]
     runner_up: float
@@ -163,7 +165,8 @@ def slow_steps(us: FloatArray, statuses: list[str], where: list[tuple[str, int]]
     order = np.argsort(us)
     last = int(order[-1])
     return SlowSteps(
-        counts, {k: 100.0 * every[k] / len(statuses) for k in counts},
+        counts, Counter(where[k][0] for k in slow),
+        {k: 100.0 * every[k] / len(statuses) for k in counts},
         (float(us[last]), where[last][0], where[last][1], statuses[last]),
         float(us[order[-2]]) if us.size > 1 else float(us[last]),
         float(np.percentile(us, 99.9)),

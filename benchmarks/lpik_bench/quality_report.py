@@ -419,8 +419,12 @@ MISSED_BECAUSE = {
     "goals/overshoot": "156 mm in goal 9 and 105 mm in goal 7, after joint 7 reached its "
     "end-stop: the progress step (least L1 error, a metre priced as a radian) gives up "
     "position for orientation, and the tool drifts from the goal",
-    "goals/step_p99": "as in scenario 10, the slowest 1 % are the stall stage's steps "
-    "(off_direction on a fifth of the steps, mostly in goals 7 and 9)",
+    "goals/step_p99": "almost all in goal 5: once the automatic multiplier bound holds the "
+    "arm short of that near-singular goal, p falls toward 0 on every step (status optimal), "
+    "so the stall stage solves the progress LP on each, and its least-error step gains "
+    "nothing worth its motion; each such step is the exact step, its solve again under the "
+    "bound and that LP (the row lp2s +acc strict, without the stall stage, shows the steps "
+    "without that LP)",
     "goals/step_max": "the slowest step is noise of this shared machine: every step is "
     "answered on the compiled path since 41e4768 (before, goal 5's 31 infeasible steps near "
     "the singular configuration went to HiGHS, 0.5 to 7 ms each: benchmarks/random_goals.py "
@@ -539,7 +543,8 @@ def _slow_context(m: Metrics, key: str) -> str:
             f"{status} {count:,} ({fmt(slow.share[status])} % of all steps)"
             for status, count in slow.statuses.most_common(3)
         )  # fmt: skip
-        return f"the steps slower than the 99th percentile: {kinds}"
+        legs = ", ".join(f"{leg} {count:,}" for leg, count in slow.legs.most_common(3))
+        return f"the steps slower than the 99th percentile: {kinds}; by leg: {legs}"
     us, label, step, status = slow.slowest
     return (
         f"the slowest step, {fmt(us)} us, is step {step:,} of leg {label} ({status}); the next "
