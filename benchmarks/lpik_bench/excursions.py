@@ -13,7 +13,9 @@ repository root with lpik installed (``benchmarks/excursions.py`` runs :func:`ma
 It runs every excursion with and without acceleration limits and writes the
 section "Excursions beyond reach under acceleration limits" of
 ``docs/benchmarks.md`` (recovered excursions per arm, where each miss ended,
-the command and the machine).
+the command and the machine). Which excursion misses is chaotic, so the section
+also gives how often one excursion comes home from states a little off its own
+(:func:`perturbed_returns`): the share a single run cannot show.
 """
 
 from __future__ import annotations
@@ -42,6 +44,11 @@ DIRECTIONS = ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1
 FAR = (0.3, 0.5, 0.7, 0.9, 1.0, 1.1, 1.3)
 #: Speed [m/s], hold far out [steps], hold at home [steps]; recovered within [m].
 SPEED, HOLD, SETTLE, RECOVERED = 1.0, 300, 2500, 1e-5
+#: Returns from perturbed states (:func:`perturbed_returns`): the excursion (the one
+#: tests/test_fading_motion.py runs on the Panda), the spreads of the perturbation of every
+#: joint [rad], how many draws per spread, and the seed.
+PERTURBED = {"direction": (-1, 1, 1), "far": 1.0, "spreads": (0.003, 0.01), "draws": 40,
+             "seed": 1}  # fmt: skip
 
 
 def targets(start: np.ndarray, direction: np.ndarray, far: float) -> Iterator[np.ndarray]:
@@ -68,6 +75,37 @@ def excursion(robot: str, direction: tuple, far: float, qdd_max: float | None) -
     return float(np.linalg.norm(model.pose(q)[:3, 3] - home[:3, 3]))
 
 
+def perturbed_returns(robot: str, qdd_max: float, spread: float, draws: int, seed: int) -> int:
+    """How many of ``draws`` runs of :data:`PERTURBED`'s excursion come home from perturbed states.
+
+    The excursion runs to the end of its way out; there every joint of the state (``q0``
+    and ``q_prev`` alike: the same velocity) is moved by a normal draw of standard
+    deviation ``spread`` [rad] (kept within the end-stops), the controller forgets its
+    memory (``reset``), and the excursion goes on to its end.
+    """
+    from lpik.control.controller import Lp2Controller
+    from lpik.robots.registry import home_configuration, load_robot
+
+    model, q0 = load_robot(robot), home_configuration(robot)
+    controller = Lp2Controller(model, dt=DT, qdd_max=qdd_max, v_max=1e6, w_max=1e6)
+    direction = np.asarray(PERTURBED["direction"], dtype=float)
+    home = model.pose(q0)
+    poses = list(targets(home, direction / np.linalg.norm(direction), PERTURBED["far"]))
+    out = int(round(PERTURBED["far"] / SPEED / DT))  # the end of the way out
+    q, prev = q0.copy(), q0.copy()
+    for target in poses[:out]:
+        prev, q = q, controller.step(q, target, prev).q
+    rng, home_again = np.random.default_rng(seed), 0
+    for _ in range(draws):
+        moved_q = np.clip(q + rng.normal(size=q.size) * spread, model.q_min, model.q_max)
+        qa, pa = moved_q, moved_q - (q - prev)
+        controller.reset()
+        for target in poses[out:]:
+            pa, qa = qa, controller.step(qa, target, pa).q
+        home_again += np.linalg.norm(model.pose(qa)[:3, 3] - home[:3, 3]) <= RECOVERED
+    return home_again
+
+
 HEADING = "## Excursions beyond reach under acceleration limits"
 
 
@@ -87,8 +125,12 @@ def _listed(words: list[str]) -> str:
     return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"
 
 
-def section(rows: list[tuple[str, ...]], far: list[float], qdd: float, command: str) -> str:
-    """The page's section: the setup, then recovered excursions per arm."""
+def section(
+    rows: list[tuple[str, ...]], far: list[float], qdd: float, command: str,
+    perturbed: list[tuple[str, ...]],
+) -> str:  # fmt: skip
+    """The section: the setup, recovered excursions per arm, returns from perturbed states."""
+    spreads = PERTURBED["spreads"]
     return "\n".join([
         *section_head(HEADING, "benchmarks/excursions.py", command),
         f"- Each arm's default `Lp2Controller` at 1 kHz, the command unclamped: the target goes "
@@ -100,6 +142,14 @@ def section(rows: list[tuple[str, ...]], far: list[float], qdd: float, command: 
         "end-stops that no local step leaves.", "",
         *table("| arm | without acceleration limits | with them | misses with them |",
                "|---|---:|---:|---|", rows),
+        "",
+        f"Which excursion misses is chaotic. The excursion {PERTURBED['far']:g} m along "
+        f"{PERTURBED['direction']} with `qdd_max={qdd:g}`, run to the end of its way out, its "
+        f"state then moved by a normal draw on every joint ({PERTURBED['draws']} draws of each "
+        f"spread, seeds {PERTURBED['seed']} and on; the joint velocities kept), and run on to its "
+        "end: how many of the draws come home.", "",
+        *table("| arm | " + " | ".join(f"spread {s:g} rad" for s in spreads) + " |",
+               "|---|" + "---:|" * len(spreads), perturbed),
         "", "",
     ])  # fmt: skip
 
@@ -113,16 +163,21 @@ def main(argv: list[str] | None = None) -> int:
     given = sys.argv[1:] if argv is None else argv
     args = parser.parse_args(given)
     os.environ.setdefault("LPIK_COMPILE", "now")
-    rows = []
+    rows, perturbed = [], []
     for robot in args.robots:
         free, _ = recovered(robot, tuple(args.far), None)
         held, misses = recovered(robot, tuple(args.far), args.qdd_max)
         runs = len(args.far) * len(DIRECTIONS)
         rows.append((robot, f"{free} of {runs}", f"{held} of {runs}", "; ".join(misses) or "none"))
         print(rows[-1], flush=True)
-    text = section(
-        rows, args.far, args.qdd_max, " ".join(["python benchmarks/excursions.py", *given])
-    )
+        draws, seed = PERTURBED["draws"], PERTURBED["seed"]
+        perturbed.append((robot, *(  # a seed of its own for each spread: independent draws
+            f"{perturbed_returns(robot, args.qdd_max, s, draws, seed + k)} of {draws}"
+            for k, s in enumerate(PERTURBED["spreads"])
+        )))  # fmt: skip
+        print(perturbed[-1], flush=True)
+    command = " ".join(["python benchmarks/excursions.py", *given])
+    text = section(rows, args.far, args.qdd_max, command, perturbed)
     print(text)
     write_section(args.out, HEADING, text)
     return 0
