@@ -421,9 +421,11 @@ MISSED_BECAUSE = {
     "position for orientation, and the tool drifts from the goal",
     "goals/step_p99": "almost all in goal 5: once the automatic multiplier bound holds the "
     "arm short of that near-singular goal, p falls toward 0 on every step (status optimal), "
-    "so the stall stage solves the progress LP on each, and its least-error step gains "
-    "nothing worth its motion; each such step is the exact step, its solve again under the "
-    "bound and that LP (the row lp2s +acc strict, without the stall stage, shows the steps "
+    "so the stall stage solves the progress LP on each; the arm is nearly singular along "
+    "the error that remains, and within one step's acceleration box that LP's step gains "
+    "less than the stage counts as progress (lpik.methods.progress.makes_progress), so the "
+    "exact step stands; each such step is the exact step, its solve again under the bound "
+    "and that LP (the row lp2s +acc strict, without the stall stage, shows the steps "
     "without that LP)",
     "goals/step_max": "the slowest step is noise of this shared machine: every step is "
     "answered on the compiled path since 41e4768 (before, goal 5's 31 infeasible steps near "
