@@ -297,4 +297,4 @@ def test_the_benchmark_counts_returns_from_perturbed_states() -> None:
     from every draw (docs/benchmarks.md has the tallies of every arm)."""
     from lpik_bench.excursions import perturbed_returns
 
-    assert perturbed_returns("ur5e", QDD, 0.003, 3, 1) == 3
+    assert perturbed_returns("ur5e", QDD, 0.003, 3, 1) == (3, 3)
