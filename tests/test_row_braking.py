@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from core_strategies import examples
 from lpik import home_configuration, load_robot, planar_arm
-from lpik.bands import BRAKING_SHARE, braked_room, braking_room, row_deceleration
+from lpik.bands import ROW_BRAKING_SHARE, braked_room, braking_room, row_deceleration
 from lpik.control.stepper import Stepper
 from lpik.limits import AccelerationLimits, LinearRows, build_problem
 
@@ -43,7 +43,7 @@ def test_a_rows_deceleration_is_the_most_its_band_lowers_it(seed, sign) -> None:
 def test_a_rows_room_is_what_the_joints_can_still_brake_from() -> None:
     assert braked_room(-0.01, 1e-5) == -0.01 and braked_room(0.0, 1e-5) == 0.0  # met or broken
     assert braked_room(0.01, 0.0) == 0.01 and braked_room(0.01, np.inf) == 0.01  # nothing brakes
-    assert braked_room(0.01, 1e-5) == braking_room(0.01, BRAKING_SHARE * 1e-5) < 0.01
+    assert braked_room(0.01, 1e-5) == braking_room(0.01, ROW_BRAKING_SHARE * 1e-5) < 0.01
     # build_problem: the row's right-hand side about q0 is that room, the rows of no joint aside
     G, h = np.array([[1.0, -0.5], [0.0, 0.0]]), np.array([0.3, 1.0])
     q0 = np.array([0.2, 0.1])

@@ -16,7 +16,7 @@ from core_strategies import examples
 from lpik.bands import braking_room, stopping_distance
 from lpik.collision import load_scene
 from lpik.collision.avoidance import (
-    BRAKING_SHARE,
+    ROW_BRAKING_SHARE,
     DistanceRows,
     approach_row,
     braking_row,
@@ -64,7 +64,7 @@ def test_at_d_i_the_stop_ahead_is_the_dampers_speed_and_beyond_it_grows() -> Non
     assert inside == pytest.approx(r * (d_i - d_s), rel=1e-9) and at == pytest.approx(inside)
     rooms = [pair_row(d_i + x, gradient, q0, toward)[0] for x in (1e-4, 1e-3, 5e-3)]
     assert at < rooms[0] < rooms[1] < rooms[2]
-    decel = BRAKING_SHARE * 10.0 * DT**2 * np.abs(gradient).sum()
+    decel = ROW_BRAKING_SHARE * 10.0 * DT**2 * np.abs(gradient).sum()
     assert rooms[2] == pytest.approx(
         braking_room(5e-3 + stopping_distance(r * (d_i - d_s), decel), decel), rel=1e-12
     )

@@ -49,8 +49,9 @@ from lpik.tolerances import FADING_HOLD_SHARE, FEASIBILITY_TOL, SLACK_TOL
 #: that moves the row at its acceleration limit against the approach
 #: (:func:`row_deceleration`); the rest is left to the task, to the joints' own
 #: end-stops and to a row's value changing faster than its gradient tells (a scene's
-#: distance).
-BRAKING_SHARE = 0.5
+#: distance). The command's own stop on its target counts on another share,
+#: :data:`lpik.command.BRAKING_SHARE`.
+ROW_BRAKING_SHARE = 0.5
 
 #: :func:`yield_to`'s verdicts: the bands meet, or the soft band's lower or upper
 #: bound had to give way (the state is outside it on that side).
@@ -134,12 +135,12 @@ def braked_room(room: float, deceleration: float) -> float:
     ``room`` (``h - G q0``) as it is where the row is already met or broken
     (``room <= 0``), where nothing brakes it (``deceleration`` 0: a row of no joint)
     and where it can stop at once (``deceleration`` infinite); else the largest step
-    after which the row can still be kept braking at :data:`BRAKING_SHARE` of
+    after which the row can still be kept braking at :data:`ROW_BRAKING_SHARE` of
     ``deceleration`` (:func:`row_deceleration`), which is never more than ``room``.
     """
     if not (room > 0.0 and 0.0 < deceleration < math.inf):
         return room
-    return braking_room(room, BRAKING_SHARE * deceleration)
+    return braking_room(room, ROW_BRAKING_SHARE * deceleration)
 
 
 def rate_band(

@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from lpik.bands import BRAKING_SHARE, braking_room, row_deceleration, stopping_distance
+from lpik.bands import ROW_BRAKING_SHARE, braking_room, row_deceleration, stopping_distance
 from lpik.collision import recovery
 from lpik.collision.distance import Proximities, Proximity
 from lpik.continuation import continued
@@ -118,7 +118,7 @@ def braking_row(distance, gradient, q0, q_prev, qdd_min, qdd_max, dt, entry_step
 
     Under acceleration limits, a pair that meets ``d_i`` faster than the damper's
     ``xi dt`` (``entry_step``) gets a row there that asks more deceleration than the
-    joints have. Beyond ``d_i``, with ``c = BRAKING_SHARE * sum_i |grad_i| qdd_i dt^2``
+    joints have. Beyond ``d_i``, with ``c = ROW_BRAKING_SHARE * sum_i |grad_i| qdd_i dt^2``
     (each joint's acceleration limit against the approach), the row::
 
         -grad . (q - q0) <= braking_room(d - d_i + stopping_distance(xi dt, c), c)
@@ -146,7 +146,7 @@ def braking_row(distance, gradient, q0, q_prev, qdd_min, qdd_max, dt, entry_step
     toward = row_deceleration(gradient, 1.0, qdd_min, qdd_max, dt)
     if steepest <= FEASIBILITY_TOL or not (0.0 < against < math.inf and toward < math.inf):
         return math.nan
-    decel = BRAKING_SHARE * against
+    decel = ROW_BRAKING_SHARE * against
     bound = braking_room(distance - influence + stopping_distance(entry_step, decel), decel)
     if max(moving, 0.0) + toward <= bound:
         return math.nan
@@ -163,17 +163,17 @@ def capsule_reach(joints, radii, ends, origins, axes, revolute, q0, q_prev, qdd_
 
     A pair needs :func:`braking_row` only where the most it can approach in one
     step, ``u``, exceeds what it can still brake from: ``u + u^2 / (2 c)`` at most,
-    with ``c >= BRAKING_SHARE sum_i |grad_i| b_i`` the rule's deceleration (``b_i``:
+    with ``c >= ROW_BRAKING_SHARE sum_i |grad_i| b_i`` the rule's deceleration (``b_i``:
     joint ``i``'s smaller acceleration limit times ``dt^2``, ``a_i`` the larger). With
     ``s_i = |q0_i - q_prev_i| + a_i``, ``u <= sum_i |grad_i| s_i``, and each ``|grad_i|``
     is at most the witness point's lever about joint ``i`` (the capsule's farther end
     plus its radius; 1 for a prismatic joint). Two bounds on the braking distance:
 
     * ``reach[c]``: by Cauchy-Schwarz, ``u^2 / (2 c) <= sum_i |grad_i| s_i^2 / (2
-      BRAKING_SHARE b_i)``, each joint's own braking;
+      ROW_BRAKING_SHARE b_i)``, each joint's own braking;
     * ``reach[k + c]``: ``u <= w + A``, with ``w`` the capsule's speed in the last
       step (its faster end, plus its radius times its turn) and ``A = sum_i lever_i
-      a_i``; and ``u^2 / (2 c) <= u K / (2 BRAKING_SHARE)``, ``K = max_i s_i / b_i``
+      a_i``; and ``u^2 / (2 c) <= u K / (2 ROW_BRAKING_SHARE)``, ``K = max_i s_i / b_i``
       over every joint.
 
     Both add over a pair's two capsules, so a pair farther than ``d_i`` plus the
@@ -225,12 +225,12 @@ def capsule_reach(joints, radii, ends, origins, axes, revolute, q0, q_prev, qdd_
             else:
                 ax, ay, az, bx, by, bz = ax + zx, ay + zy, az + zz, bx + zx, by + zy, bz + zz
             step = abs(last) + fast
-            own += lever * (step + step * step / (2.0 * BRAKING_SHARE * slow))
+            own += lever * (step + step * step / (2.0 * ROW_BRAKING_SHARE * slow))
             spread += lever * fast
         speed = math.sqrt(max(ax * ax + ay * ay + az * az, bx * bx + by * by + bz * bz))
         speed += radii[c] * turn + spread
         reach[c] = own if limited else 0.0
-        reach[k + c] = speed * (1.0 + ratio / (2.0 * BRAKING_SHARE)) if limited else 0.0
+        reach[k + c] = speed * (1.0 + ratio / (2.0 * ROW_BRAKING_SHARE)) if limited else 0.0
 
 
 def approach_row(distance, gradient, q0, q_prev, qdd_min, qdd_max, dt, damper,
