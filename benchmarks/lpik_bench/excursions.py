@@ -62,10 +62,8 @@ def targets(start: np.ndarray, direction: np.ndarray, far: float) -> Iterator[np
         yield moved(start, s * far * direction)
 
 
-def excursion(
-    robot: str, direction: tuple, far: float, qdd_max: float | None, later: int = 0
-) -> float:
-    """The tool's distance from home after the excursion [m] and ``later`` steps more at home."""
+def _setup(robot: str, direction: tuple, far: float, qdd_max: float | None):  # type: ignore[no-untyped-def]
+    """The arm, its home configuration and pose, its controller and the excursion's poses."""
     from lpik.control.controller import Lp2Controller
     from lpik.robots.registry import home_configuration, load_robot
 
@@ -73,10 +71,29 @@ def excursion(
     controller = Lp2Controller(model, dt=DT, qdd_max=qdd_max, v_max=1e6, w_max=1e6)
     unit = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
     home = model.pose(q0)
-    q, prev = q0.copy(), q0.copy()
-    for target in [*targets(home, unit, far), *[home] * later]:
+    return model, q0, home, controller, list(targets(home, unit, far))
+
+
+def _run_on(model, controller, home, poses, q, prev) -> tuple[float, float]:  # type: ignore[no-untyped-def]
+    """Step from ``(q, prev)`` through ``poses``: the tool's distance from ``home`` [m] then,
+    and, where that is a miss, once the home pose is held :data:`LATER` steps more (a return
+    still on its way is slow; one still off then stands in a local minimum)."""
+    for target in poses:
         prev, q = q, controller.step(q, target, prev).q
-    return float(np.linalg.norm(model.pose(q)[:3, 3] - home[:3, 3]))
+    off = after = float(np.linalg.norm(model.pose(q)[:3, 3] - home[:3, 3]))
+    if off > RECOVERED:
+        for _ in range(LATER):
+            prev, q = q, controller.step(q, home, prev).q
+        after = float(np.linalg.norm(model.pose(q)[:3, 3] - home[:3, 3]))
+    return off, after
+
+
+def excursion(
+    robot: str, direction: tuple, far: float, qdd_max: float | None
+) -> tuple[float, float]:
+    """The tool's distance from home after the excursion [m], and :data:`LATER` steps on."""
+    model, q0, home, controller, poses = _setup(robot, direction, far, qdd_max)
+    return _run_on(model, controller, home, poses, q0.copy(), q0.copy())
 
 
 def perturbed_returns(
@@ -88,17 +105,11 @@ def perturbed_returns(
     and ``q_prev`` alike: the same velocity) is moved by a normal draw of standard
     deviation ``spread`` [rad] (kept within the end-stops), the controller forgets its
     memory (``reset``), and the excursion goes on to its end. Returns how many are home at
-    its end, and how many once the home pose is held :data:`LATER` steps more: a return
-    still on its way is slow, one that is not home then stands in a local minimum.
+    its end, and how many :data:`LATER` steps on (:func:`_run_on`).
     """
-    from lpik.control.controller import Lp2Controller
-    from lpik.robots.registry import home_configuration, load_robot
-
-    model, q0 = load_robot(robot), home_configuration(robot)
-    controller = Lp2Controller(model, dt=DT, qdd_max=qdd_max, v_max=1e6, w_max=1e6)
-    direction = np.asarray(PERTURBED["direction"], dtype=float)
-    home = model.pose(q0)
-    poses = list(targets(home, direction / np.linalg.norm(direction), PERTURBED["far"]))
+    model, q0, home, controller, poses = _setup(
+        robot, PERTURBED["direction"], PERTURBED["far"], qdd_max
+    )
     out = int(round(PERTURBED["far"] / SPEED / DT))  # the end of the way out
     q, prev = q0.copy(), q0.copy()
     for target in poses[:out]:
@@ -106,14 +117,9 @@ def perturbed_returns(
     rng, at_end, later = np.random.default_rng(seed), 0, 0
     for _ in range(draws):
         moved_q = np.clip(q + rng.normal(size=q.size) * spread, model.q_min, model.q_max)
-        qa, pa = moved_q, moved_q - (q - prev)
         controller.reset()
-        for target in poses[out:]:
-            pa, qa = qa, controller.step(qa, target, pa).q
-        at_end += np.linalg.norm(model.pose(qa)[:3, 3] - home[:3, 3]) <= RECOVERED
-        for _ in range(LATER):
-            pa, qa = qa, controller.step(qa, poses[-1], pa).q
-        later += np.linalg.norm(model.pose(qa)[:3, 3] - home[:3, 3]) <= RECOVERED
+        off, after = _run_on(model, controller, home, poses[out:], moved_q, moved_q - (q - prev))
+        at_end, later = at_end + (off <= RECOVERED), later + (after <= RECOVERED)
     return at_end, later
 
 
@@ -125,9 +131,8 @@ def recovered(robot: str, far: tuple[float, ...], qdd_max: float | None) -> tupl
     misses = []
     for distance in far:
         for direction in DIRECTIONS:
-            off = excursion(robot, direction, distance, qdd_max)
+            off, after = excursion(robot, direction, distance, qdd_max)
             if off > RECOVERED:
-                after = excursion(robot, direction, distance, qdd_max, LATER)
                 how = "home" if after <= RECOVERED else f"{after * 1e3:.1f} mm off"
                 how += f" {LATER * DT:g} s later"
                 misses.append(f"{distance:g} m along {direction}: {off * 1e3:.1f} mm off ({how})")
