@@ -47,9 +47,10 @@ FEASIBILITY_TOL = 1e-7
 #: Tolerance of the check on ``J dq = p dw``, relative to ``|J| |dq| + |dw|``.
 EQUALITY_RTOL = 1e-7
 
-#: A joint step [rad] of at most this is rounding, not motion: a loop whose last step moved
-#: no joint further is at rest, and the target's motion is not fed forward
-#: (:func:`lpik.command.moved_beyond_rounding`). Asked for the pose the arm already holds,
+#: A joint step [rad] of at most this is rounding, not motion, for the memory that feeds a
+#: target's motion forward: after a step that moved no joint further the next step gets
+#: none (:func:`lpik.command.moved_beyond_rounding`; whether a step is solved around the
+#: motion still tests ``q_prev != q0`` exactly). Asked for the pose the arm already holds,
 #: the compiled step moves the Panda's joints by 2e-16 rad (its kinematics round apart
 #: from numpy's) and the numpy path not at all; with an exact test the next step fed the
 #: target's motion forward on the compiled engine only, and the engines parted by 3e-7 rad
