@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -376,3 +378,22 @@ def test_a_pass_pays_only_for_motion_in_proportion_to_the_p_it_gains(seed: int) 
     price = np.linalg.norm(dq2 - dq1) / (p2 - p1) / (np.linalg.norm(dq1) / p1)
     if abs(price / SATURATION_MAX_PRICE - 1.0) > 1e-9:  # (not on the edge, where rounding decides)
         assert says == (price <= SATURATION_MAX_PRICE)
+
+
+def test_a_condition_bound_past_the_largest_float_is_inf_without_a_warning() -> None:
+    """Forward substitution through L with small pivots: L^-1's entries reach 1e200, whose
+    squares overflow. The bound is inf (singular) on both paths, and numpy warns nothing
+    (a hypothesis draw of a fresh-clone run warned 'overflow encountered')."""
+    import warnings
+
+    from lpik.methods.kkt import condition_bound
+
+    numba = pytest.importorskip("numba")
+    compiled_condition_bound = numba.njit(condition_bound)  # as lpik.fast.lp2_kernel compiles it
+
+    L = np.array([[1e-100, 0.0, 0.0], [1.0, 1e-100, 0.0], [1.0, 1.0, 1e-100]])
+    S = L @ L.T
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert condition_bound(S, L, np.empty(3)) == math.inf
+    assert compiled_condition_bound(S, L, np.empty(3)) == math.inf

@@ -155,9 +155,16 @@ def condition_bound(S, L, x):  # type: ignore[no-untyped-def]
             for k in range(j, i):
                 s -= L[i, k] * x[k]
             x[i] = s / L[i, i]
+            if not abs(x[i]) <= _ENTRY_BOUND:  # its square would overflow: the bound is inf
+                return math.inf
             norm_inv += x[i] * x[i]
     # Python floats: a product past the largest float is inf (singular), without numpy's warning
     return math.sqrt(norm_s) * float(norm_inv)
+
+
+#: An entry of ``L^-1`` beyond this makes :func:`condition_bound` infinite: its square
+#: would overflow (numpy's warning on the numpy path; a hypothesis draw of a fresh-clone run).
+_ENTRY_BOUND = 1e150
 
 
 def smoothing_pull(problem: Problem) -> FloatArray:
