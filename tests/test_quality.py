@@ -15,7 +15,13 @@ import numpy as np
 import pytest
 
 from lpik.robots.registry import home_configuration, load_robot
-from lpik_bench.quality_metrics import KINDS, LegRun, jitter_where_both_moved, scenario_metrics
+from lpik_bench.quality_metrics import (
+    KINDS,
+    LegRun,
+    high_energy,
+    jitter_where_both_moved,
+    scenario_metrics,
+)
 from lpik_bench.quality_scenarios import (
     SCENARIOS,
     Leg,
@@ -69,6 +75,7 @@ def test_metrics_are_finite_and_in_range(suite) -> None:
                 m.ori_max,
                 m.jitter,
                 m.high,
+                m.high_energy,
                 m.acc_max,
                 *m.step_us,
                 m.p_mean,
@@ -135,7 +142,8 @@ def test_metrics_of_known_runs() -> None:
     targets = np.array([model.pose(q0)] * n_steps)
     still = LegRun(np.array([q0] * (n_steps + 1)), np.ones(n_steps, dtype=np.int64))
     m = scenario_metrics(model, (_leg(targets, q0, settle_from=50),), [still], dt, 10.0)
-    assert m.pos_max < 1e-9 and m.jitter == 0 and m.high == 0 and m.violation_steps == 0
+    assert m.pos_max < 1e-9 and m.jitter == 0 and m.high == 0 and m.high_energy == 0
+    assert m.violation_steps == 0
     assert m.recovered == 1 and m.recoveries[0].after_ms == 0 and m.frozen == 0
 
     q = np.array([q0] * (n_steps + 1))
@@ -153,6 +161,23 @@ def test_metrics_of_known_runs() -> None:
     m = scenario_metrics(model, (_leg(far, q0),), [still], dt, None)
     assert "acceleration" not in m.violations and m.frozen == n_steps
     assert m.frozen_without_direction is None  # a peer's row: not asked
+
+
+def test_energy_above_5_hz_of_known_velocities() -> None:
+    """A 20 Hz sine of amplitude A over whole periods: A^2 / 2 per second, all above 5 Hz
+    (to the line through the run's ends that is taken out first); a 1 Hz one: none.
+    Adding a slow motion lowers the share, not the energy."""
+    dt, seconds, amplitude = 1e-3, 2.0, 0.3
+    t = np.arange(int(seconds / dt)) * dt
+    fast = amplitude * np.sin(2 * np.pi * 20.0 * t)[:, None]
+    high, total = high_energy(fast, dt)
+    assert high * dt == pytest.approx(amplitude**2 / 2 * seconds, rel=0.01)
+    assert total * dt == pytest.approx(amplitude**2 / 2 * seconds, rel=1e-9)
+    slow = amplitude * np.sin(2 * np.pi * 1.0 * t)[:, None]
+    assert high_energy(slow, dt)[0] < 1e-3 * high
+    both = high_energy(fast + 3 * slow, dt)
+    assert both[0] == pytest.approx(high, rel=1e-3)
+    assert both[0] / both[1] < 0.1  # the share fell tenfold; the shaking is the same
 
 
 def test_jitter_where_both_moved_leaves_out_the_steps_a_library_held_the_arm() -> None:
@@ -529,6 +554,26 @@ def test_a_jitter_miss_says_where_the_reference_held_the_arm() -> None:
                     "over the steps on which both moved, lp2s 3.00 against 8.00")  # fmt: skip
     tracking = next(v for v in verdicts(result, "lp2s") if v.metric.key == "pos_rms")
     assert measured_context(result, "lp2s", tracking) == ""
+
+
+def test_a_share_miss_says_when_the_reference_shakes_more_but_moves_more() -> None:
+    """A lower share above 5 Hz of a larger motion: the reason gives both energies."""
+    from lpik_bench.quality_judge import verdicts
+    from lpik_bench.quality_report import measured_context
+
+    result = _judged_result({"lp2s +acc": 1.0, "drake +acc": 1.0}, acceleration=True)
+    lpik, drake = result.rows["lp2s +acc"], result.rows["drake +acc"]
+    lpik.high, lpik.high_energy, lpik.least_time_high = 0.8, 0.002, 0.6
+    drake.high, drake.high_energy = 0.5, 0.01
+    share = next(v for v in verdicts(result, "lp2s +acc") if v.metric.key == "high")
+    assert share.met is False
+    said = measured_context(result, "lp2s +acc", share)
+    assert said.endswith(
+        "; drake +acc's energy above 5 Hz is 0.01 rad^2/s against lp2s +acc's 0.002, its "
+        "share lower because its motion has 8.00 times the energy in all"
+    )
+    drake.high_energy = 0.001  # less shaking: no such clause
+    assert "rad^2/s" not in measured_context(result, "lp2s +acc", share)
 
 
 def test_tracking_on_return_splits_the_error_where_the_target_came_back_within_reach() -> None:

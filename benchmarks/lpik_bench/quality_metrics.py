@@ -10,8 +10,9 @@ every library is measured by the same code:
   steps whose target is reachable;
 - jitter: the total variation of the joint velocities, ``sum_k sum_j
   |qdot(k+1) - qdot(k)|`` [rad/s], from rest (the first step counts);
-- the share of joint-velocity energy above :data:`HIGH_HZ` (FFT of each
-  joint's velocity over each run, summed over joints and runs);
+- the joint-velocity energy above :data:`HIGH_HZ`, ``sum_j integral
+  qdot_j,high(t)^2 dt`` [rad^2/s] (FFT of each joint's velocity over each run,
+  summed over joints and runs), and its share of all the velocity energy [%];
 - the largest joint acceleration [rad/s^2] (from rest);
 - limit violations: steps that leave an end-stop (more than ``STOP_TOL``),
   exceed a velocity limit or, where checked, an acceleration limit (more than
@@ -216,11 +217,18 @@ class Metrics:
     ori_rms: float = 0.0
     ori_max: float = 0.0
     jitter: float = 0.0
+    #: Share of the joint-velocity energy above HIGH_HZ [%].
     high: float = 0.0
+    #: Joint-velocity energy above HIGH_HZ [rad^2/s], shown beside the share: a share
+    #: falls where a larger slow motion is added (a library that wanders off its path),
+    #: the energy where the arm is held still (a library whose steps fail).
+    high_energy: float = 0.0
     #: Point-to-point legs under acceleration limits: :attr:`high` of the least-time move
     #: between each leg's start and this library's end configuration
     #: (:func:`~lpik_bench.quality_scenarios.least_time_velocities`), None elsewhere.
     least_time_high: float | None = None
+    #: The same least-time moves' :attr:`high_energy` [rad^2/s], None elsewhere.
+    least_time_energy: float | None = None
     acc_max: float = 0.0
     violations: dict[str, tuple[int, float]] = field(default_factory=dict)
     frozen: int = 0
@@ -321,7 +329,8 @@ def high_energy(qdot: FloatArray, dt: float) -> tuple[float, float]:
 
     The line through each joint's first and last sample is removed before the
     FFT (so that the jump of the periodic extension leaks no energy upwards);
-    the total is the energy of the velocities themselves.
+    the total is the energy of the velocities themselves. Both are sums of squared
+    samples [rad^2/s^2] (Parseval); times ``dt`` they are integrals [rad^2/s].
     """
     n = qdot.shape[0]
     ramp = np.linspace(0.0, 1.0, n)[:, None]
@@ -417,8 +426,10 @@ def scenario_metrics(
         m.pos_rms, m.pos_max = 1e3 * float(np.sqrt(np.mean(pos**2))), 1e3 * float(pos.max())
         m.ori_rms, m.ori_max = 1e3 * float(np.sqrt(np.mean(ori**2))), 1e3 * float(ori.max())
     m.high = 100.0 * high / total if total > 0 else 0.0
+    m.high_energy = high * dt
     if least_total > 0:
         m.least_time_high = 100.0 * least_high / least_total
+        m.least_time_energy = least_high * dt
     _keep_times(m, np.concatenate(times) / 1e3, each_status, where)
     if ps:
         p = np.concatenate(ps)
