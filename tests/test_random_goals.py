@@ -31,7 +31,7 @@ def test_a_goal_near_home_is_reached_and_counted_so() -> None:
     goal = home + np.array([0.05, -0.05, 0, 0, 0, 0, 0])
     run = R.run_goal("panda", 0, goal, qdd_max=10.0, steps=1500)
     assert run.reached and run.reached_at is not None and run.reached_at < 1500
-    assert run.goal_ratio > 0.0 and run.reversals >= 0
+    assert run.goal_ratio > 0.0 and 0 <= run.law_changes <= run.reversals
     assert run.step_times.shape == (1500,) and np.all(run.step_times > 0.0)
     assert run.uncompiled == 0  # every step on the compiled path
     short = R.run_goal("panda", 1, goal, qdd_max=None, steps=3)
@@ -70,3 +70,11 @@ def test_timing_reads_every_step_of_every_run() -> None:
     times, uncompiled = R.timing(runs)
     assert times.startswith("3.0 / ") and times.endswith(" / 1,000")
     assert uncompiled == "2 of 5"
+
+
+def test_the_summary_gives_the_reversals_at_a_change_of_law_beside_all() -> None:
+    runs = [
+        R.GoalRun(0, 0.0, 0.0, 1000, "optimal", "-", 0.1, 30, np.ones(2), 0, law_changes=12),
+        R.GoalRun(1, 1.0, 0.0, None, "optimal", "-", 0.1, 1970, np.ones(2), 0, law_changes=3),
+    ]
+    assert R.summary(runs) == ("1 of 2", "1.00 / 1.00", "2,000 (15)")

@@ -63,6 +63,9 @@ class GoalRun:
     step_times: np.ndarray
     #: Steps not answered on the compiled path (``Result.path``: the numpy engine, HiGHS).
     uncompiled: int
+    #: Of :attr:`reversals`, those on a step whose status differs from the step before's:
+    #: a change of law (the exact step, the progress step ``off_direction``, the safe step).
+    law_changes: int = 0
 
     @property
     def reached(self) -> bool:
@@ -106,7 +109,7 @@ def run_goal(robot: str, index: int, goal: np.ndarray, qdd_max: float | None,
     prev = q.copy()
     acceleration = np.zeros(q.size)  # the last step's change of the joint step
     threshold = None if qdd_max is None else REVERSAL_SHARE * qdd_max * DT * DT  # per step
-    reversals, reached_at, uncompiled = 0, None, 0
+    reversals, reached_at, uncompiled, law_changes, status = 0, None, 0, 0, None
     step_times = np.empty(steps)
     for k in range(steps):
         start = time.perf_counter_ns()
@@ -114,9 +117,10 @@ def run_goal(robot: str, index: int, goal: np.ndarray, qdd_max: float | None,
         step_times[k] = (time.perf_counter_ns() - start) * 1e-3
         uncompiled += result.path != "compiled"
         change = (result.q - q) - (q - prev)
-        if threshold is not None:
-            reversals += int(reverses(change, acceleration, threshold))
-        acceleration, prev, q = change, q, result.q
+        if threshold is not None and reverses(change, acceleration, threshold):
+            reversals += 1
+            law_changes += result.status != status
+        acceleration, prev, q, status = change, q, result.q, result.status
         position, orientation = errors(model, q, target)
         near = position <= REACHED[0] and orientation <= REACHED[1]
         reached_at = (k if reached_at is None else reached_at) if near else None
@@ -131,6 +135,7 @@ def run_goal(robot: str, index: int, goal: np.ndarray, qdd_max: float | None,
         reversals=reversals,
         step_times=step_times,
         uncompiled=uncompiled,
+        law_changes=law_changes,
     )
 
 
@@ -142,11 +147,12 @@ def miss_text(run: GoalRun) -> str:
 
 
 def summary(runs: list[GoalRun]) -> tuple[str, str, str]:
-    """``(reached, time to reach median / max [s], reversals)`` of one arm and setting."""
+    """``(reached, time to reach median / max [s], reversals (at a change of law))``."""
     times = [r.reached_at * DT for r in runs if r.reached_at is not None and r.reached]
     reached = f"{sum(r.reached for r in runs)} of {len(runs)}"
     timing = f"{np.median(times):.2f} / {max(times):.2f}" if times else "-"
-    return reached, timing, f"{sum(r.reversals for r in runs):,}"
+    changes = sum(r.law_changes for r in runs)
+    return reached, timing, f"{sum(r.reversals for r in runs):,} ({changes:,})"
 
 
 def timing(runs: list[GoalRun]) -> tuple[str, str]:
@@ -168,7 +174,9 @@ def section(rows: list[tuple[str, ...]], misses: list[str], goals: int, seed: in
         f"joint's range, so that each goal is reachable within the end-stops. *Reached*: within "
         f"{REACHED[0] * 1e3:g} mm and {REACHED[1] * 1e3:g} mrad at the end. *Reversals* (with "
         f"`qdd_max={qdd:g}` rad/s^2): steps on which a joint's acceleration changes sign at more "
-        f"than {REVERSAL_SHARE:.0%} of its limit both times.", "",
+        f"than {REVERSAL_SHARE:.0%} of its limit both times; in brackets those on a step whose "
+        f"status differs from the step before's, a change of law (the exact step, the progress "
+        f"step `off_direction`, the safe step `infeasible`).", "",
         *table("| arm | reached | time to reach, median / max [s] | reached with acceleration "
                "limits | time to reach [s] | reversals |", "|---|---:|---:|---:|---:|---:|", rows),
         "", "Every step's `controller.step` call timed (`time.perf_counter_ns`, on this shared "
