@@ -422,13 +422,15 @@ MISSED_BECAUSE = {
     "end-stop: the progress step (least L1 error, a metre priced as a radian) gives up "
     "position for orientation, and the tool drifts from the goal",
     "goals/step_p99": "almost all in goal 5: once the automatic multiplier bound holds the "
-    "arm short of that near-singular goal, p falls toward 0 on every step (status optimal), "
-    "so the stall stage solves the progress LP on each; the arm is nearly singular along "
-    "the error that remains, and within one step's acceleration box that LP's step gains "
-    "less than the stage counts as progress (lpik.methods.progress.makes_progress), so the "
-    "exact step stands; each such step is the exact step, its solve again under the bound "
-    "and that LP (the row lp2s +acc strict, without the stall stage, shows the steps "
-    "without that LP)",
+    "arm short of that near-singular goal, the step solved around the arm's motion is "
+    "infeasible on every step (2,000 of 2,000 from 3 s on), so the stall stage solves the "
+    "progress LP on each and the through-rest stage solves the step again from rest "
+    "(lpik.continuation.through_rest), whose answer (status optimal, p about 1e-7) is the "
+    "step; the arm is nearly singular along the error that remains, and within one step's "
+    "acceleration box the progress LP's step gains less than the stage counts as progress "
+    "(lpik.methods.progress.makes_progress); profiled, such a step is two solves of the "
+    "compiled step (about 16 us each), the stall stage (7.7 us median) and about 10 us of "
+    "Python (the row lp2s +acc strict, without either stage, shows the steps without them)",
     "goals/step_max": "the slowest step is noise of this shared machine: every step is "
     "answered on the compiled path since 41e4768 (before, goal 5's 31 infeasible steps near "
     "the singular configuration went to HiGHS, 0.5 to 7 ms each: benchmarks/random_goals.py "
