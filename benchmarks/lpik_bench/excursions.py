@@ -78,13 +78,17 @@ def _run_on(model, controller, home, poses, q, prev) -> tuple[float, float]:  # 
     """Step from ``(q, prev)`` through ``poses``: the tool's distance from ``home`` [m] then,
     and, where that is a miss, once the home pose is held :data:`LATER` steps more (a return
     still on its way is slow; one still off then stands in a local minimum)."""
+
+    def from_home(q: np.ndarray) -> float:
+        return float(np.linalg.norm(model.pose(q)[:3, 3] - home[:3, 3]))
+
     for target in poses:
         prev, q = q, controller.step(q, target, prev).q
-    off = after = float(np.linalg.norm(model.pose(q)[:3, 3] - home[:3, 3]))
+    off = after = from_home(q)
     if off > RECOVERED:
         for _ in range(LATER):
             prev, q = q, controller.step(q, home, prev).q
-        after = float(np.linalg.norm(model.pose(q)[:3, 3] - home[:3, 3]))
+        after = from_home(q)
     return off, after
 
 

@@ -227,8 +227,6 @@ class Metrics:
     #: between each leg's start and this library's end configuration
     #: (:func:`~lpik_bench.quality_scenarios.least_time_velocities`), None elsewhere.
     least_time_high: float | None = None
-    #: The same least-time moves' :attr:`high_energy` [rad^2/s], None elsewhere.
-    least_time_energy: float | None = None
     acc_max: float = 0.0
     violations: dict[str, tuple[int, float]] = field(default_factory=dict)
     frozen: int = 0
@@ -429,7 +427,6 @@ def scenario_metrics(
     m.high_energy = high * dt
     if least_total > 0:
         m.least_time_high = 100.0 * least_high / least_total
-        m.least_time_energy = least_high * dt
     _keep_times(m, np.concatenate(times) / 1e3, each_status, where)
     if ps:
         p = np.concatenate(ps)

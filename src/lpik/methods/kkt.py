@@ -135,6 +135,11 @@ def ill_conditioned(S, L, x, max_condition):  # type: ignore[no-untyped-def]
     return not condition_bound(S, L, x) <= max_condition  # NaN: singular too
 
 
+#: An entry of ``L^-1`` beyond this makes :func:`condition_bound` infinite: its square
+#: would overflow (numpy's warning on the numpy path; a hypothesis draw of a fresh-clone run).
+_ENTRY_BOUND = 1e150
+
+
 def condition_bound(S, L, x):  # type: ignore[no-untyped-def]
     """``|S|_F |L^-1|_F^2`` for ``S = L L^T``: never below the condition of ``S``.
 
@@ -160,11 +165,6 @@ def condition_bound(S, L, x):  # type: ignore[no-untyped-def]
             norm_inv += x[i] * x[i]
     # Python floats: a product past the largest float is inf (singular), without numpy's warning
     return math.sqrt(norm_s) * float(norm_inv)
-
-
-#: An entry of ``L^-1`` beyond this makes :func:`condition_bound` infinite: its square
-#: would overflow (numpy's warning on the numpy path; a hypothesis draw of a fresh-clone run).
-_ENTRY_BOUND = 1e150
 
 
 def smoothing_pull(problem: Problem) -> FloatArray:
