@@ -231,6 +231,26 @@ def test_frozen_steps_without_an_exact_direction_are_those_where_lp1_has_p_0() -
     assert m.frozen == n_steps and m.frozen_without_direction == 12
 
 
+def test_a_frozen_step_whose_lp1_p_is_rounding_has_no_exact_direction() -> None:
+    # Near a singular configuration LP1's p on a frozen step is about 1e-8, not 0: the
+    # command's direction is as good as lost (the stall stage's p near 0, STALL_P); a
+    # frozen step with a direction LP1 can follow at more than that share is not counted.
+    from lpik.tolerances import STALL_P
+    from lpik_bench.quality_metrics import NO_DIRECTION_P
+
+    assert NO_DIRECTION_P == STALL_P
+    model = load_robot("panda", task="pose")
+    q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.79])
+    target = model.pose(q0)
+    target[2, 3] += 0.05
+    shares = iter([1e-8, STALL_P, 2.0 * STALL_P, 0.5])
+    n_steps = 4
+    still = LegRun(np.array([q0] * (n_steps + 1)), np.ones(n_steps, dtype=np.int64))
+    m = scenario_metrics(model, (_leg(np.array([target] * n_steps), q0),), [still], 1e-3,
+                         None, lambda q, prev, t: next(shares))  # fmt: skip
+    assert m.frozen == n_steps and m.frozen_without_direction == 2
+
+
 def test_a_frozen_leg_says_where_a_local_descent_goes_from_where_it_froze() -> None:
     # The arm stands still 5 cm below a target a small turn of its joints reaches: the
     # descent from the first frozen step ends on the target (a local step could have made

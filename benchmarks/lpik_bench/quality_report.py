@@ -38,6 +38,7 @@ from lpik_bench.quality_metrics import (
     FROZEN_DQ,
     HIGH_HZ,
     KINDS,
+    NO_DIRECTION_P,
     RECOVERY_WINDOW,
     RETURN_WINDOW,
     SETTLE_TOL,
@@ -537,8 +538,8 @@ def _frozen_context(m: Metrics) -> str:
         said += f"; the steps there: {statuses}; binding: {bindings}"
     if m.frozen_without_direction is not None:
         said += (
-            f"; LP1's p (the largest of any step in the command's direction) is 0 on "
-            f"{m.frozen_without_direction:,} of them"
+            f"; LP1's p (the largest of any step in the command's direction) is at most "
+            f"{NO_DIRECTION_P:g} on {m.frozen_without_direction:,} of them"
         )
     if m.frozen_descents:
         ends = ", ".join(
@@ -805,9 +806,10 @@ def intro(suite: SuiteResult) -> list[str]:
         settle_text(suite),
         CLEARANCE_TEXT,
         "- **lpik**: `p` (mean, share of steps with p = 0), statuses and the binding limits "
-        "seen most; of the frozen steps, those with no exact direction at all: LP1's `p` (the "
+        "seen most; of the frozen steps, those with no exact direction: LP1's `p` (the "
         "largest fraction of the command that any step within the limits follows exactly) is "
-        "0 there, so no step that keeps the commanded direction can move, and only leaving it "
+        f"at most {NO_DIRECTION_P:g} there (the stall stage's p near 0, STALL_P), so no step "
+        "that keeps the commanded direction can move but by rounding, and only leaving it "
         "(the `on_stall` progress step, on by default) makes progress. **Step time**: the "
         "library's step call alone, median / p99 / max [us]. "
         "The machine is a shared 2-core virtual machine on which other work ran at the same "
