@@ -30,8 +30,9 @@ CHECK_FAILED = "check_failed"
 #: Every status a result can carry, with its meaning.
 STATUSES: dict[str, str] = {
     OPTIMAL: "the method's problem was solved; every limit holds",
-    SCALED: "l1 only: the full displacement is infeasible; the step is the least-L1 step "
-    "achieving the largest feasible fraction p (binding names the limit)",
+    SCALED: "l1: the full displacement is infeasible; the step is the least-L1 step "
+    "achieving the largest feasible fraction p (binding names the limit); also the "
+    "controller's step where LP2's conditions admit no step but LP1 has one (method l1)",
     VIOLATES_LIMITS: "classical methods only: the returned (unclamped) step breaks the limit "
     "named in binding",
     RECOVERING: "the state was outside a limit (binding names it: a joint past its end-stop, "

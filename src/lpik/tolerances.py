@@ -61,6 +61,11 @@ REST_STEP = 1e-10
 # ---------------------------------------------------------- affine dexterity
 #: p at or above this counts as the full displacement (no binding limit).
 FULL_P = 1.0 - 1e-9
+#: Ho's LP past the full displacement (:func:`lpik.methods.l1.l1`) takes its least-L1 step
+#: among those with ``p`` within this below LP1's largest: a margin for the solver's
+#: rounding of that largest ``p``, so that the second LP is feasible. The same margin in
+#: the compiled form (:func:`lpik.fast.progress.least_l1_in_state`).
+SCALED_P_MARGIN = 1e-9
 #: A step solved around the motion (:mod:`lpik.continuation`) with ``p`` at or below this
 #: changes the motion toward the command by nothing but rounding: it is the controlled stop.
 NO_CHANGE_P = 1e-9

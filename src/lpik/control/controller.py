@@ -78,6 +78,7 @@ from lpik.fast.progress import (
     further_stage,
     largest_share_lp,
     least_error,
+    least_l1_in_state,
     stall_stage,
     state_rows,
 )
@@ -86,6 +87,7 @@ from lpik.labels import Binding, row_label, step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
 from lpik.methods.autobound import floor_row
+from lpik.methods.l1 import past_criterion
 from lpik.methods.progress import (
     STALLS,
     held_by_acceleration,
@@ -95,7 +97,7 @@ from lpik.methods.progress import (
     stall_limit,
 )
 from lpik.problem import Problem, check_magnitude, reference_configuration
-from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, Result
+from lpik.result import INFEASIBLE, OPTIMAL, RECOVERING, SCALED, Result
 from lpik.robots.base import TaskModel
 from lpik.tolerances import FULL_P, STALL_P
 from lpik.types import FloatArray
@@ -519,6 +521,12 @@ class Lp2Controller:
             progress_result(np.zeros(n), np.ones(n), np.zeros((0, n)), np.zeros(0), 1.0, 0.0,
                             None, 0.0, "compiled").__dict__
         )  # fmt: skip
+        #: The criterion stage's step's fields (Ho's LP past the full displacement);
+        #: :meth:`_scaled` copies it and fills in the numbers.
+        self._scaled_fields = dict(
+            Result(q=np.zeros(n), dq=np.zeros(n), p=0.0, lam=None, status=SCALED, binding=None,
+                   method="l1", path="compiled").__dict__
+        )  # fmt: skip
         return layout.pack(
             n, m, template.G.shape[0],
             h_diag=is_diagonal(H), dt=self.dt, v_max=self.v_max, w_max=self.w_max,
@@ -647,7 +655,7 @@ class Lp2Controller:
         if watch and (self._watch_stall or self._further):
             result = self._stalled(result, q0, q_prev, count=True)
         if watch and result.status == INFEASIBLE:
-            result = self._through_rest(q0, target, q_prev, result)
+            result = self._scaled(q0, q_prev, self._through_rest(q0, target, q_prev, result))
         if self.scene_rows is not None:
             result = self._recovered(q0, target, q_prev, result)
         if watch and result.p == 0.0:  # a stop may break a row (most steps move: p > 0)
@@ -668,12 +676,16 @@ class Lp2Controller:
                 or self._state[flag] == 0.0
                 or np.array_equal(np.asarray(q0), np.asarray(q_prev))):  # fmt: skip
             return around  # (the numpy engine's step has had its own stage)
+        ahead = self._state.item(self._singular_at)  # the step's stop before a singular one
         self._state[flag] = -1.0
         try:
             rest = self._step(q0, target, q_prev, watch=False)
         finally:
             self._state[flag] = 1.0
-        return through_rest(around, rest)
+        chosen = through_rest(around, rest)
+        if chosen is around:  # the state's step is the one around the motion (_scaled reads it)
+            self._state[self._singular_at] = ahead
+        return chosen
 
     def _recovered(self, q0: Any, target: Any, q_prev: Any, result: Result) -> Result:
         """The recovery stage: from inside the scene's safety distance the distance grows back.
@@ -887,7 +899,9 @@ class Lp2Controller:
         if self._watch_stall:
             self._last = self._stalled(self._last, q0, q_prev, count=True)
         if self._last.status == INFEASIBLE:
-            self._last = self._through_rest(q0, target, q_prev, self._last)
+            self._last = self._scaled(
+                q0, q_prev, self._through_rest(q0, target, q_prev, self._last)
+            )
         self._last = self._within_rows(q0, q_prev, self._last)
         out[...] = self._last.q
         return self._last.p
@@ -945,6 +959,32 @@ class Lp2Controller:
             bound = self._out[self._bound_at].copy()
         problem = self._stepped_problem(q0, target, q_prev, bound)
         return self.stepper.solve(problem, path=self._fallback_path)
+
+    def _scaled(self, q0: Any, q_prev: Any, result: Result) -> Result:
+        """The criterion stage (:meth:`Stepper.scaled <lpik.control.stepper.Stepper.scaled>`).
+
+        Where LP2's conditions admit no step (the kernel's safe step), Ho's LP past
+        the full displacement on the step the kernel left in the state, compiled
+        (:func:`lpik.fast.progress.least_l1_in_state`); the numpy engine's step has
+        had the stepper's own stage. With the stall stage only, from within the limits.
+        """
+        if (not self._watch_stall or self._on_numpy_engine or not past_criterion(result)
+                or self._out.item(self._outside) >= 0):  # fmt: skip
+            return result
+        start = perf_counter()
+        q = np.ascontiguousarray(q0, dtype=np.float64)
+        prev = q if q_prev is None else np.ascontiguousarray(q_prev, dtype=np.float64)
+        dq = np.empty(self._n)
+        code, p, label = least_l1_in_state(self._state, q, prev, dq, self._residual_out)
+        if code != SOLVED:
+            return result
+        fields = self._scaled_fields.copy()
+        fields["q"], fields["dq"], fields["p"] = q + dq, dq, p
+        fields["status"] = OPTIMAL if p >= FULL_P else SCALED
+        fields["binding"] = None if label < 0 else self._labels[int(label)]
+        fields["residual"] = self._residual_out.item(0)
+        fields["solve_time"] = perf_counter() - start
+        return Result.trusted(fields)
 
     def _stalled(self, result: Result, q0: Any, q_prev: Any, *, count: bool) -> Result:
         """The stall stage, compiled (:func:`lpik.fast.progress.stall_stage`), on the step.
@@ -1151,7 +1191,7 @@ class Lp2Controller:
             if (self._watch_stall or self._further) and not numpy_engine:  # row by row
                 res = self._stalled(res, Q0[b], prev, count=False)
             if res.status == INFEASIBLE:
-                res = self._through_rest(Q0[b], T[b], prev, res)
+                res = self._scaled(Q0[b], prev, self._through_rest(Q0[b], T[b], prev, res))
             fallback[b] = res = self._within_rows(Q0[b], prev, res)
             q[b], dq[b], p[b], residual[b] = res.q, res.dq, res.p, res.residual
             pull_scale[b] = res.pull_scale

@@ -51,6 +51,7 @@ from lpik.fast.progress import (
     further_stage,
     largest_share_lp,
     least_error_step,
+    least_l1_in_state,
     stall_stage,
     state_rows,
 )
@@ -68,6 +69,8 @@ STAGES = {
             ((_VECTOR,) * 4 + (types.float64,) + (types.boolean,) * 4 + (_VECTOR,) * 3),
         ),
         (floor_in_state, (_VECTOR,) * 3),  # the bound's floor as the progress step's row
+        # the criterion stage: Ho's LP where LP2's conditions admit no step
+        (least_l1_in_state, (_VECTOR,) * 5),
     ),
     "further": ((further_stage, (_VECTOR,) * 6),),  # mode="progress"'s second stage
     # under acceleration limits: the state's implied step against the commanded one

@@ -55,10 +55,27 @@ from numba import njit
 
 from lpik.fast import layout as L
 from lpik.fast.autobound import clearly_regular
-from lpik.fast.step import brake_rows, continues, fading_in_state, step_bounds
+from lpik.fast.lp2_kernel import _loop_check
+from lpik.fast.step import (
+    binding_label_index,
+    brake_rows,
+    continues,
+    fading_in_state,
+    step_bounds,
+)
 from lpik.fast.twins import compiled_twin
 from lpik.methods import progress as rule
-from lpik.tolerances import FEASIBILITY_TOL, MOTION_WEIGHT, SIMPLEX_COST_TOL, SIMPLEX_PIVOT_TOL
+from lpik.tolerances import (
+    ACTIVE_RTOL,
+    DUAL_TOL,
+    FEASIBILITY_TOL,
+    FULL_P,
+    MOTION_WEIGHT,
+    NO_CHANGE_P,
+    SCALED_P_MARGIN,
+    SIMPLEX_COST_TOL,
+    SIMPLEX_PIVOT_TOL,
+)
 
 #: :func:`least_error_step`'s outcomes.
 SOLVED, INFEASIBLE, ITERATION_LIMIT = 0, 1, 2
@@ -336,7 +353,16 @@ def _two_phases(A, b, lo, up, cost, r, g, x):
     """
     rows, cols = A.shape
     basis, row_of = np.empty(rows, np.int64), np.empty(cols, np.int64)
-    T = np.empty((rows, cols))
+    return _phases(A, b, lo, up, cost, r, g, x, basis, row_of, np.empty((rows, cols)))
+
+
+@njit(cache=True)
+def _phases(A, b, lo, up, cost, r, g, x, basis, row_of, T):
+    """:func:`_two_phases` with its basis (``basis``, ``row_of``) and tableau ``T`` the caller's.
+
+    At :data:`SOLVED` they hold the optimal vertex's, for a further LP on the same rows.
+    """
+    rows, cols = A.shape
     need = _start(A, b, lo, x, basis, row_of, rows - r, r)
     if not _refresh(A, b, x, lo, up, basis, row_of, T):
         return SINGULAR_BASIS
@@ -440,6 +466,130 @@ def largest_share_lp(G, b, demand, lower, upper):
 
 
 @njit(cache=True)
+def least_l1_in_state(state, q0, q_prev, dq, residual):
+    """Ho's LP past the full displacement (:func:`lpik.methods.l1.l1`) on a fused step's state.
+
+    The controller's step where LP2's conditions admit none (the fused step
+    ``infeasible``) but a motion along the command exists: LP1's largest ``p``
+    (eqs. 11-14) on the step's problem (:func:`state_rows`: its ``J``, command,
+    bounds and rows; around the arm's motion where the step is, in ``u = dq -
+    last``: :func:`lpik.continuation.continued`), then, with ``p`` at most
+    :data:`~lpik.tolerances.SCALED_P_MARGIN` below it, the least ``sum |u|``, the
+    least change of the motion: the second LP goes on from the first's optimal
+    vertex in the same tableau. ``dq`` receives the step from ``q0`` and
+    ``residual[0]`` its ``max |J dq - p dw|``.
+
+    Returns ``(outcome, p, label)``: :data:`SOLVED` for a step that passes the
+    check of :func:`lpik.check.loop_check` and changes the motion toward the
+    command (``p`` above :data:`~lpik.tolerances.NO_CHANGE_P`), else
+    :data:`INFEASIBLE`; ``label``: the binding limit's index in the step's label
+    table (:func:`lpik.fast.step.binding_label_index` of :func:`_share_binding`'s
+    code; -1 at ``p = 1``).
+    """
+    n = q0.shape[0]
+    kinds = np.empty((2, n))
+    J, dw, lower, upper, G, g = _rows_and_kinds(state, q0, q_prev, True, True, kinds)
+    m, r = J.shape[0], G.shape[0]
+    last = np.zeros(n)
+    if continues(state, q0, q_prev):
+        for i in range(n):
+            last[i] = min(max(q0[i] - q_prev[i], lower[i]), upper[i])
+    dw_u, g_u = dw.copy(), g.copy()  # the step in u (continuation.continued)
+    for i in range(n):
+        for k in range(m):
+            dw_u[k] -= J[k, i] * last[i]
+        for j in range(r):
+            g_u[j] -= G[j, i] * last[i]
+    A, b, lo, up, cost = _share_columns(J, dw_u, lower - last, upper - last, G, g_u)
+    rows, cols = A.shape
+    basis, row_of, T = np.empty(rows, np.int64), np.empty(cols, np.int64), np.empty((rows, cols))
+    x = np.empty(cols)
+    code = _phases(A, b, lo, up, cost, rows, b, x, basis, row_of, T)
+    if code != SOLVED:
+        return code, 0.0, -1
+    share = x[n] - x[2 * n + 1]
+    binding = -1 if share >= FULL_P else _share_binding(T, cost, x, lo, up, b, basis, n, m, r)
+    first = x.copy()
+    lo[n] = up[n] = 1.0  # Ho's LP at the full displacement where LP1 reaches it, else below
+    if share < FULL_P:
+        lo[n], up[n] = max(0.0, share - SCALED_P_MARGIN), share
+    x[n] = min(max(x[n], lo[n]), up[n])
+    for j in range(cols):
+        cost[j] = 1.0 if j < 2 * n + 2 and j != n and j != 2 * n + 1 else 0.0
+    if _solve(A, b, lo, up, cost, x, basis, row_of, T) != SOLVED:
+        x = first
+    p = min(max(x[n] - x[2 * n + 1], 0.0), 1.0)
+    u = np.empty(n)
+    for i in range(n):
+        dq[i] = min(max(last[i] + x[i] - x[n + 1 + i], lower[i]), upper[i])
+        u[i] = dq[i] - last[i]
+    ok, residual[0] = _loop_check(J, dw_u, p, u, np.zeros(m), np.zeros(m), np.zeros(m), G, g_u)
+    if not ok or p <= NO_CHANGE_P:  # no change toward the command: the caller's safe step
+        return INFEASIBLE, p, -1
+    return SOLVED, p, -1 if binding < 0 else binding_label_index(binding, kinds, m + r)
+
+
+@njit(cache=True)
+def _share_columns(J, dw, lower, upper, G, g):
+    """LP1 as :func:`largest_share_lp`'s LP: ``(A, b, lo, up, cost)``.
+
+    ``[J; -J; G] u - s [dw; -dw; 0] <= [0; 0; g]`` (the pairs: ``J u = s dw``, eq. 12),
+    ``lower <= u <= upper`` and ``0 <= s <= 1`` (column ``n``), priced ``-1``: the
+    largest share.
+    """
+    m, n = J.shape
+    r = G.shape[0]
+    rows = np.zeros((2 * m + r, n + 1))
+    rhs = np.zeros(2 * m + r)
+    for k in range(m):
+        for i in range(n):
+            rows[k, i], rows[m + k, i] = J[k, i], -J[k, i]
+        rows[k, n], rows[m + k, n] = -dw[k], dw[k]
+    for j in range(r):
+        for i in range(n):
+            rows[2 * m + j, i] = G[j, i]
+        rhs[2 * m + j] = g[j]
+    lo, up = np.append(lower, 0.0), np.append(upper, 1.0)
+    A, b, lo, up, cost = _columns(np.empty((0, n + 1)), np.empty(0), lo, up, rows, rhs,
+                                  _even_prices(n + 1))  # fmt: skip
+    cost[:] = 0.0
+    cost[n] = -1.0
+    return A, b, lo, up, cost
+
+
+@njit(cache=True)
+def _share_binding(T, cost, x, lo, up, b, basis, n, m, r):
+    """The limit that holds LP1's ``p`` at :func:`_share_columns`'s optimal vertex: its code.
+
+    Among the joints' bounds and the rows that are active (within
+    :data:`~lpik.tolerances.ACTIVE_RTOL`), the one whose reduced cost (its dual) is
+    largest, as :func:`lpik.methods.duals.binding_from_duals` reads HiGHS's duals;
+    :func:`lpik.methods.singular.singularity_code` where none exceeds
+    :data:`~lpik.tolerances.DUAL_TOL`. Joint ``k``'s step is ``x_k - x_{n+1+k}``, its
+    bounds ``up_k - lo_{n+1+k}`` and ``lo_k - up_{n+1+k}``; row ``j``'s slack is
+    column ``2 n + 2 + j`` of the ``2 m + r`` rows (the rows last).
+    """
+    best, code = DUAL_TOL, 2 * (n + m + r)
+    for k in range(n + r):
+        j = k if k < n else 2 * n + 2 + 2 * m + (k - n)
+        d = cost[j]
+        for i in range(T.shape[0]):
+            d -= cost[basis[i]] * T[i, j]
+        if abs(d) <= best:
+            continue
+        if k >= n:  # a row: active where its slack is 0
+            if x[j] <= ACTIVE_RTOL * max(1.0, abs(b[2 * m + k - n])):
+                best, code = abs(d), 2 * (n + m + k - n)
+            continue
+        u, high, low = x[k] - x[n + 1 + k], up[k] - lo[n + 1 + k], lo[k] - up[n + 1 + k]
+        at_hi = math.isfinite(high) and abs(u - high) <= ACTIVE_RTOL * max(1.0, abs(high))
+        at_lo = math.isfinite(low) and abs(u - low) <= ACTIVE_RTOL * max(1.0, abs(low))
+        if at_hi or at_lo:
+            best, code = abs(d), 2 * k + (1 if at_hi and (not at_lo or d <= 0.0) else 0)
+    return code
+
+
+@njit(cache=True)
 def further_progress(J, dw, lower, upper, G, g, dq1, dq):
     """``mode="progress"``'s second stage: ``dq = dq1 + delta``, delta of least error left.
 
@@ -484,8 +634,15 @@ def state_rows(state, q0, q_prev, singular_stop, stops_ahead):
     ``stops_ahead`` False: the joints' own bands, without any stop ahead of the motion
     (the rows stage: :meth:`lpik.control.stepper.Stepper.within_rows`).
     """
+    return _rows_and_kinds(state, q0, q_prev, singular_stop, stops_ahead,
+                           np.empty((2, q0.shape[0])))  # fmt: skip
+
+
+@njit(cache=True)
+def _rows_and_kinds(state, q0, q_prev, singular_stop, stops_ahead, kinds):
+    """:func:`state_rows`, with which limit sets each joint's bounds written into ``kinds``."""
     n, m, r = q0.shape[0], int(state[L.M]), int(state[L.R])
-    lower, upper, kinds = np.empty(n), np.empty(n), np.empty((2, n))
+    lower, upper = np.empty(n), np.empty(n)
     J, dw = L.matrix_at(state, L.JACOBIAN, m, n), L.vector(state, L.DW)
     moving = stops_ahead and continues(state, q0, q_prev)
     fading, own = (fading_in_state(state, q0, q_prev, J, dw, singular_stop) if moving

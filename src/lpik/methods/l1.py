@@ -13,7 +13,30 @@ from lpik.methods.assembly import finish, lp_over, solver_for
 from lpik.methods.lp1 import lp1
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, OPTIMAL, SCALED, Result, safe_step
-from lpik.tolerances import FULL_P
+from lpik.tolerances import FULL_P, NO_CHANGE_P, SCALED_P_MARGIN
+
+#: The methods whose step holds the criterion's optimality conditions as rows (eqs. 15-18):
+#: where those admit no step within the limits, the controller's criterion stage
+#: (:meth:`lpik.control.stepper.Stepper.scaled`) takes :func:`l1`'s step instead.
+CRITERION_METHODS = ("lp2", "lp2s")
+
+
+def past_criterion(result: Result) -> bool:
+    """Whether the criterion stage solves Ho's LP after ``result``: an LP2 step with no answer.
+
+    ``infeasible``: LP2's conditions admit no step within the limits (the safe step).
+    """
+    return result.status == INFEASIBLE and result.method in CRITERION_METHODS
+
+
+def changes_motion(p):  # type: ignore[no-untyped-def]
+    """Whether a step with ``p`` above :data:`~lpik.tolerances.NO_CHANGE_P` moves along the command.
+
+    At or below it, Ho's LP past the full displacement changes the motion toward the
+    command by rounding only: the criterion stage keeps the safe step (or the
+    controlled stop), as :func:`lpik.continuation.resumed` does. Plain: compiled as it is.
+    """
+    return p > NO_CHANGE_P
 
 
 @around_motion
@@ -54,7 +77,7 @@ def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
             solve_time=time.perf_counter() - start,
             path="highs",
         )
-    sol, x = _least_l1(problem, solver, max(0.0, best.p - 1e-9), best.p)
+    sol, x = _least_l1(problem, solver, max(0.0, best.p - SCALED_P_MARGIN), best.p)
     if sol != OPTIMAL:  # the LP1 step itself is feasible at p*: keep it rather than fail
         x = np.concatenate([best.dq, np.abs(best.dq), [best.p]])
     if best.p >= FULL_P:  # the first solve misjudged a nearly singular program: p = 1 holds

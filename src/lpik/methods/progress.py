@@ -52,7 +52,7 @@ from lpik.highs import HighsSolver, LinearProgram
 from lpik.methods.assembly import solver_for
 from lpik.methods.autobound import clearly_regular
 from lpik.problem import Problem
-from lpik.result import CHECK_FAILED, INFEASIBLE, OFF_DIRECTION, OPTIMAL, Result, safe_step
+from lpik.result import CHECK_FAILED, INFEASIBLE, OFF_DIRECTION, OPTIMAL, SCALED, Result, safe_step
 from lpik.tolerances import (
     ALONG_COMMAND_COSINE,
     COASTING_DRIFT_COSINE,
@@ -113,10 +113,12 @@ def l1_error(J: FloatArray, dw: FloatArray, dq: FloatArray) -> float:
     return float(np.abs(J @ dq - dw).sum())
 
 
-#: The statuses of a step that can stall: the method's step and the safe step (or the
-#: controlled stop). A ``recovering`` step (back within a limit the state is outside of)
-#: has its own rule, which the stall stage leaves as it is.
-STALLS = (OPTIMAL, INFEASIBLE)
+#: The statuses of a step that can stall: the method's step, Ho's LP past the full
+#: displacement (``scaled``: the controller's step where LP2's conditions admit none,
+#: :meth:`lpik.control.stepper.Stepper.scaled`) and the safe step (or the controlled
+#: stop). A ``recovering`` step (back within a limit the state is outside of) has its
+#: own rule, which the stall stage leaves as it is.
+STALLS = (OPTIMAL, SCALED, INFEASIBLE)
 
 
 def stall_limit(keeping: bool) -> float:
