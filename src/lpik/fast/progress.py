@@ -533,25 +533,28 @@ def least_l1_in_state(state, q0, q_prev, dq, residual):
 def _share_columns(J, dw, lower, upper, G, g):
     """LP1 as :func:`largest_share_lp`'s LP: ``(A, b, lo, up, cost)``.
 
-    ``[J; -J; G] u - s [dw; -dw; 0] <= [0; 0; g]`` (the pairs: ``J u = s dw``, eq. 12),
-    ``lower <= u <= upper`` and ``0 <= s <= 1`` (column ``n``), priced ``-1``: the
-    largest share.
+    ``[J; G] u - s [dw; 0] (=, <=) [0; g]`` (``J u = s dw``, eq. 12: the task rows'
+    slacks held at 0), ``lower <= u <= upper`` and ``0 <= s <= 1`` (column ``n``),
+    priced ``-1``: the largest share. The start (``u = 0``, ``s = 0``; 0 is within
+    the bounds of a step around the motion) meets the task rows.
     """
     m, n = J.shape
     r = G.shape[0]
-    rows = np.zeros((2 * m + r, n + 1))
-    rhs = np.zeros(2 * m + r)
+    rows = np.zeros((m + r, n + 1))
+    rhs = np.zeros(m + r)
     for k in range(m):
         for i in range(n):
-            rows[k, i], rows[m + k, i] = J[k, i], -J[k, i]
-        rows[k, n], rows[m + k, n] = -dw[k], dw[k]
+            rows[k, i] = J[k, i]
+        rows[k, n] = -dw[k]
     for j in range(r):
         for i in range(n):
-            rows[2 * m + j, i] = G[j, i]
-        rhs[2 * m + j] = g[j]
+            rows[m + j, i] = G[j, i]
+        rhs[m + j] = g[j]
     lo, up = np.append(lower, 0.0), np.append(upper, 1.0)
     A, b, lo, up, cost = _columns(np.empty((0, n + 1)), np.empty(0), lo, up, rows, rhs,
                                   _even_prices(n + 1))  # fmt: skip
+    for k in range(m):
+        up[2 * n + 2 + k] = 0.0  # the task row's slack: an equality
     cost[:] = 0.0
     cost[n] = -1.0
     return A, b, lo, up, cost
@@ -567,18 +570,18 @@ def _share_binding(T, cost, x, lo, up, b, basis, n, m, r):
     :func:`lpik.methods.singular.singularity_code` where none exceeds
     :data:`~lpik.tolerances.DUAL_TOL`. Joint ``k``'s step is ``x_k - x_{n+1+k}``, its
     bounds ``up_k - lo_{n+1+k}`` and ``lo_k - up_{n+1+k}``; row ``j``'s slack is
-    column ``2 n + 2 + j`` of the ``2 m + r`` rows (the rows last).
+    column ``2 n + 2 + j`` of the ``m + r`` rows (the rows after the task's).
     """
     best, code = DUAL_TOL, 2 * (n + m + r)
     for k in range(n + r):
-        j = k if k < n else 2 * n + 2 + 2 * m + (k - n)
+        j = k if k < n else 2 * n + 2 + m + (k - n)
         d = cost[j]
         for i in range(T.shape[0]):
             d -= cost[basis[i]] * T[i, j]
         if abs(d) <= best:
             continue
         if k >= n:  # a row: active where its slack is 0
-            if x[j] <= ACTIVE_RTOL * max(1.0, abs(b[2 * m + k - n])):
+            if x[j] <= ACTIVE_RTOL * max(1.0, abs(b[m + k - n])):
                 best, code = abs(d), 2 * (n + m + k - n)
             continue
         u, high, low = x[k] - x[n + 1 + k], up[k] - lo[n + 1 + k], lo[k] - up[n + 1 + k]
