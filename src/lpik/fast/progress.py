@@ -65,13 +65,13 @@ from lpik.fast.step import (
 )
 from lpik.fast.twins import compiled_twin
 from lpik.methods import progress as rule
+from lpik.methods.l1 import changes_motion
 from lpik.tolerances import (
     ACTIVE_RTOL,
     DUAL_TOL,
     FEASIBILITY_TOL,
     FULL_P,
     MOTION_WEIGHT,
-    NO_CHANGE_P,
     SCALED_P_MARGIN,
     SIMPLEX_COST_TOL,
     SIMPLEX_PIVOT_TOL,
@@ -101,6 +101,7 @@ _scale = njit(cache=True)(rule.progress_scale)
 _in_band = njit(cache=True)(rule.in_band)
 _motion_prices = njit(cache=True)(rule.motion_prices)
 _progress_center = compiled_twin(rule.progress_center, coasts_away=_coasts_away)
+_changes_motion = njit(cache=True)(changes_motion)  # the criterion stage's rule
 #: Degenerate pivots in a row after which the simplex prices by Bland's rule.
 _BLAND_AFTER = 30
 #: Fresh factorisations of the optimal basis before the answer stands.
@@ -477,11 +478,12 @@ def least_l1_in_state(state, q0, q_prev, dq, residual):
     :data:`~lpik.tolerances.SCALED_P_MARGIN` below it, the least ``sum |u|``, the
     least change of the motion: the second LP goes on from the first's optimal
     vertex in the same tableau. ``dq`` receives the step from ``q0`` and
-    ``residual[0]`` its ``max |J dq - p dw|``.
+    ``residual[0]`` its ``max |J u - p (dw - J last)|`` (the line around the motion,
+    as the numpy stage's :func:`lpik.continuation.resumed` keeps it).
 
     Returns ``(outcome, p, label)``: :data:`SOLVED` for a step that passes the
     check of :func:`lpik.check.loop_check` and changes the motion toward the
-    command (``p`` above :data:`~lpik.tolerances.NO_CHANGE_P`), else
+    command (:func:`lpik.methods.l1.changes_motion`), else
     :data:`INFEASIBLE`; ``label``: the binding limit's index in the step's label
     table (:func:`lpik.fast.step.binding_label_index` of :func:`_share_binding`'s
     code; -1 at ``p = 1``).
@@ -524,7 +526,7 @@ def least_l1_in_state(state, q0, q_prev, dq, residual):
         dq[i] = min(max(last[i] + x[i] - x[n + 1 + i], lower[i]), upper[i])
         u[i] = dq[i] - last[i]
     ok, residual[0] = _loop_check(J, dw_u, p, u, np.zeros(m), np.zeros(m), np.zeros(m), G, g_u)
-    if not ok or p <= NO_CHANGE_P:  # no change toward the command: the caller's safe step
+    if not (ok and _changes_motion(p)):  # no change toward the command: the caller's safe step
         return INFEASIBLE, p, -1
     return SOLVED, p, -1 if binding < 0 else binding_label_index(binding, kinds, m + r)
 
