@@ -87,7 +87,7 @@ from lpik.labels import Binding, row_label, step_label_table
 from lpik.limits import LambdaBound, Limit, Piece, StepContext
 from lpik.methods.assembly import is_diagonal
 from lpik.methods.autobound import floor_row
-from lpik.methods.l1 import past_criterion
+from lpik.methods.l1 import past_criterion, scaled_status
 from lpik.methods.progress import (
     STALLS,
     held_by_acceleration,
@@ -655,12 +655,16 @@ class Lp2Controller:
         if watch and (self._watch_stall or self._further):
             result = self._stalled(result, q0, q_prev, count=True)
         if watch and result.status == INFEASIBLE:
-            result = self._scaled(q0, q_prev, self._through_rest(q0, target, q_prev, result))
+            result = self._unanswered(q0, target, q_prev, result)
         if self.scene_rows is not None:
             result = self._recovered(q0, target, q_prev, result)
         if watch and result.p == 0.0:  # a stop may break a row (most steps move: p > 0)
             result = self._within_rows(q0, q_prev, result)
         return result
+
+    def _unanswered(self, q0: Any, target: Any, q_prev: Any, safe: Result) -> Result:
+        """A safe step after the stall stage: the through-rest stage, then the criterion stage."""
+        return self._scaled(q0, q_prev, self._through_rest(q0, target, q_prev, safe))
 
     def _through_rest(self, q0: Any, target: Any, q_prev: Any, around: Result) -> Result:
         """The through-rest stage (:meth:`Stepper.rested <lpik.control.stepper.Stepper.rested>`).
@@ -899,9 +903,7 @@ class Lp2Controller:
         if self._watch_stall:
             self._last = self._stalled(self._last, q0, q_prev, count=True)
         if self._last.status == INFEASIBLE:
-            self._last = self._scaled(
-                q0, q_prev, self._through_rest(q0, target, q_prev, self._last)
-            )
+            self._last = self._unanswered(q0, target, q_prev, self._last)
         self._last = self._within_rows(q0, q_prev, self._last)
         out[...] = self._last.q
         return self._last.p
@@ -980,7 +982,7 @@ class Lp2Controller:
             return result
         fields = self._scaled_fields.copy()
         fields["q"], fields["dq"], fields["p"] = q + dq, dq, p
-        fields["status"] = OPTIMAL if p >= FULL_P else SCALED
+        fields["status"] = scaled_status(p)  # p >= FULL_P exactly where LP1's largest is
         fields["binding"] = None if label < 0 else self._labels[int(label)]
         fields["residual"] = self._residual_out.item(0)
         fields["solve_time"] = perf_counter() - start
@@ -1191,7 +1193,7 @@ class Lp2Controller:
             if (self._watch_stall or self._further) and not numpy_engine:  # row by row
                 res = self._stalled(res, Q0[b], prev, count=False)
             if res.status == INFEASIBLE:
-                res = self._scaled(Q0[b], prev, self._through_rest(Q0[b], T[b], prev, res))
+                res = self._unanswered(Q0[b], T[b], prev, res)
             fallback[b] = res = self._within_rows(Q0[b], prev, res)
             q[b], dq[b], p[b], residual[b] = res.q, res.dq, res.p, res.residual
             pull_scale[b] = res.pull_scale

@@ -39,6 +39,16 @@ def changes_motion(p):  # type: ignore[no-untyped-def]
     return p > NO_CHANGE_P
 
 
+def scaled_status(largest_p: float) -> str:
+    """The status of Ho's LP past the full displacement, from LP1's largest ``p``.
+
+    ``optimal`` where that is the full displacement (:data:`~lpik.tolerances.FULL_P`),
+    else ``scaled``: :func:`l1`'s and the compiled criterion stage's
+    (:meth:`lpik.control.controller.Lp2Controller._scaled`).
+    """
+    return OPTIMAL if largest_p >= FULL_P else SCALED
+
+
 @around_motion
 def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
     """Minimise ``||q - q0||_1`` subject to the linearised kinematics (eq. 2) and the limits.
@@ -80,11 +90,10 @@ def l1(problem: Problem, *, solver: HighsSolver | None = None) -> Result:
     sol, x = _least_l1(problem, solver, max(0.0, best.p - SCALED_P_MARGIN), best.p)
     if sol != OPTIMAL:  # the LP1 step itself is feasible at p*: keep it rather than fail
         x = np.concatenate([best.dq, np.abs(best.dq), [best.p]])
-    if best.p >= FULL_P:  # the first solve misjudged a nearly singular program: p = 1 holds
-        return finish(problem, "l1", x[:n], float(x[-1]), None, None, start, "highs")
-    return finish(
-        problem, "l1", x[:n], float(x[-1]), None, best.binding, start, "highs", status=SCALED
-    )
+    # at p* = 1 the first solve misjudged a nearly singular program: p = 1 holds
+    binding = None if best.p >= FULL_P else best.binding
+    return finish(problem, "l1", x[:n], float(x[-1]), None, binding, start, "highs",
+                  status=scaled_status(best.p))  # fmt: skip
 
 
 def _least_l1(
