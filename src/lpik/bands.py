@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 
-from lpik.tolerances import FADING_HOLD_SHARE, FEASIBILITY_TOL, SLACK_TOL
+from lpik.tolerances import FADING_HOLD_SHARE, FEASIBILITY_TOL, REST_STEP, SLACK_TOL
 
 #: The share of its full deceleration that a stop ahead of a row counts on: every joint
 #: that moves the row at its acceleration limit against the approach
@@ -245,12 +245,16 @@ def fading_band(
     that can (a creeping arm) may. ``steps`` may be nearer, the stop
     before a singular configuration (:func:`lpik.methods.autobound.singular_steps`),
     which has its own rule at the floor; ``hold`` infinite: no such stop.
+    A joint whose last step is at most :data:`~lpik.tolerances.REST_STEP` is at
+    rest: its motion is rounding, and its direction tells nothing (at 2e-20 rad,
+    ``steps * last`` took the band's edge from one full acceleration to 8e-6 rad,
+    and the engines, whose rounding differs, took different steps).
 
     Returns:
         ``(lo, hi, lo_fades, hi_fades)``: the bounds, and whether the stop ahead
         sets each (its kind is then the acceleration limit's).
     """
-    if not steps < math.inf or last == 0.0:
+    if not steps < math.inf or abs(last) <= REST_STEP:
         return lo, hi, False, False
     dt2 = dt * dt
     if last > 0.0:

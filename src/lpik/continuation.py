@@ -49,7 +49,7 @@ import numpy as np
 from lpik.bands import plausible_step
 from lpik.problem import Problem
 from lpik.result import INFEASIBLE, MOVING, OPTIMAL, RECOVERING, Result, safe_step
-from lpik.tolerances import MOTION_WEIGHT, NO_CHANGE_P, SLACK_TOL
+from lpik.tolerances import GAIN_RTOL, MOTION_WEIGHT, NO_CHANGE_P, SLACK_TOL
 from lpik.types import FloatArray
 
 #: Share of the narrowest band a step spends on slowing the null-space motion
@@ -202,20 +202,23 @@ def fading_steps(J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatA
 
     Returns:
         The steps until the gain meets the price (> 0), or ``inf`` where the
-        motion does not pay or its gain does not fall.
+        motion does not pay or its gain does not fall by more than rounding
+        (:data:`~lpik.tolerances.GAIN_RTOL` of the command's scale ``max(1, max
+        |dw|)``, as the stall stage's ties).
     """
-    total, now, then, size = 0.0, 0.0, 0.0, 0.0
+    total, now, then, size, scale = 0.0, 0.0, 0.0, 0.0, 1.0
     for k in range(J.shape[0]):
         s = 0.0
         for i in range(J.shape[1]):
             s += J[k, i] * last[i]
         total += abs(dw[k])
+        scale = max(scale, abs(dw[k]))
         now += abs(dw[k] - s)
         then += abs(dw[k] - before[k])
     for i in range(last.shape[0]):
         size += abs(last[i])
     gain, gain_before, price = total - now, total - then, MOTION_WEIGHT * size
-    if not (gain > price and gain_before > gain):
+    if not (gain > price and gain_before - gain > GAIN_RTOL * scale):
         return math.inf
     return (gain - price) / (gain_before - gain)
 

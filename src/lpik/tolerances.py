@@ -90,7 +90,9 @@ SATURATION_MAX_CONDITION = 1e8
 SATURATION_MAX_PRICE = 10.0
 #: On LP2's singular path, a singular value of ``J L^-T`` (``H = L L^T``) at or below this
 #: share of the largest counts as 0 (``J`` has the lower rank; what is left is rounding).
-#: Above it the decomposition solves eq. 18 exactly, however ill-conditioned.
+#: Above it the decomposition solves eq. 18 exactly, however ill-conditioned. The same
+#: share of the largest is the rounding of a change of ``sigma_min`` from one step to
+#: the next (:func:`lpik.methods.autobound.singular_steps`).
 SINGULAR_RTOL = 1e-12
 #: A singular value of LP2's singular path, or a diagonal of the Schur complement's
 #: Cholesky factor (:func:`lpik.methods.kkt.ill_conditioned`), at or below this counts as

@@ -50,6 +50,7 @@ from lpik.tolerances import (
     MACHINE_EPSILON,
     PROBE_GRAM_MAX_SHARE,
     PROBE_GRAM_SAFETY,
+    SINGULAR_RTOL,
 )
 from lpik.types import FloatArray
 
@@ -305,7 +306,10 @@ def singular_steps(
 
     Returns:
         The steps to the floor (0 at or past it); ``inf`` where ``J`` is far from
-        singular or ``sigma_min`` does not fall.
+        singular or ``sigma_min`` does not fall by more than rounding
+        (:data:`~lpik.tolerances.SINGULAR_RTOL` of ``sigma_max``: the engines' SVDs
+        round differently, and a fall of 9e-16 made one engine stop ahead and not the
+        other).
     """
     if J.shape[0] == 0 or not activation > 0.0:
         return math.inf
@@ -313,7 +317,7 @@ def singular_steps(
     if s_min > activation * s_max:
         return math.inf
     before = smallest_singular_value_before(J_before, memo)
-    if not before > s_min:
+    if not before - s_min > SINGULAR_RTOL * s_max:
         return math.inf
     return max(s_min - floor * s_max, 0.0) / (before - s_min)
 
