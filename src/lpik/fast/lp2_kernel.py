@@ -60,14 +60,16 @@ from lpik.tolerances import (
     RATE_TOL,
 )
 
-__all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "lp2_core", "lp2_kernel",
-           "pull_scale_of"]  # fmt: skip
+__all__ = ["CHECK_FAILED", "INFEASIBLE", "OK", "SINGULAR", "compiled_loop_check",
+           "lp2_core", "lp2_kernel", "pull_scale_of"]  # fmt: skip
 
 #: LP2's singular path (:mod:`lpik.methods.singular`), compiled as it is.
 _HELPERS = ("forward_substitution", "back_substitution", "regular_count", "_interval",
             "_eliminate", "_free_range", "_held", "_held_share", "_finite", "_facet_rows",
             "_basic_values", "_pinned_code", "singularity_code")  # fmt: skip
-_loop_check = njit(cache=True)(loop_check)  # the answer's own check (lpik.check)
+#: :func:`lpik.check.loop_check`, the answer's own check, compiled once for every kernel
+#: (LP2's, and the criterion stage's :func:`lpik.fast.progress.least_l1_in_state`).
+compiled_loop_check = njit(cache=True)(loop_check)
 #: The singular path's helpers, compiled (the field's null-space motion takes three of them:
 #: :data:`lpik.fast.step.null_space_motion`).
 singular_helpers = {name: njit(cache=True)(getattr(singular, name)) for name in _HELPERS}
@@ -78,9 +80,9 @@ ill_conditioned = compiled_twin(
 # the safe step, INFEASIBLE: one signature (the kernels pass -1 and a variable alike)
 _stop = njit((float64[:], float64[:], float64[:], int64), cache=True)(singular._stop)
 singular_core = compiled_twin(
-    singular.singular_core, _svd=jacobi_svd, loop_check=_loop_check, _stop=_stop,
+    singular.singular_core, _svd=jacobi_svd, loop_check=compiled_loop_check, _stop=_stop,
     pull_scale=compiled_pull_scale,
-    _within_bounds=compiled_twin(singular._within_bounds, loop_check=_loop_check,
+    _within_bounds=compiled_twin(singular._within_bounds, loop_check=compiled_loop_check,
                                  forward_substitution=singular_helpers["forward_substitution"],
                                  back_substitution=singular_helpers["back_substitution"]),
     _vertex_multipliers=compiled_twin(singular._vertex_multipliers,
@@ -320,7 +322,7 @@ def lp2_core(J, dw, H, h_diag, c, c_ref, lower, upper, lam_min, lam_max, G, g, d
         dq[i] = min(max(a_q[i] + p * b_q[i], lower[i]), upper[i])
     for k in range(m):
         lam[k] = a_l[k] + p * b_l[k]
-    ok, res = _loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
+    ok, res = compiled_loop_check(J, dw, p, dq, lam, lam_min, lam_max, G, g)
     if not ok:
         # rounding beyond the check's tolerance: the singular path decides, as in lpik.methods.lp2
         if singular_path == SINGULAR_PATH_NEVER:

@@ -55,7 +55,7 @@ from numba import njit
 
 from lpik.fast import layout as L
 from lpik.fast.autobound import clearly_regular
-from lpik.fast.lp2_kernel import _loop_check
+from lpik.fast.lp2_kernel import compiled_loop_check
 from lpik.fast.step import (
     binding_label_index,
     brake_rows,
@@ -525,7 +525,8 @@ def least_l1_in_state(state, q0, q_prev, dq, residual):
     for i in range(n):
         dq[i] = min(max(last[i] + x[i] - x[n + 1 + i], lower[i]), upper[i])
         u[i] = dq[i] - last[i]
-    ok, residual[0] = _loop_check(J, dw_u, p, u, np.zeros(m), np.zeros(m), np.zeros(m), G, g_u)
+    zero = np.zeros(m)
+    ok, residual[0] = compiled_loop_check(J, dw_u, p, u, zero, zero, zero, G, g_u)
     if not (ok and _changes_motion(p)):  # no change toward the command: the caller's safe step
         return INFEASIBLE, p, -1
     return SOLVED, p, -1 if binding < 0 else binding_label_index(binding, kinds, m + r)
