@@ -181,6 +181,32 @@ def motion_decay(lower: FloatArray, upper: FloatArray, last: FloatArray) -> floa
     return min(1.0, DECAY_SHARE * width / size)
 
 
+def progress_scale(dw):  # type: ignore[no-untyped-def]
+    """``max(1, max |dw|)``: the scale of a gain's rounding for the command ``dw``.
+
+    Gains within :data:`~lpik.tolerances.GAIN_RTOL` of it tie: in
+    :func:`lpik.methods.progress.makes_progress` and the stall stage's comparison
+    (:func:`lpik.methods.progress.stalls`), and in the fall of a motion's gain
+    (:func:`fading_steps`).
+
+    Measured and not kept: ``max |dw|`` alone, a gain judged against the command's own
+    size. From rest 0.09 mm from the Panda's random goal 5 under acceleration limits
+    (``benchmarks/random_goals.py``), where a first step from rest along the command
+    takes the L1 error from 1.875e-5 to 1.872e-5, the arm then crept on to 0.03 mm
+    (where the motion term stopped it: :data:`~lpik.tolerances.MOTION_WEIGHT`); but
+    pushed 1 m beyond reach along +z (``tests/test_fading_motion.py``) it took, where the
+    exact step had coasted home, progress steps whose gains the floor of 1 calls
+    rounding, and ended 0.31 m off home with joint 4 on its end-stop.
+
+    Plain loops: the compiled stall stage (:mod:`lpik.fast.progress`) and the fused
+    step's :func:`fading_steps` run this code.
+    """
+    scale = 1.0
+    for k in range(dw.shape[0]):
+        scale = max(scale, abs(dw[k]))
+    return scale
+
+
 def fading_steps(J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatArray) -> float:
     """In how many steps the arm's motion ``last`` stops paying, where it pays less each step.
 
@@ -203,22 +229,21 @@ def fading_steps(J: FloatArray, dw: FloatArray, last: FloatArray, before: FloatA
     Returns:
         The steps until the gain meets the price (> 0), or ``inf`` where the
         motion does not pay or its gain does not fall by more than rounding
-        (:data:`~lpik.tolerances.GAIN_RTOL` of the command's scale ``max(1, max
-        |dw|)``, as the stall stage's ties).
+        (:data:`~lpik.tolerances.GAIN_RTOL` of :func:`progress_scale`, as the stall
+        stage's ties).
     """
-    total, now, then, size, scale = 0.0, 0.0, 0.0, 0.0, 1.0
+    total, now, then, size = 0.0, 0.0, 0.0, 0.0
     for k in range(J.shape[0]):
         s = 0.0
         for i in range(J.shape[1]):
             s += J[k, i] * last[i]
         total += abs(dw[k])
-        scale = max(scale, abs(dw[k]))
         now += abs(dw[k] - s)
         then += abs(dw[k] - before[k])
     for i in range(last.shape[0]):
         size += abs(last[i])
     gain, gain_before, price = total - now, total - then, MOTION_WEIGHT * size
-    if not (gain > price and gain_before - gain > GAIN_RTOL * scale):
+    if not (gain > price and gain_before - gain > GAIN_RTOL * progress_scale(dw)):
         return math.inf
     return (gain - price) / (gain_before - gain)
 

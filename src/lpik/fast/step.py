@@ -34,6 +34,7 @@ from lpik import bands
 from lpik.collision import avoidance
 from lpik.continuation import fading_steps as _fading_steps
 from lpik.continuation import motion_decay as _motion_decay
+from lpik.continuation import progress_scale
 from lpik.fast import layout as L
 from lpik.fast.autobound import bound_in_state, singular_steps
 from lpik.fast.command_law import (
@@ -76,7 +77,7 @@ rate_band = compiled_twin(
 row_deceleration = njit(cache=True)(bands.row_deceleration)
 braked_room = compiled_twin(bands.braked_room, braking_room=njit(cache=True)(bands.braking_room))
 motion_decay = njit(cache=True)(_motion_decay)
-fading_steps = njit(cache=True)(_fading_steps)
+fading_steps = compiled_twin(_fading_steps, progress_scale=njit(cache=True)(progress_scale))
 fading_band = compiled_twin(bands.fading_band, braking_room=njit(cache=True)(bands.braking_room))
 _outside_tolerance = njit(cache=True)(bands.outside_tolerance)
 _stop_side = compiled_twin(bands.stop_side, outside_tolerance=_outside_tolerance)

@@ -48,6 +48,7 @@ from collections.abc import Callable
 import numpy as np
 
 from lpik import check
+from lpik.continuation import progress_scale
 from lpik.highs import HighsSolver, LinearProgram
 from lpik.methods.assembly import solver_for
 from lpik.methods.autobound import clearly_regular
@@ -334,26 +335,6 @@ def makes_progress(before: float, after: float, scale: float) -> bool:
     (:func:`progress_scale`) is rounding, not progress. Scalars only, as :func:`may_stall`.
     """
     return before - after > EQUALITY_RTOL * scale
-
-
-def progress_scale(dw):  # type: ignore[no-untyped-def]
-    """``max(1, max |dw|)``: the scale of :func:`makes_progress` for the command ``dw``.
-
-    Measured and not kept: ``max |dw|`` alone, a gain judged against the command's own
-    size. From rest 0.09 mm from the Panda's random goal 5 under acceleration limits
-    (``benchmarks/random_goals.py``), where a first step from rest along the command
-    takes the L1 error from 1.875e-5 to 1.872e-5, the arm then crept on to 0.03 mm
-    (where the motion term stopped it: :data:`~lpik.tolerances.MOTION_WEIGHT`); but
-    pushed 1 m beyond reach along +z (``tests/test_fading_motion.py``) it took, where the
-    exact step had coasted home, progress steps whose gains the floor of 1 calls
-    rounding, and ended 0.31 m off home with joint 4 on its end-stop.
-
-    Plain loops: the compiled stall stage (:mod:`lpik.fast.progress`) runs this code.
-    """
-    scale = 1.0
-    for k in range(dw.shape[0]):
-        scale = max(scale, abs(dw[k]))
-    return scale
 
 
 def at_speed(binding: object, J: FloatArray) -> bool:
