@@ -49,17 +49,39 @@ def test_reversals_count_a_joint_whose_acceleration_flips_at_more_than_half_its_
 
 
 def test_the_section_lists_every_row_and_every_miss(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    rows = [("panda", "29 of 30", "2.50 / 4.00", "28 of 30", "2.60 / 4.80", "1,920")]
-    misses = ["- panda, with them: goal 5: 0.09 mm, 0 mrad off, x (sigma ratio at the goal 4e-04)"]
-    text = R.section(rows, misses, 30, 0, 10.0, "python benchmarks/random_goals.py")
+    rows = [("panda", "none", "29 of 30", "2.50 / 4.00", "-"),
+            ("panda", "10", "28 of 30", "2.60 / 4.80", "1,920 (1,500)"),
+            ("panda", "2", "24 of 30", "3.70 / 7.20", "9,400 (8,300)")]  # fmt: skip
+    misses = ["- panda, qdd_max=2: goal 5: 0.09 mm, 0 mrad off, x (sigma ratio at the goal 4e-04)"]
+    text = R.section(rows, misses, 30, 0, (10.0, 2.0), "python benchmarks/random_goals.py")
     assert text.startswith(R.HEADING)
-    assert "| panda | 29 of 30 | 2.50 / 4.00 | 28 of 30 | 2.60 / 4.80 | 1,920 |" in text
+    for row in rows:
+        assert f"| {' | '.join(row)} |" in text
+    assert "with `qdd_max` 10 and 2 rad/s^2 on every joint" in text
     assert misses[0] in text
-    assert "- none" in R.section(rows, [], 30, 0, 10.0, "c")
+    assert "- none" in R.section(rows, [], 30, 0, (10.0,), "c")
     timings = [("panda", "qdd_max=10", "9.1 / 90 / 150 / 320", "0 of 300,000")]
     assert "| panda | qdd_max=10 | 9.1 / 90 / 150 / 320 | 0 of 300,000 |" in R.section(
-        rows, misses, 30, 0, 10.0, "c", timings
+        rows, misses, 30, 0, (10.0,), "c", timings
     )
+
+
+def test_every_limit_measured_is_a_row_of_each_arm(tmp_path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """main runs each arm without acceleration limits and with each limit given: one row each."""
+    calls = []
+
+    def run_goal(robot, index, goal, qdd_max, steps=R.STEPS):  # type: ignore[no-untyped-def]
+        calls.append((robot, qdd_max))
+        return R.GoalRun(index, 0.0, 0.0, 10, "optimal", "-", 0.1, 3, np.ones(2), 0, 1)
+
+    monkeypatch.setattr(R, "run_goal", run_goal)
+    page = tmp_path / "page.md"
+    page.write_text("# page\n", encoding="utf-8")
+    R.main(["--goals", "2", "--robots", "panda", "--qdd-max", "10", "2", "--out", str(page)])
+    assert calls == [("panda", None)] * 2 + [("panda", 10.0)] * 2 + [("panda", 2.0)] * 2
+    text = page.read_text(encoding="utf-8")
+    assert "| panda | none | 2 of 2 | 0.01 / 0.01 | - |" in text
+    assert "| panda | 2 | 2 of 2 | 0.01 / 0.01 | 6 (2) |" in text
 
 
 def test_timing_reads_every_step_of_every_run() -> None:
