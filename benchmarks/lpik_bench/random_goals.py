@@ -167,6 +167,13 @@ def timing(runs: list[GoalRun]) -> tuple[str, str]:
             f"{sum(r.uncompiled for r in runs):,} of {times.size:,}")  # fmt: skip
 
 
+def setting(qdd_max: float | None) -> tuple[str, str]:
+    """One setting's names: in the table's column, and in the timings and the misses."""
+    if qdd_max is None:
+        return "none", "without acceleration limits"
+    return f"{qdd_max:g}", f"qdd_max={qdd_max:g}"
+
+
 def section(rows: list[tuple[str, ...]], misses: list[str], goals: int, seed: int,
             limits: tuple[float, ...], command: str,
             timings: list[tuple[str, ...]] = ()) -> str:  # fmt: skip
@@ -227,9 +234,8 @@ def main(argv: list[str] | None = None) -> int:
         for qdd in (None, *args.qdd_max):
             runs = [run_goal(robot, i, g, qdd) for i, g in enumerate(goals)]
             reached, reach_time, reversals = summary(runs)
-            setting = "none" if qdd is None else f"{qdd:g}"
-            rows.append((robot, setting, reached, reach_time, "-" if qdd is None else reversals))
-            name = "without acceleration limits" if qdd is None else f"qdd_max={qdd:g}"
+            column, name = setting(qdd)
+            rows.append((robot, column, reached, reach_time, "-" if qdd is None else reversals))
             timings.append((robot, name, *timing(runs)))
             misses += [f"- {robot}, {name}: {miss_text(r)}" for r in runs if not r.reached]
             print(rows[-1], flush=True)
