@@ -28,6 +28,8 @@ from lpik.methods import lp2
 from lpik.methods.kkt import smoothing
 from lpik.result import SCALED, SOLVER_ERROR, STATUSES, Result
 
+#: HiGHS's feasibility tolerance as lpik sets it (:data:`lpik.highs.HIGHS_OPTIONS`).
+HIGHS_FEASIBILITY_TOL = float(HIGHS_OPTIONS["primal_feasibility_tolerance"])  # type: ignore[arg-type]
 #: Small commands, for which the linearisation is close to the nonlinear kinematics.
 DW_SMALL = st.sampled_from([1e-3, 1e-2])
 
@@ -96,10 +98,6 @@ def test_lp1_achieves_at_least_lp2s_dexterity(case: Case) -> None:
     if (exact_on_every_row(case.problem, p2) and np.abs(p2.dq).max() <= 1e3 and rows_kept
             and resolved):  # fmt: skip
         assert p1.p >= p2.p - 1e-9
-
-
-#: HiGHS's feasibility tolerance as lpik sets it (:data:`lpik.highs.HIGHS_OPTIONS`).
-HIGHS_FEASIBILITY_TOL = float(HIGHS_OPTIONS["primal_feasibility_tolerance"])  # type: ignore[arg-type]
 
 
 def exact_on_every_row(P, res: Result) -> bool:  # type: ignore[no-untyped-def]
